@@ -113,6 +113,7 @@ def resume(out, *, np_ranks: int | None = None, omp_threads: int | None = None,
             truncate_dump(path, restart_step)
     for step in [s for s in restart_files(out) if s > restart_step]:
         restart_files(out)[step].unlink()
+    _keep_old_log(out)
     manifest["resumed"] = manifest.get("resumed", []) + [
         {"from_step": restart_step, "at": _now()}]
     if np_ranks is not None:
@@ -281,7 +282,7 @@ def _deck_variables(out, derived: Derived, embedded: bool, resume) -> dict:
     v.update({
         "out": str(out), "drive": "python" if embedded else "lammps",
         "contacts": ("python" if embedded else "native") if s.contacts else "none",
-        "resume": str(resume) if resume else "none",
+        "resume": str(resume) if resume else "none", "resuming": "1" if resume else "0",
         "astyle": "custom/gz" if s.gzip else "custom",
         "lstyle": "local/gz" if s.gzip else "local", "ext": _ext(s),
         "thermo_every": str(max(1, derived.n_shear // 200)),
@@ -353,6 +354,16 @@ def _new_manifest(d: Derived, preset, np_ranks, omp) -> dict:
             "restart/restart.<step>.bin": "LAMMPS restart files for --resume",
         },
     }
+
+
+def _keep_old_log(out):
+    """Move ``log.lammps`` of the interrupted part aside (``log.1.lammps``, ...)."""
+    log_path = out / "log.lammps"
+    if log_path.exists():
+        k = 1
+        while (out / f"log.{k}.lammps").exists():
+            k += 1
+        log_path.rename(out / f"log.{k}.lammps")
 
 
 def _finish(out, manifest, status):
