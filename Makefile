@@ -1,0 +1,23 @@
+# granavg: two commands do all set-up on a fresh machine (Python >= 3.10 with venv).
+#   make demo   builds .venv, runs the demo scene end to end into demo-out/<date-time>/
+#   make test   builds .venv, runs the test suite
+VENV   ?= .venv
+PYTHON ?= python3
+BIN     = $(VENV)/bin
+
+.PHONY: demo test clean
+
+$(VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[test]'
+	touch $@
+
+demo: $(VENV)/.installed
+	$(BIN)/granavg simulate --preset demo --omp 2 --out demo-out/$$(date +%Y%m%d-%H%M%S)
+
+test: $(VENV)/.installed
+	$(BIN)/python -m pytest -q
+
+clean:
+	rm -rf $(VENV) demo-out
