@@ -49,8 +49,8 @@ class ContactLaw:
     e_n: float = 0.9
     kt_over_kn: float = 2.0 / 7.0
     gt_over_gn: float = 0.5
-    mu: float = 0.5
-    mu_wall: float = 0.5
+    mu: float = 0.8
+    mu_wall: float = 0.8
 
     def __post_init__(self):
         checks = [

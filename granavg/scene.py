@@ -56,7 +56,7 @@ class Scene:
     law: ContactLaw = ContactLaw()
     n_per_tc: float = 50.0
     wall_d: float = 0.0
-    wall_spacing: float = 0.5
+    wall_spacing: float = 0.9
     grow_from: float = 0.5
     t_grow: float = 5.0
     t_relax: float = 5.0

@@ -85,6 +85,9 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         The run directory, with ``manifest.json`` status ``complete``.
     """
     derived = scene.derive()                      # refuse before touching the disk
+    if not DECK.exists():
+        raise UserError(f"the LAMMPS deck {DECK} is missing; install granavg from its "
+                        "source tree with 'pip install -e .' (the deck lives beside it)")
     out = claim_new(Path(out))
     (out / "deck").mkdir()
     shutil.copy2(DECK, out / "deck" / DECK.name)
@@ -139,7 +142,7 @@ def _execute(out, derived, manifest, resume_from, progress):
         _finish(out, manifest, "interrupted")
         raise UserError(f"run interrupted; results so far are in {out}; continue it with "
                         f"'granavg simulate --out {out} --resume'") from None
-    except LammpsError:
+    except BaseException:                # LAMMPS error, bad input found mid-run, or a bug
         _finish(out, manifest, "failed")
         raise
     _finish(out, manifest, "complete")

@@ -1,8 +1,10 @@
 """Settings that cannot run soundly are refused with one line and exit code 2."""
 
+import json
+
 import pytest
 
-from .conftest import run_cli
+from .conftest import run_cli, small_cell_args
 
 
 @pytest.mark.parametrize("args, message", [
@@ -41,3 +43,12 @@ def test_a_non_empty_directory_is_not_used(tmp_path):
     proc = run_cli("simulate", "--out", tmp_path)
     assert proc.returncode == 2 and "not empty" in proc.stderr
     assert (tmp_path / "notes.txt").read_text() == "mine"
+
+
+def test_disks_that_cannot_be_inserted_stop_the_run_and_mark_it_failed(tmp_path):
+    """Inserted at full size, a packing at area fraction 0.81 cannot be placed at random."""
+    out = tmp_path / "run"
+    proc = run_cli(*small_cell_args(out, "grow_from=1"))
+    assert proc.returncode == 2 and "could be inserted" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert json.loads((out / "manifest.json").read_text())["status"] == "failed"

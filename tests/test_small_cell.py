@@ -12,13 +12,16 @@ from granavg.scene import Scene
 from .conftest import run_cli, small_cell_args
 
 
-@pytest.fixture(scope="module", params=[1, 2], ids=["embedded", "mpirun-np2"])
+@pytest.fixture(scope="module", params=["embedded", "mpirun-np2", "mu_wall-0.3"])
 def run(request, small_run, tmp_path_factory):
-    """The small cell run in-process, and again under mpirun with 2 ranks."""
-    if request.param == 1:
+    """The small cell in-process; under mpirun with 2 ranks; with its own wall friction
+    (the deck then uses pair hybrid)."""
+    if request.param == "embedded":
         return small_run
-    out = tmp_path_factory.mktemp("mpi") / "run"
-    proc = run_cli(*small_cell_args(out, np=2))
+    out = tmp_path_factory.mktemp(request.param) / "run"
+    args = small_cell_args(out, np=2) if request.param == "mpirun-np2" else \
+        small_cell_args(out, "mu_wall=0.3")
+    proc = run_cli(*args)
     assert proc.returncode == 0, proc.stderr
     return out
 
@@ -71,6 +74,18 @@ def test_every_contact_row_is_a_real_contact_obeying_coulomb(run):
         # id1 is always a disk of the packing; both walls are touched
         assert np.isin(c["id1"], fa.column("id")).all()
         assert {1, 2} <= set(c["wall"].astype(int))
+
+
+def test_sliding_contacts_sit_on_their_own_coulomb_cap(run):
+    _, scene, _, contacts = load(run)
+    ratio = {0: [], 1: []}
+    for fc in contacts:
+        c = dict(zip(COLUMNS, fc.data.T))
+        r = np.hypot(c["ftx"], c["fty"]) / np.hypot(c["fnx"], c["fny"])
+        ratio[0].append(r[c["wall"] == 0].max())
+        ratio[1].append(r[c["wall"] > 0].max())
+    assert max(ratio[0]) == pytest.approx(scene.law.mu, rel=1e-6)
+    assert max(ratio[1]) == pytest.approx(scene.law.mu_wall, rel=1e-6)
 
 
 def test_inner_wall_drags_and_no_disk_leaves_the_annulus(run):

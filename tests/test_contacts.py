@@ -1,0 +1,42 @@
+"""The contact-table kernel: overlap, normal, wall flag, and the disk always first."""
+
+import numpy as np
+
+from granavg.contacts import COLUMNS, RAW_COLUMNS, contact_table
+
+R = np.array([0.0, 0.004, 0.005, 0.003, 0.003])      # radius of types 1-4
+
+
+def raw_row(id1, id2, t1, t2, x1, x2, fn_on_1, ft_on_1):
+    d = np.subtract(x1, x2)
+    return [id1, id2, t1, t2, d[0], d[1], np.hypot(*d), *fn_on_1, *ft_on_1]
+
+
+def test_disk_disk_row_keeps_its_order_and_gets_overlap_and_normal():
+    row = raw_row(7, 9, 1, 2, (0.0, 0.0), (0.0, 0.0085), (0.0, -2.0), (0.5, 0.0))
+    out = dict(zip(COLUMNS, contact_table([row], R)[0]))
+    assert (out["id1"], out["id2"], out["wall"]) == (7, 9, 0)
+    assert np.isclose(out["overlap"], 0.004 + 0.005 - 0.0085)
+    assert np.allclose([out["nx"], out["ny"]], [0, 1])           # from 1 towards 2
+    assert np.allclose([out["fnx"], out["fny"], out["ftx"], out["fty"]], [0, -2, 0.5, 0])
+
+
+def test_wall_first_rows_are_swapped_so_forces_act_on_the_disk():
+    # LAMMPS listed the outer-wall disk (type 4) first; the force on it is +x
+    row = raw_row(3, 8, 4, 1, (0.0065, 0.0), (0.0, 0.0), (1.5, 0.0), (0.0, 0.2))
+    out = dict(zip(COLUMNS, contact_table([row], R)[0]))
+    assert (out["id1"], out["id2"], out["wall"]) == (8, 3, 2)
+    assert np.allclose([out["fnx"], out["fny"], out["ftx"], out["fty"]], [-1.5, 0, 0, -0.2])
+    assert np.allclose([out["nx"], out["ny"]], [1, 0])           # disk -> wall disk
+    assert np.isclose(out["overlap"], 0.004 + 0.003 - 0.0065)
+
+
+def test_inner_wall_flag_and_non_contacts_dropped():
+    rows = [raw_row(1, 5, 3, 1, (0, 0), (0.0069, 0), (-1, 0), (0, 0)),   # inner wall
+            raw_row(5, 6, 1, 1, (0, 0), (0.0081, 0), (0, 0), (0, 0))]    # gap: not a contact
+    out = contact_table(rows, R)
+    assert out.shape == (1, len(COLUMNS)) and out[0, 2] == 1
+
+
+def test_empty_frame():
+    assert contact_table(np.empty((0, len(RAW_COLUMNS))), R).shape == (0, len(COLUMNS))
