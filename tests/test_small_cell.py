@@ -12,15 +12,15 @@ from granavg.scene import Scene
 from .conftest import run_cli, small_cell_args
 
 
-@pytest.fixture(scope="module", params=["embedded", "mpirun-np2", "mu_wall-0.3"])
+@pytest.fixture(scope="module", params=["embedded", "mpirun-np2", "mu_wall-0.3-plain"])
 def run(request, small_run, tmp_path_factory):
     """The small cell in-process; under mpirun with 2 ranks; with its own wall friction
-    (the deck then uses pair hybrid)."""
+    (the deck then uses pair hybrid) and plain-text dumps."""
     if request.param == "embedded":
         return small_run
     out = tmp_path_factory.mktemp(request.param) / "run"
     args = small_cell_args(out, np=2) if request.param == "mpirun-np2" else \
-        small_cell_args(out, "mu_wall=0.3")
+        small_cell_args(out, "mu_wall=0.3", "gzip=0")
     proc = run_cli(*args)
     assert proc.returncode == 0, proc.stderr
     return out
@@ -29,8 +29,9 @@ def run(request, small_run, tmp_path_factory):
 def load(run):
     manifest = json.loads((run / "manifest.json").read_text())
     scene = Scene.from_dict(manifest["scene"])
-    atoms = list(iter_frames(run / "atoms.dump.gz"))
-    contacts = list(iter_frames(run / "contacts.dump.gz"))
+    ext = "dump.gz" if scene.gzip else "dump"
+    atoms = list(iter_frames(run / f"atoms.{ext}"))
+    contacts = list(iter_frames(run / f"contacts.{ext}"))
     return manifest, scene, atoms, contacts
 
 
