@@ -29,7 +29,8 @@ from tqdm.auto import tqdm
 
 from . import __version__
 from .contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table
-from .dumpfile import iter_frames, open_text, write_frame
+from .dumpfile import open_text, write_frame
+from .reader import DumpReader
 from .errors import LammpsError, UserError
 from .lammps_session import (executable, lammps_env, lammps_session, lammps_version,
                              load_lammps)
@@ -208,7 +209,7 @@ def convert_raw_contacts(raw_path: Path, out_path: Path, derived: Derived) -> No
     """
     radius = _radius_of_type(derived)
     with open_text(out_path, "at") as fh:
-        for frame in iter_frames(raw_path):
+        for frame in DumpReader(raw_path):
             raw = frame.data[:, [frame.columns.index(c) for c in RAW_COLUMNS]]
             write_frame(fh, frame.timestep, frame.time, COLUMNS, contact_table(raw, radius),
                         frame.box, FORMAT)

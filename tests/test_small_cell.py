@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from granavg.contacts import COLUMNS
-from granavg.dumpfile import iter_frames
+from granavg.reader import DumpReader
 from granavg.scene import Scene
 
 from .conftest import run_cli, small_cell_args
@@ -30,8 +30,8 @@ def load(run):
     manifest = json.loads((run / "manifest.json").read_text())
     scene = Scene.from_dict(manifest["scene"])
     ext = "dump.gz" if scene.gzip else "dump"
-    atoms = list(iter_frames(run / f"atoms.{ext}"))
-    contacts = list(iter_frames(run / f"contacts.{ext}"))
+    atoms = list(DumpReader(run / f"atoms.{ext}"))
+    contacts = list(DumpReader(run / f"contacts.{ext}"))
     return manifest, scene, atoms, contacts
 
 

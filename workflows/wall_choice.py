@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from granavg.dumpfile import iter_frames
+from granavg.reader import DumpReader
 from granavg.scene import preset
 from granavg.simulate import simulate
 
@@ -30,7 +30,7 @@ def ring_profile(run: Path, scene) -> np.ndarray:
     """Mean v_phi / (Omega R_i) of the disks whose centre is in each ring, t >= T_MIN."""
     edges = np.linspace(scene.R_i, scene.R_o, RINGS + 1)
     total, count = np.zeros(RINGS), np.zeros(RINGS)
-    for frame in iter_frames(run / "atoms.dump.gz"):
+    for frame in DumpReader(run / "atoms.dump.gz"):
         if frame.time < T_MIN:
             continue
         x, y, vx, vy = (frame.column(c) for c in ("x", "y", "vx", "vy"))

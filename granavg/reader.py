@@ -1,0 +1,297 @@
+"""Streaming readers of LAMMPS text dumps (per-atom ``dump custom``, per-contact ``dump local``).
+
+Frames are found by their ``ITEM:`` headers, never by a fixed line count (contact dumps
+change their row count every frame). The file is read in chunks of bytes, so memory
+stays flat whatever the number of frames; each frame's rows are parsed as one block by
+:mod:`granavg.parse`, converting only the columns asked for.
+
+Bad input: a truncated last frame is skipped with a warning naming it; a malformed row,
+a non-finite value, or a missing column is a :class:`~granavg.errors.UserError` naming
+the file and line (and, for a missing column, what needs it).
+"""
+
+from __future__ import annotations
+
+import logging
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from isal import igzip, isal_zlib
+
+from .errors import UserError
+from .parse import MALFORMED, NOT_FINITE, OK, parse_block
+
+log = logging.getLogger(__name__)
+
+CHUNK = 8 << 20
+
+
+@dataclass
+class DumpFrame:
+    """One frame of a dump (SI units for a ``units si`` run).
+
+    Attributes
+    ----------
+    timestep : int
+    time : float or None
+        Simulated time (s) from ``ITEM: TIME``, if present.
+    columns : list of str
+        Names of the columns in ``data`` (the requested ones, in the requested order).
+    data : ndarray, shape (n_rows, len(columns))
+    box : ndarray, shape (3, 2)
+    line : int
+        1-based line number of the frame's first row in its file.
+    """
+
+    timestep: int
+    time: float | None
+    columns: list
+    data: np.ndarray
+    box: np.ndarray = field(repr=False)
+    line: int = 0
+
+    def column(self, name: str) -> np.ndarray:
+        """The column called ``name``, shape (n_rows,)."""
+        return self.data[:, self.columns.index(name)]
+
+    def as_dict(self) -> dict:
+        """Columns by name (views into ``data``)."""
+        return {name: self.data[:, k] for k, name in enumerate(self.columns)}
+
+
+class DumpReader:
+    """Lazy reader of one LAMMPS text dump, plain or gzip; iterate to get frames.
+
+    Parameters
+    ----------
+    path : path-like
+    columns : sequence of str, optional
+        Columns to convert (others are skipped while parsing); all if None.
+    needed_by : dict, optional
+        For each column, what needs it: named in the error if it is missing.
+    """
+
+    def __init__(self, path, columns=None, needed_by=None):
+        self.path = Path(path)
+        if not self.path.exists():
+            raise UserError(f"{self.path}: no such file")
+        self.columns = list(columns) if columns is not None else None
+        self.needed_by = dict(needed_by or {})
+
+    def __iter__(self):
+        yield from _Scanner(self).frames()
+
+
+class _Scanner:
+    """Walks one file: a byte buffer refilled in chunks, a running line count."""
+
+    def __init__(self, reader: DumpReader):
+        self.reader = reader
+        self.path = reader.path
+        self.buf = b""
+        self.pos = 0
+        self.line = 1
+        self.eof = False
+        self._layout = None
+
+    def frames(self):
+        opener = igzip.open if self.path.suffix == ".gz" else open  # ISA-L: 3x zlib
+        with opener(self.path, "rb") as self.fh:
+            while self._skip_blank():
+                frame = self._frame()
+                if frame is None:
+                    return
+                yield frame
+
+    # -- buffer -------------------------------------------------------------------------
+    def _fill(self) -> bool:
+        """Read another chunk; False at end of file (or at a damaged gzip tail)."""
+        if self.eof:
+            return False
+        try:
+            more = self.fh.read(CHUNK)
+        except (EOFError, OSError, zlib.error, isal_zlib.error):  # damaged gzip tail
+            more = b""
+        if not more:
+            self.eof = True
+            return False
+        self.buf = self.buf[self.pos:] + more
+        self.pos = 0
+        return True
+
+    def _skip_blank(self) -> bool:
+        while True:
+            while self.pos < len(self.buf) and self.buf[self.pos] in b" \t\r\n":
+                self.line += self.buf[self.pos] == 10
+                self.pos += 1
+            if self.pos < len(self.buf):
+                return True
+            if not self._fill():
+                return False
+
+    def _readline(self):
+        """Next line as str, or None at the end of the file."""
+        while (nl := self.buf.find(b"\n", self.pos)) < 0:
+            if not self._fill():
+                return None
+        text = self.buf[self.pos:nl].decode("ascii", "replace")
+        self.pos = nl + 1
+        self.line += 1
+        return text
+
+    # -- one frame ----------------------------------------------------------------------
+    def _frame(self):
+        head = {"time": None, "box": np.zeros((3, 2))}
+        start_line = self.line
+        while True:
+            text = self._readline()
+            if text is None:
+                self._truncated(head.get("timestep"), start_line)
+                return None
+            if not text.startswith("ITEM:"):
+                raise UserError(f"{self.path}:{self.line - 1}: expected an 'ITEM:' header, "
+                                f"found {text[:40]!r}; the file is damaged")
+            item = text[5:].strip()
+            if item.startswith(("ATOMS", "ENTRIES")):
+                names = item.split()[1:]
+                break
+            value = self._readline()
+            if value is None:
+                self._truncated(head.get("timestep"), start_line)
+                return None
+            try:
+                if item.startswith("TIMESTEP"):
+                    head["timestep"] = int(value)
+                elif item.startswith("TIME"):
+                    head["time"] = float(value)
+                elif item.startswith("NUMBER OF"):
+                    head["n"] = int(value)
+                elif item.startswith("BOX BOUNDS"):
+                    lines = [value, self._readline(), self._readline()]
+                    if None in lines:
+                        self._truncated(head.get("timestep"), start_line)
+                        return None
+                    head["box"] = np.array([ln.split()[:2] for ln in lines], dtype=float)
+            except ValueError:
+                raise UserError(f"{self.path}:{self.line - 1}: cannot read the {item!r} "
+                                f"header value {value!r}; the file is damaged") from None
+        if "timestep" not in head or "n" not in head:
+            raise UserError(f"{self.path}:{start_line}: frame without TIMESTEP or NUMBER OF "
+                            "header; the file is damaged")
+        return self._rows(head, names)
+
+    def _rows(self, head, names):
+        n, step = head["n"], head["timestep"]
+        want, target = self._targets(names)
+        end = self._block_end()
+        rows = self.buf.count(b"\n", self.pos, end)
+        if rows < n or (n and self.buf[end - 1] != 10):
+            if end >= len(self.buf) and self.eof:
+                self._truncated(step, self.line)
+                return None
+            raise UserError(f"{self.path}:{self.line + rows}: frame at timestep {step} has "
+                            f"{rows} rows, its header says {n}; the file is damaged")
+        arr = np.frombuffer(self.buf, dtype=np.uint8)
+        data, status, row, col = parse_block(arr, self.pos, n, len(names), target)
+        if status != OK:
+            self._bad_value(status, step, row, col, names)
+        if rows > n and self.buf[col:end].strip():
+            raise UserError(f"{self.path}:{self.line + n}: frame at timestep {step} has more "
+                            f"rows than its header's {n}; the file is damaged")
+        self.pos = end
+        first = self.line
+        self.line += rows
+        return DumpFrame(step, head["time"], want, data, head["box"], first)
+
+    def _block_end(self) -> int:
+        """Offset of the next ``ITEM:`` header (or of the end of the file)."""
+        while (end := self.buf.find(b"ITEM:", self.pos)) < 0:
+            if not self._fill():
+                return len(self.buf)
+        return end
+
+    def _targets(self, names):
+        if self._layout is not None and self._layout[0] == names:
+            return self._layout[1], self._layout[2]
+        want = self.reader.columns if self.reader.columns is not None else names
+        missing = [c for c in want if c not in names]
+        if missing:
+            col = missing[0]
+            need = self.reader.needed_by.get(col)
+            raise UserError(f"{self.path}: column '{col}' is missing (columns: {' '.join(names)})"
+                            + (f"; {need} needs it" if need else "")
+                            + "; write it in the dump or do not ask for what needs it")
+        target = np.full(len(names), -1, dtype=np.int64)
+        for k, c in enumerate(want):
+            target[names.index(c)] = k
+        self._layout = (names, list(want), target)
+        return list(want), target
+
+    def _bad_value(self, status, step, row, col, names):
+        line = self.line + row
+        if status == NOT_FINITE:
+            raise UserError(f"{self.path}:{line}: NaN or inf in column '{names[col]}' "
+                            f"(timestep {step}); the run blew up or the file is damaged")
+        what = "too many values" if col >= len(names) else f"bad or missing value in column " \
+               f"'{names[col]}'"
+        assert status == MALFORMED
+        raise UserError(f"{self.path}:{line}: malformed row ({what}; expected "
+                        f"{len(names)} numbers, timestep {step}); the file is damaged")
+
+    def _truncated(self, step, line):
+        log.warning("%s:%d: last frame (timestep %s) is truncated; skipped", self.path, line, step)
+
+
+@dataclass
+class Frame:
+    """One time step of a run: per-atom and (optionally) per-contact columns, SI units."""
+
+    timestep: int
+    time: float
+    atoms: dict
+    contacts: dict | None
+
+
+class FramePairs:
+    """Frames of a per-atom dump paired by time step with those of a per-contact dump.
+
+    Parameters
+    ----------
+    atoms : DumpReader
+    contacts : DumpReader or None
+        Without it, frames carry ``contacts=None`` (density and velocity need none).
+    dt : float, optional
+        Time step (s), for dumps without ``ITEM: TIME``.
+    """
+
+    def __init__(self, atoms: DumpReader, contacts: DumpReader | None = None, dt=None):
+        self.atoms, self.contacts, self.dt = atoms, contacts, dt
+
+    def __iter__(self):
+        a_iter = iter(self.atoms)
+        c_iter = iter(self.contacts) if self.contacts is not None else None
+        for k, fa in enumerate(a_iter):
+            fc = None
+            if c_iter is not None:
+                fc = next(c_iter, None)
+                if fc is None:
+                    log.warning("%s ends at frame %d; the %d-th and later frames of %s are "
+                                "not used", self.contacts.path, k, k + 1, self.atoms.path)
+                    return
+                if fc.timestep != fa.timestep:
+                    raise UserError(
+                        f"time steps do not match: frame {k + 1} is timestep {fa.timestep} in "
+                        f"{self.atoms.path} (line {fa.line}) but {fc.timestep} in "
+                        f"{self.contacts.path} (line {fc.line}); use dumps of the same run")
+            yield Frame(fa.timestep, self._time(fa), fa.as_dict(),
+                        fc.as_dict() if fc is not None else None)
+
+    def _time(self, frame):
+        if frame.time is not None:
+            return frame.time
+        if self.dt is None:
+            raise UserError(f"{self.atoms.path}: frames have no ITEM: TIME and no time step "
+                            "is known; give the run directory (its manifest has dt)")
+        return frame.timestep * self.dt
