@@ -28,6 +28,26 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--resume", action="store_true",
                      help="continue the interrupted run in --out from its last restart")
     sim.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+    avg = sub.add_parser("average", help="ring profiles of a run (Eqs. 1-7, SI units)")
+    avg.add_argument("run_dir", help="run directory of 'granavg simulate' (manifest + dumps)")
+    avg.add_argument("--atoms", help="per-atom dump to use instead of the run's")
+    avg.add_argument("--contacts", help="per-contact dump to use instead of the run's")
+    rings = avg.add_mutually_exclusive_group()
+    rings.add_argument("--bins", type=int, help="number of equal rings from R_i to R_o "
+                       "(default 20)")
+    rings.add_argument("--edges", type=float, nargs="+", metavar="R",
+                       help="ring edges in m, increasing")
+    avg.add_argument("--t-min", type=float, help="average frames with t >= T s "
+                     "(default: two inner-ring rotations)")
+    avg.add_argument("--block-time", type=float,
+                     help="block length in s for standard errors (default: span/20)")
+    avg.add_argument("--quantities", help="comma-separated subset of: nu, rho, v, omega, "
+                     "coordination, F, sigma, dsigma, dsigma_fluct, eps (default: all)")
+    avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
+                     "--parquet); a JSON sidecar <out>.json is written beside it")
+    avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
+    avg.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     return p
 
 
@@ -50,13 +70,32 @@ def _simulate(args) -> int:
     return 0
 
 
+def _average(args) -> int:
+    from pathlib import Path
+
+    from .average import average_run
+
+    out = Path(args.out)
+    if out.exists():
+        raise UserError(f"{out} exists; choose another --out (results are never overwritten)")
+    quantities = [q.strip() for q in args.quantities.split(",")] if args.quantities else None
+    profiles = average_run(args.run_dir, bins=args.bins, edges=args.edges, t_min=args.t_min,
+                           block_time=args.block_time, quantities=quantities,
+                           atoms=args.atoms, contacts=args.contacts,
+                           progress=False if args.no_progress else None)
+    profiles.write(out, parquet=args.parquet)
+    logging.getLogger("granavg").info("%d rings x %d frames -> %s (+ %s.json)",
+                                      profiles.rings.n, profiles.n_frames, out, out.name)
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point of the ``granavg`` command."""
     args = _parser().parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="granavg: %(message)s")
     try:
-        return {"simulate": _simulate}[args.command](args)
+        return {"simulate": _simulate, "average": _average}[args.command](args)
     except UserError as exc:
         print(f"granavg: error: {exc}", file=sys.stderr)
         return exc.exit_code

@@ -1,0 +1,241 @@
+"""Ring averaging of a run: frames -> accumulators -> profiles (Eqs. 1-7), SI units.
+
+:class:`RingAverage` follows MDAnalysis' ``AnalysisBase``: ``run()`` calls
+``_prepare``, ``_single_frame`` for every frame and ``_conclude``; the results are one
+:class:`RingProfiles`. :func:`average_run` builds the readers for a run directory,
+reading only the columns (and the contact dump only if) the requested quantities need.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from tqdm.auto import tqdm
+
+from . import __version__
+from .accumulate import RingAccumulator
+from .errors import UserError
+from .kernels import CHANNELS, particle_channels, ring_sums
+from .profiles import (ATOM_COLUMNS, CONTACT_COLUMNS, QUANTITIES, flags,
+                       standard_errors, values)
+from .reader import DumpReader, FramePairs
+from .rundir import read_manifest
+from .weights import ring_weights
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Rings:
+    """Rings [r_lo, r_hi) of height h: edges (m), volumes V = pi h (r_hi^2 - r_lo^2) (m^3)."""
+
+    edges: np.ndarray
+    h: float
+
+    @classmethod
+    def count(cls, n: int, r_inner: float, r_outer: float, h: float) -> "Rings":
+        """``n`` equal-width rings between r_inner and r_outer (m)."""
+        if n < 1:
+            raise UserError(f"--bins {n}: need at least one ring")
+        return cls(np.linspace(r_inner, r_outer, n + 1), h)
+
+    def __post_init__(self):
+        e = np.asarray(self.edges, dtype=float)
+        if e.ndim != 1 or len(e) < 2 or not np.all(np.diff(e) > 0) or e[0] < 0:
+            raise UserError(f"ring edges must be >= 0 and increasing, at least two (got {list(e)})")
+        object.__setattr__(self, "edges", e)
+
+    @property
+    def n(self) -> int:
+        return len(self.edges) - 1
+
+    @property
+    def volume(self) -> np.ndarray:
+        return np.pi * self.h * (self.edges[1:] ** 2 - self.edges[:-1] ** 2)
+
+    @property
+    def centre(self) -> np.ndarray:
+        return 0.5 * (self.edges[1:] + self.edges[:-1])
+
+
+@dataclass
+class RingProfiles:
+    """Time-averaged ring profiles and their standard errors (SI units)."""
+
+    rings: Rings
+    values: dict
+    sem: dict
+    flags: np.ndarray
+    n_frames: int
+    meta: dict = field(default_factory=dict)
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per ring: r_lo, r_hi, r, V, n_frames, each value and ``<name>_sem``,
+        flags."""
+        cols = {"r_lo": self.rings.edges[:-1], "r_hi": self.rings.edges[1:],
+                "r": self.rings.centre, "V": self.rings.volume,
+                "n_frames": np.full(self.rings.n, self.n_frames)}
+        for name, v in self.values.items():
+            cols[name], cols[f"{name}_sem"] = v, self.sem[name]
+        cols["flags"] = self.flags
+        return pd.DataFrame(cols)
+
+    def write(self, path, parquet: bool = False) -> Path:
+        """Write the table (CSV, or Parquet) and a JSON sidecar ``<path>.json``."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        table = self.to_frame()
+        if parquet:
+            table.to_parquet(path, index=False)
+        else:
+            table.to_csv(path, index=False, float_format="%.10g")
+        path.with_name(path.name + ".json").write_text(json.dumps(self.meta, indent=2) + "\n")
+        return path
+
+
+class RingAverage:
+    """Average frames over rings (Eqs. 1-7).
+
+    Parameters
+    ----------
+    frames : iterable of :class:`~granavg.reader.Frame`
+    rings : Rings
+    groups : sequence of str
+        Keys of :data:`granavg.profiles.QUANTITIES`.
+    rho_p : float
+        Material density, kg/m^3.
+    t_min : float
+        Frames before t_min (s) are not averaged.
+    block_time : float
+        Block length (s) for standard errors.
+    """
+
+    def __init__(self, frames, rings: Rings, groups, rho_p: float, t_min: float,
+                 block_time: float):
+        self.frames, self.rings, self.groups = frames, rings, list(groups)
+        self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
+        self.channels = sorted({c for g in self.groups for c in QUANTITIES[g][1]})
+        self.results: RingProfiles | None = None
+
+    def run(self, progress: bool | None = None) -> RingProfiles:
+        """Accumulate every frame with t >= t_min; returns the profiles."""
+        self._prepare()
+        for frame in tqdm(self.frames, desc="averaging", unit="frame",
+                          disable=None if progress is None else not progress):
+            if frame.time >= self.t_min:
+                self._single_frame(frame)
+        return self._conclude()
+
+    def _prepare(self):
+        self.acc = RingAccumulator((self.rings.n, len(CHANNELS)), self.t_min, self.block_time)
+
+    def _single_frame(self, frame):
+        self.acc.add(frame.timestep, frame.time, frame_sums(
+            frame, self.rings, self.rho_p, self.channels))
+
+    def _conclude(self) -> RingProfiles:
+        acc, V = self.acc, self.rings.volume
+        if acc.n_frames == 0:
+            raise UserError(f"no frame at t >= t_min = {self.t_min:g} s; lower --t-min")
+        S = acc.mean()
+        vals = values(S, V, self.rho_p, self.groups)
+        sem = standard_errors(acc.block_means(), V, self.rho_p, self.groups, list(vals))
+        self.results = RingProfiles(self.rings, vals, sem, flags(S, self.groups),
+                                    acc.n_frames)
+        return self.results
+
+
+def frame_sums(frame, rings: Rings, rho_p: float, channels) -> np.ndarray:
+    """Ring sums of one frame, shape (n_rings, n_channels)."""
+    a = frame.atoms
+    q = particle_channels(a, frame.contacts, rings.h, rho_p, channels)
+    particle, ring, w = ring_weights(np.hypot(a["x"], a["y"]), a["radius"], rings.edges)
+    return ring_sums(particle, ring, w, q, rings.n)
+
+
+def needed_columns(groups):
+    """Atom-dump and contact-dump columns (with what needs each) for these groups."""
+    atoms, contacts = {}, {}
+    for g in groups:
+        for ch in QUANTITIES[g][1]:
+            for c in ATOM_COLUMNS.get(ch, []):
+                atoms.setdefault(c, g)
+            for c in CONTACT_COLUMNS.get(ch, []):
+                contacts.setdefault(c, g)
+    return atoms, contacts
+
+
+def average_run(run_dir=None, *, bins=None, edges=None, t_min=None, block_time=None,
+                quantities=None, atoms=None, contacts=None, progress=None) -> RingProfiles:
+    """Ring profiles of a run directory (or of dump files with a manifest beside them).
+
+    Parameters
+    ----------
+    run_dir : path, optional
+        A ``granavg simulate`` directory: manifest (geometry, h, rho_p, dt, Omega) and
+        dumps.
+    bins : int, optional
+        Number of equal rings between R_i and R_o; or ``edges`` (m).
+    t_min : float, optional
+        Start of the average (s); default two inner-ring rotations, 2 T = 4 pi / Omega.
+    block_time : float, optional
+        Block length (s) for standard errors; default a 20th of the averaged span.
+    quantities : sequence of str, optional
+        Keys of :data:`~granavg.profiles.QUANTITIES`; default all that the files allow.
+    atoms, contacts : path, optional
+        Dump files to use instead of the run directory's.
+    """
+    run_dir = Path(run_dir) if run_dir is not None else None
+    manifest = read_manifest(run_dir) if run_dir is not None else None
+    if manifest is None:
+        raise UserError("give the run directory: its manifest holds h, rho_p and the rings")
+    scene, derived = manifest["scene"], manifest["derived"]
+    ext = "dump.gz" if scene.get("gzip", True) else "dump"
+    atoms = Path(atoms) if atoms else run_dir / f"atoms.{ext}"
+    if contacts is None and (run_dir / f"contacts.{ext}").exists():
+        contacts = run_dir / f"contacts.{ext}"
+    groups = _groups(quantities, contacts is not None)
+    rings = Rings(np.asarray(edges, float), scene["h"]) if edges is not None else \
+        Rings.count(bins or 20, scene["R_i"], scene["R_o"], scene["h"])
+    T = 2 * math.pi / scene["Omega"]
+    t_min = 2 * T if t_min is None else float(t_min)
+    t_end = derived["t_end_s"]
+    block_time = block_time or max(derived["dump_interval_s"], (t_end - t_min) / 20)
+    atom_cols, contact_cols = needed_columns(groups)
+    need_contacts = any(QUANTITIES[g][2] for g in groups)
+    reader_a = DumpReader(atoms, _order(atom_cols), atom_cols)
+    reader_c = DumpReader(contacts, _order(contact_cols), contact_cols) if need_contacts else None
+    frames = FramePairs(reader_a, reader_c, dt=derived["dt_s"])
+    profiles = RingAverage(frames, rings, groups, scene["rho_p"], t_min, block_time).run(progress)
+    acc_meta = {"t_min_s": t_min, "block_time_s": block_time}
+    profiles.meta = {
+        "granavg_version": __version__, "units": "SI (m, s, kg, N, Pa)",
+        "quantities": groups, "rings": {"edges_m": list(rings.edges), "h_m": rings.h},
+        "frames": {"n": profiles.n_frames, **acc_meta},
+        "files": {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None},
+        "run_manifest": manifest,
+    }
+    return profiles
+
+
+def _groups(quantities, have_contacts):
+    if quantities is None:
+        return [g for g, (_, _, needs) in QUANTITIES.items() if have_contacts or not needs]
+    unknown = [q for q in quantities if q not in QUANTITIES]
+    if unknown:
+        raise UserError(f"unknown quantity {unknown[0]!r}; choose from {', '.join(QUANTITIES)}")
+    lacking = [q for q in quantities if QUANTITIES[q][2] and not have_contacts]
+    if lacking:
+        raise UserError(f"{lacking[0]} needs the contact dump, and none was found; give "
+                        "--contacts or run the simulation with contacts")
+    return list(quantities)
+
+
+def _order(cols: dict) -> list:
+    return sorted(cols, key=list(cols).index)

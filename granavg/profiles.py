@@ -1,0 +1,139 @@
+"""From time-averaged ring sums to ring profiles (Eqs. 2-7), with standard errors.
+
+Values come from the sums averaged over all frames (:mod:`granavg.accumulate`):
+ratios such as v = <nu v>/<nu> and eps = <sum Delta l> <F>^-1 are taken of the averages,
+not averaged per frame. The standard error of every value is the spread of the same
+value computed per time block, divided by sqrt(number of blocks) (frames are correlated;
+blocks much longer than the correlation time are not).
+
+Columns (SI units; docs/profiles.md): ``nu`` (-), ``rho`` (kg/m^3), ``v_r``, ``v_phi``
+(m/s), ``omega`` (rad/s), ``coordination`` (-), ``F_*`` (-), ``sigma_*`` (Pa),
+``dsigma_*`` (Pa), ``dsigma_fluct_*`` (Pa), ``eps_*`` (-), each with ``<name>_sem``;
+tensor components ``rr, rphi, phir, phiphi`` in each particle's polar basis.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .kernels import INDEX, TENSOR
+
+#: quantity group -> (profile columns, channels it needs, needs contacts)
+QUANTITIES = {
+    "nu": (["nu"], ["vol"], False),
+    "rho": (["rho"], ["vol"], False),
+    "v": (["v_r", "v_phi"], ["vol", "mom_r", "mom_phi"], False),
+    "omega": (["omega"], ["vol", "spin"], False),
+    "coordination": (["coordination"], ["vol", "ncontact"], True),
+    "F": ([f"F_{c}" for c in TENSOR], ["fab_rr"], True),
+    "sigma": ([f"sigma_{c}" for c in TENSOR], ["sig_rr"], True),
+    "dsigma": ([f"dsigma_{c}" for c in TENSOR], ["kin_rr"], False),
+    "dsigma_fluct": ([f"dsigma_fluct_{c}" for c in TENSOR],
+                     ["vol", "mom_r", "mom_phi", "kin_rr"], False),
+    "eps": ([f"eps_{c}" for c in TENSOR], ["fab_rr", "def_rr"], True),
+}
+#: the atom-dump and contact-dump columns each channel reads
+ATOM_COLUMNS = {"vol": ["x", "y", "radius"], "mom_r": ["vx", "vy"], "mom_phi": ["vx", "vy"],
+                "kin_rr": ["vx", "vy"], "spin": ["omegaz"], "ncontact": ["id"],
+                "fab_rr": ["id"], "sig_rr": ["id"], "def_rr": ["id"]}
+CONTACT_COLUMNS = {"ncontact": ["id1", "id2", "wall"],
+                   "fab_rr": ["id1", "id2", "wall", "nx", "ny"],
+                   "sig_rr": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny"],
+                   "def_rr": ["id1", "id2", "wall", "nx", "ny", "overlap"]}
+
+
+def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups) -> dict:
+    """Profile values from mean ring sums.
+
+    Parameters
+    ----------
+    S : ndarray, shape (n_rings, n_channels)
+        Ring sums averaged over frames.
+    V : ndarray, shape (n_rings,)
+        Ring volumes pi h (r_hi^2 - r_lo^2), m^3.
+    rho_p : float
+        Material density, kg/m^3.
+    groups : iterable of str
+        Keys of :data:`QUANTITIES`.
+
+    Returns
+    -------
+    dict of str -> ndarray, shape (n_rings,)
+        NaN where a value is undefined (no disk in the ring; singular fabric).
+    """
+    col = {name: S[:, k] for name, k in INDEX.items()}
+    vol = col["vol"]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        inv_vol = np.where(vol > 0, 1.0 / vol, np.nan)
+        out = {}
+        for g in groups:
+            if g == "nu":
+                out["nu"] = vol / V
+            elif g == "rho":
+                out["rho"] = rho_p * vol / V
+            elif g == "v":
+                out["v_r"], out["v_phi"] = col["mom_r"] * inv_vol, col["mom_phi"] * inv_vol
+            elif g == "omega":
+                out["omega"] = col["spin"] * inv_vol
+            elif g == "coordination":
+                out["coordination"] = col["ncontact"] * inv_vol
+            elif g in ("F", "sigma", "dsigma"):
+                first = {"F": "fab_rr", "sigma": "sig_rr", "dsigma": "kin_rr"}[g]
+                for c in TENSOR:
+                    out[f"{g}_{c}"] = S[:, INDEX[first] + TENSOR.index(c)] / V
+            elif g == "dsigma_fluct":
+                mean = (col["mom_r"], col["mom_phi"])
+                for i, c in enumerate(TENSOR):
+                    a, b = mean[i // 2], mean[i % 2]
+                    mean_flow = rho_p * a * b * inv_vol
+                    out[f"dsigma_fluct_{c}"] = (S[:, INDEX["kin_rr"] + i] - mean_flow) / V
+            elif g == "eps":
+                out.update(_eps(S))
+    return out
+
+
+def _eps(S):
+    """eps = (pi h sum Delta (x) l) . (V^-1 sum V^p n (x) n)^-1 ... per ring (Eq. 7)."""
+    fab = S[:, INDEX["fab_rr"]:INDEX["fab_rr"] + 4].reshape(-1, 2, 2)
+    dfm = S[:, INDEX["def_rr"]:INDEX["def_rr"] + 4].reshape(-1, 2, 2)
+    det = np.linalg.det(fab)
+    scale = np.einsum("kij,kij->k", fab, fab)
+    ok = np.abs(det) > 1e-12 * scale
+    eps = np.full(dfm.shape, np.nan)
+    if np.any(ok):
+        eps[ok] = dfm[ok] @ np.linalg.inv(fab[ok])
+    return {f"eps_{c}": eps.reshape(-1, 4)[:, k] for k, c in enumerate(TENSOR)}
+
+
+def flags(S: np.ndarray, groups) -> np.ndarray:
+    """Per-ring flags (';'-joined): ``empty`` (no disk), ``no_contacts``,
+    ``singular_fabric`` (eps undefined)."""
+    out = [[] for _ in range(S.shape[0])]
+    vol = S[:, INDEX["vol"]]
+    contact = {"coordination", "F", "sigma", "eps"} & set(groups)
+    fab = S[:, INDEX["fab_rr"]:INDEX["fab_rr"] + 4].reshape(-1, 2, 2)
+    contact_channels = [INDEX["ncontact"], *(INDEX[p] + i for p in ("fab_rr", "sig_rr", "def_rr")
+                                              for i in range(4))]
+    for k in range(S.shape[0]):
+        if not vol[k] > 0:
+            out[k].append("empty")
+        if contact and vol[k] > 0 and not np.any(S[k, contact_channels] != 0):
+            out[k].append("no_contacts")
+        if "eps" in groups:
+            det, scale = np.linalg.det(fab[k]), np.sum(fab[k] ** 2)
+            if not abs(det) > 1e-12 * scale:
+                out[k].append("singular_fabric")
+    return np.array([";".join(f) for f in out], dtype=object)
+
+
+def standard_errors(block_means, V, rho_p, groups, names) -> dict:
+    """Standard error of each value from the spread over blocks (NaN with < 2 blocks)."""
+    if len(block_means) < 2:
+        return {n: np.full(len(V), np.nan) for n in names}
+    per_block = [values(b, V, rho_p, groups) for b in block_means]
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)     # all-NaN rings stay NaN
+        return {n: np.nanstd([pb[n] for pb in per_block], axis=0, ddof=1)
+            / np.sqrt(len(per_block)) for n in names}
