@@ -202,7 +202,7 @@ def average_run(run_dir=None, *, bins=None, edges=None, t_min=None, block_time=N
         contacts = run_dir / f"contacts.{ext}"
     groups = _groups(quantities, contacts is not None)
     rings = Rings(np.asarray(edges, float), scene["h"]) if edges is not None else \
-        Rings.count(bins or 20, scene["R_i"], scene["R_o"], scene["h"])
+        Rings.count(20 if bins is None else bins, scene["R_i"], scene["R_o"], scene["h"])
     T = 2 * math.pi / scene["Omega"]
     t_min = 2 * T if t_min is None else float(t_min)
     t_end = derived["t_end_s"]

@@ -335,7 +335,7 @@ def _new_manifest(d: Derived, preset, np_ranks, omp) -> dict:
             "t_c_s": c.t_c, "dt_s": d.dt, "dt_safe_max_s": d.dt_safe,
             "steps_per_contact": s.n_per_tc, "period_T_s": d.period,
             "area_fraction": d.area_fraction, "mass_small_kg": d.m_small,
-            "mass_large_kg": d.m_large, "n_grow": d.n_grow, "n_relax": d.n_relax,
+            "mass_large_kg": d.m_large, "wall_d_m": d.wall_d, "n_grow": d.n_grow, "n_relax": d.n_relax,
             "n_shear_steps": d.n_shear, "t_end_s": d.n_shear * d.dt,
             "dump_every_steps": d.dump_every, "dump_interval_s": d.dump_every * d.dt,
             "first_dump_step": d.n_dump_start, "restart_every_steps": d.restart_every,

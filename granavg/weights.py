@@ -12,6 +12,16 @@ from __future__ import annotations
 import numpy as np
 
 
+def _segment(theta):
+    """Area of a circular segment of half-angle theta over r^2: theta - sin(theta) cos(theta).
+
+    A series for thin segments, where the difference would cancel catastrophically.
+    """
+    t2 = theta * theta
+    series = theta * t2 * (2.0 / 3.0 - t2 * (2.0 / 15.0 - t2 * (4.0 / 315.0)))
+    return np.where(theta < 1e-2, series, theta - np.sin(theta) * np.cos(theta))
+
+
 def area_inside_circle(d, a, R):
     """Area of a disk of radius ``a`` centred at distance ``d`` from the origin that lies
     inside the circle of radius ``R`` about the origin (m^2).
@@ -25,7 +35,10 @@ def area_inside_circle(d, a, R):
     -------
     ndarray
         pi a^2 if the disk is inside, 0 if outside, pi R^2 if the circle is inside the
-        disk, else the lens area.
+        disk, else the lens: the two circular segments cut off by the common chord. The
+        chord's half-length comes from the factored product
+        (-d+a+R)(d+a-R)(d-a+R)(d+a+R) and the angles from atan2, so thin lenses
+        (R >> a) keep full relative precision.
     """
     d, a, R = np.broadcast_arrays(np.asarray(d, float), np.asarray(a, float),
                                   np.asarray(R, float))
@@ -34,11 +47,11 @@ def area_inside_circle(d, a, R):
     lens = (np.abs(R - a) < d) & (d < R + a)
     if np.any(lens):
         dl, al, Rl = d[lens], a[lens], R[lens]
-        c1 = np.clip((dl * dl + al * al - Rl * Rl) / (2 * dl * al), -1.0, 1.0)
-        c2 = np.clip((dl * dl + Rl * Rl - al * al) / (2 * dl * Rl), -1.0, 1.0)
         k = (-dl + al + Rl) * (dl + al - Rl) * (dl - al + Rl) * (dl + al + Rl)
-        out[lens] = (al * al * np.arccos(c1) + Rl * Rl * np.arccos(c2)
-                     - 0.5 * np.sqrt(np.maximum(k, 0.0)))
+        chord = 0.5 * np.sqrt(np.maximum(k, 0.0)) / dl       # half-length of the chord
+        x = (dl * dl + Rl * Rl - al * al) / (2 * dl)        # origin -> chord distance
+        out[lens] = (Rl * Rl * _segment(np.arctan2(chord, x))
+                     + al * al * _segment(np.arctan2(chord, dl - x)))
     return out
 
 

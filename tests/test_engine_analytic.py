@@ -1,0 +1,131 @@
+"""The ring-averaging engine on configurations whose answer is known exactly."""
+
+import numpy as np
+import pytest
+
+from granavg.accumulate import RingAccumulator
+from granavg.average import RingAverage, Rings, frame_sums
+from granavg.kernels import CHANNELS
+from granavg.profiles import QUANTITIES
+from granavg.reader import Frame
+from granavg.weights import ring_weights
+
+H, RHO_P = 0.006, 1060.0
+ALL = list(QUANTITIES)
+
+
+def hex_crystal(a=0.004, delta=1e-4, k=10.0, extent=0.12):
+    """A hexagonal crystal of disks of radius a, spacing 2a - delta, every touching pair
+    pushed apart by a normal force k*delta (no friction), centred on the axis."""
+    s = 2 * a - delta
+    i, j = np.meshgrid(np.arange(-60, 61), np.arange(-70, 71))
+    x = (s * (i + 0.5 * (j % 2))).ravel()
+    y = (s * np.sqrt(3) / 2 * j).ravel()
+    keep = np.hypot(x, y) < extent
+    x, y = x[keep] + 1e-7, y[keep] + 2e-7          # no disk exactly on the axis
+    ids = np.arange(1, len(x) + 1, dtype=float)
+    dx = x[None, :] - x[:, None]
+    dy = y[None, :] - y[:, None]
+    dist = np.hypot(dx, dy)
+    p, q = np.nonzero(np.triu((dist < 2 * a) & (dist > 0)))
+    n = np.column_stack([dx[p, q], dy[p, q]]) / dist[p, q][:, None]
+    fn = -k * delta * n                                # on the first disk, away from q
+    atoms = {"id": ids, "x": x, "y": y, "radius": np.full(len(x), a),
+             "vx": np.zeros(len(x)), "vy": np.zeros(len(x)), "omegaz": np.zeros(len(x))}
+    contacts = {"id1": ids[p], "id2": ids[q], "wall": np.zeros(len(p)),
+                "fnx": fn[:, 0], "fny": fn[:, 1], "ftx": np.zeros(len(p)),
+                "fty": np.zeros(len(p)), "nx": n[:, 0], "ny": n[:, 1],
+                "overlap": 2 * a - dist[p, q]}
+    return Frame(0, 0.0, atoms, contacts)
+
+
+def average(frames, rings, groups=ALL, block_time=1.0):
+    return RingAverage(frames, rings, groups, RHO_P, t_min=0.0, block_time=block_time).run(
+        progress=False)
+
+
+def test_compressed_hex_crystal_gives_fabric_stress_and_strain_exactly():
+    a, delta, k = 0.004, 1e-4, 10.0
+    frame = hex_crystal(a, delta, k)
+    rings = Rings.count(8, 0.03, 0.09, H)          # away from the crystal's edge (0.12 m)
+    p = average([frame], rings)
+    nu = p.values["nu"]
+    assert np.all(nu > 0.85)
+    # six contacts a disk: tr F = nu C, F = 3 nu I (six normals 60 degrees apart)
+    assert np.allclose(p.values["F_rr"] + p.values["F_phiphi"], 6 * nu, rtol=1e-12)
+    assert np.allclose(p.values["F_rr"], 3 * nu, rtol=1e-12)
+    assert np.allclose(p.values["F_rphi"], 0, atol=1e-12)
+    assert np.allclose(p.values["coordination"], 6, rtol=1e-12)
+    # sigma = (1/V) sum_p w sum_c f (x) l = -3 k delta a nu / (pi a^2 h) I (tension > 0)
+    expected = -3 * k * delta * a * nu / (np.pi * a * a * H)
+    assert np.allclose(p.values["sigma_rr"], expected, rtol=1e-12)
+    assert np.allclose(p.values["sigma_phiphi"], expected, rtol=1e-12)
+    assert np.allclose(p.values["sigma_rphi"], 0, atol=1e-12 * abs(expected).max())
+    # eps = -(delta / a) I: the overlap shortens every branch vector by delta
+    assert np.allclose(p.values["eps_rr"], -delta / a, rtol=1e-12)
+    assert np.allclose(p.values["eps_phiphi"], -delta / a, rtol=1e-12)
+    assert np.allclose(p.values["eps_phir"], 0, atol=1e-12)
+
+
+def rotating_frame(omega, rng, n=3000, t=0.0):
+    r = rng.uniform(0.1032 + 0.0045, 0.2524 - 0.0045, n)
+    phi = rng.uniform(0, 2 * np.pi, n)
+    x, y = r * np.cos(phi), r * np.sin(phi)
+    a = rng.choice([0.00371, 0.004495], n)
+    atoms = {"id": np.arange(1, n + 1.0), "x": x, "y": y, "radius": a,
+             "vx": -omega * y, "vy": omega * x, "omegaz": np.full(n, omega)}
+    return Frame(int(t * 1000), t, atoms, None)
+
+
+def test_rigid_rotation():
+    omega, rng = 0.1, np.random.default_rng(3)
+    rings = Rings.count(20, 0.1032, 0.2524, H)
+    frames = [rotating_frame(omega, rng, t=t) for t in (0.0, 1.0, 2.0)]
+    groups = ["nu", "v", "omega", "dsigma", "dsigma_fluct"]
+    p = average(frames, rings, groups)
+    assert np.allclose(p.values["v_r"], 0, atol=1e-15)
+    assert np.allclose(p.values["omega"], omega, rtol=1e-13)
+    # v_phi = Omega <r>, the volume-weighted mean radius of the ring's disk area
+    r_mean = np.zeros(rings.n)
+    vol = np.zeros(rings.n)
+    for f in frames:
+        r = np.hypot(f.atoms["x"], f.atoms["y"])
+        part, ring, w = ring_weights(r, f.atoms["radius"], rings.edges)
+        v = w * np.pi * H * f.atoms["radius"][part] ** 2
+        r_mean += np.bincount(ring, v * r[part], rings.n)
+        vol += np.bincount(ring, v, rings.n)
+    assert np.allclose(p.values["v_phi"], omega * r_mean / vol, rtol=1e-12)
+    # and close to Omega r at the ring centre where the ring is full of disks
+    assert np.allclose(p.values["v_phi"][1:-1], omega * rings.centre[1:-1], rtol=2e-3)
+    # no fluctuation but the spread of Omega r across a ring: rr and rphi vanish, and
+    # phiphi is the variance term rho_p nu Omega^2 var(r) <= rho Omega^2 (dr + 2a)^2 / 12
+    assert np.allclose(p.values["dsigma_fluct_rr"], 0, atol=1e-18)
+    assert np.allclose(p.values["dsigma_fluct_rphi"], 0, atol=1e-18)
+    width = np.diff(rings.edges) + 2 * 0.004495
+    bound = RHO_P * p.values["nu"] * omega**2 * width**2 / 12
+    assert np.all(p.values["dsigma_fluct_phiphi"] >= 0)
+    assert np.all(p.values["dsigma_fluct_phiphi"] <= bound)
+    assert np.all(p.values["dsigma_fluct_phiphi"] < 1e-3 * p.values["dsigma_phiphi"])
+
+
+def test_chunks_merge_into_the_one_pass_result():
+    rng = np.random.default_rng(5)
+    rings = Rings.count(10, 0.1032, 0.2524, H)
+    frames = [rotating_frame(0.1 * (1 + 0.1 * k), rng, n=500, t=0.5 * k) for k in range(24)]
+    channels = [c for c in CHANNELS if c in ("vol", "mom_r", "mom_phi", "spin", "kin_rr")]
+
+    def accumulate(chunk):
+        acc = RingAccumulator((rings.n, len(CHANNELS)), t_min=0.0, block_time=2.0)
+        for f in chunk:
+            acc.add(f.timestep, f.time, frame_sums(f, rings, RHO_P, channels))
+        return acc
+
+    one = accumulate(frames)
+    aligned = accumulate(frames[:8]).merge(accumulate(frames[8:16])).merge(
+        accumulate(frames[16:]))                       # chunks of whole 2 s blocks
+    assert np.array_equal(aligned.mean(), one.mean())
+    assert all(np.array_equal(a, b) for a, b in zip(aligned.block_means(), one.block_means()))
+    ragged = accumulate(frames[:5]).merge(accumulate(frames[5:17])).merge(
+        accumulate(frames[17:]))
+    assert np.allclose(ragged.mean(), one.mean(), rtol=1e-14, atol=0)
+    assert ragged.n_frames == one.n_frames == 24 and len(one.block_means()) == 6

@@ -1,0 +1,126 @@
+"""The engine on a real LAMMPS run: exact sum rule, and LAMMPS' own virial."""
+
+import json
+
+import numpy as np
+import pytest
+
+from granavg.average import RingAverage, Rings
+from granavg.lammps_session import lammps_session
+from granavg.profiles import QUANTITIES
+from granavg.reader import DumpReader, FramePairs
+from granavg.contacts import COLUMNS, contact_table
+from granavg.reader import Frame
+from granavg.scene import PAPER
+from granavg.simulate import DECK, _cmdargs, _deck_variables, _radius_of_type
+
+from .conftest import SMALL_CELL
+
+
+def frames_of(run):
+    m = json.loads((run / "manifest.json").read_text())
+    pairs = FramePairs(DumpReader(run / "atoms.dump.gz"), DumpReader(run / "contacts.dump.gz"),
+                       dt=m["derived"]["dt_s"])
+    return m, list(pairs)
+
+
+def covering_rings(frame, h, n=15):
+    """Rings spanning every disk whole, so the weights of each disk sum to 1."""
+    a = frame.atoms
+    r = np.hypot(a["x"], a["y"])
+    return Rings(np.linspace((r - a["radius"]).min() * 0.999, (r + a["radius"]).max() * 1.001,
+                             n + 1), h)
+
+
+def direct_sums(frame, h):
+    """sum_p sum_c f (x) l and sum_p V^p sum_c n (x) n in each disk's polar basis,
+    written independently of granavg.kernels (complex numbers rotate into the basis)."""
+    a, c = frame.atoms, frame.contacts
+    row = {int(i): k for k, i in enumerate(a["id"])}
+    z = a["x"] + 1j * a["y"]
+    rot = np.conj(z / np.abs(z))                 # multiplies a vector into (r, phi)
+    sig, fab = np.zeros((2, 2)), np.zeros((2, 2))
+    for k in range(len(c["id1"])):
+        f = complex(c["fnx"][k] + c["ftx"][k], c["fny"][k] + c["fty"][k])
+        n = complex(c["nx"][k], c["ny"][k])
+        sides = [(row[int(c["id1"][k])], f, n)]
+        if c["wall"][k] == 0:
+            sides.append((row[int(c["id2"][k])], -f, -n))
+        for p, fp, np_ in sides:
+            fl, nl = fp * rot[p], np_ * rot[p]
+            lv = a["radius"][p] * nl
+            sig += np.outer([fl.real, fl.imag], [lv.real, lv.imag])
+            fab += np.pi * h * a["radius"][p] ** 2 * np.outer([nl.real, nl.imag],
+                                                               [nl.real, nl.imag])
+    return sig, fab
+
+
+def test_sum_rule_over_rings_is_exact(small_run):
+    m, frames = frames_of(small_run)
+    h, frame = m["scene"]["h"], frames[len(frames) // 2]
+    rings = covering_rings(frame, h)
+    p = RingAverage([frame], rings, list(QUANTITIES), m["scene"]["rho_p"], 0.0, 1.0).run(False)
+    V = rings.volume
+    sig, fab = direct_sums(frame, h)
+    for k, comp in enumerate(("rr", "rphi", "phir", "phiphi")):
+        i, j = divmod(k, 2)
+        assert np.sum(V * p.values[f"sigma_{comp}"]) == pytest.approx(sig[i, j], rel=1e-11)
+        assert np.sum(V * p.values[f"F_{comp}"]) == pytest.approx(fab[i, j], rel=1e-11)
+    total_disk_volume = np.sum(np.pi * h * frame.atoms["radius"] ** 2)
+    assert np.sum(V * p.values["nu"]) == pytest.approx(total_disk_volume, rel=1e-12)
+
+
+def live_frame_and_virial(out):
+    """Run the small cell in-process; at its last step return the frame (contact table
+    built as granavg writes it) and the trace of LAMMPS' summed per-atom pair stress of
+    the disks (SI: N m in 2D), both from the same LAMMPS state."""
+    import lammps
+
+    scene = PAPER.with_overrides(SMALL_CELL)
+    derived = scene.derive()
+    out.mkdir()
+    variables = _deck_variables(out, derived, embedded=True, resume=None)
+    with lammps_session(_cmdargs(out, variables, 1)) as lmp:
+        lmp.file(str(DECK))
+        lmp.commands_string("""
+            run 2000
+            compute s mobile stress/atom NULL pair
+            compute t mobile reduce sum c_s[1] c_s[2]
+            thermo_style custom step c_t[1] c_t[2]
+            run 0""")
+        last = lmp.last_thermo()
+        loc, arr = lammps.LMP_STYLE_LOCAL, lammps.LMP_TYPE_ARRAY
+        raw = np.hstack([lmp.numpy.extract_compute("cprop", loc, arr),
+                         lmp.numpy.extract_compute("cpair", loc, arr)])
+        n = lmp.extract_global("nlocal")
+        x = np.array(lmp.numpy.extract_atom("x")[:n])
+        typ = np.array(lmp.numpy.extract_atom("type")[:n])
+        ids = np.array(lmp.numpy.extract_atom("id")[:n], dtype=float)
+        rad = np.array(lmp.numpy.extract_atom("radius")[:n])
+    disk = typ <= 2
+    order = np.argsort(ids[disk])
+    atoms = {"id": ids[disk][order], "x": x[disk, 0][order], "y": x[disk, 1][order],
+             "radius": rad[disk][order]}
+    table = contact_table(raw, _radius_of_type(derived))
+    frame = Frame(int(last["Step"]), 0.0, atoms, dict(zip(COLUMNS, table.T)))
+    return scene, derived, frame, last["c_t[1]"] + last["c_t[2]"]
+
+
+def test_stress_trace_equals_lammps_virial(tmp_path):
+    """sum_k V_k tr sigma_k = sum_c (r1 + r2) f.n uses the disks' radii as branch
+    vectors; LAMMPS' virial uses the centre distance and gives half of a wall pair to the
+    wall disk. With those known geometric differences added they agree to round-off."""
+    scene, derived, frame, lmp_trace = live_frame_and_virial(tmp_path / "live")
+    rings = covering_rings(frame, scene.h)
+    p = RingAverage([frame], rings, ["sigma"], scene.rho_p, 0.0, 1.0).run(False)
+    ours = np.sum(rings.volume * (p.values["sigma_rr"] + p.values["sigma_phiphi"]))
+    c, a = frame.contacts, frame.atoms
+    radius = dict(zip(a["id"].astype(int), a["radius"]))
+    r1 = np.array([radius[int(i)] for i in c["id1"]])
+    f_dot_n = (c["fnx"] + c["ftx"]) * c["nx"] + (c["fny"] + c["fty"]) * c["ny"]
+    wall = c["wall"] > 0
+    dist = np.where(wall, r1 + derived.wall_d / 2 - c["overlap"], np.nan)
+    # disk-disk: (r1 + r2) - dist = overlap; disk-wall: r1 against half the distance
+    correction = np.sum(np.where(wall, r1 - dist / 2, c["overlap"]) * f_dot_n)
+    assert np.sum(wall) > 10 and np.sum(~wall) > 100
+    assert ours == pytest.approx(lmp_trace + correction, rel=1e-10)
