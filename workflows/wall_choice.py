@@ -30,8 +30,9 @@ def ring_profile(run: Path, scene) -> np.ndarray:
     """Mean v_phi / (Omega R_i) of the disks whose centre is in each ring, t >= T_MIN."""
     edges = np.linspace(scene.R_i, scene.R_o, RINGS + 1)
     total, count = np.zeros(RINGS), np.zeros(RINGS)
+    dt = scene.derive().dt
     for frame in DumpReader(run / "atoms.dump.gz"):
-        if frame.time < T_MIN:
+        if frame.timestep * dt < T_MIN:
             continue
         x, y, vx, vy = (frame.column(c) for c in ("x", "y", "vx", "vy"))
         r = np.hypot(x, y)
