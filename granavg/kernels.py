@@ -31,7 +31,7 @@ it is not an elastic deformation.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
+from numba import njit
 
 from .errors import UserError
 
@@ -96,45 +96,70 @@ def particle_channels(atoms, contacts, h, rho_p, channels):
 def _contact_channels(q, atoms, contacts, er, ephi, vol, h, want):
     """Add each contact to both of its disks (only the disk of a wall contact)."""
     ids = atoms["id"]
-    i1 = _rows_of(ids, contacts["id1"])
     pair = contacts["wall"] == 0
-    i2 = _rows_of(ids, contacts["id2"][pair])
-    n = np.column_stack([contacts["nx"], contacts["ny"]])
-    f = np.column_stack([contacts["fnx"] + contacts["ftx"], contacts["fny"] + contacts["fty"]])
-    delta = contacts["overlap"]
-    # side 2 sees the opposite force and normal
-    who = np.concatenate([i1, i2])
-    n_s = np.concatenate([n, -n[pair]])
-    f_s = np.concatenate([f, -f[pair]])
-    delta_s = np.concatenate([delta, delta[pair]])
-    a_s = atoms["radius"][who]
-    n_r, n_phi = np.einsum("ij,ij->i", n_s, er[who]), np.einsum("ij,ij->i", n_s, ephi[who])
-    nn = _outer(n_r, n_phi, n_r, n_phi)
-    P = len(vol)
-
-    def per_particle(values):
-        return np.column_stack([np.bincount(who, values[:, c], P) for c in range(4)])
-
+    i1 = _rows_of(ids, contacts["id1"])
+    i2 = np.full(len(i1), -1, dtype=np.int64)
+    i2[pair] = _rows_of(ids, contacts["id2"][pair])
+    nc = np.zeros(len(vol))
+    fab, sig, dfm = (np.zeros((len(vol), 4)) for _ in range(3))
+    _accumulate_contacts(i1, i2, contacts["fnx"] + contacts["ftx"],
+                         contacts["fny"] + contacts["fty"], contacts["nx"], contacts["ny"],
+                         contacts["overlap"], er, ephi, atoms["radius"], np.pi * h,
+                         nc, fab, sig, dfm)
     if "ncontact" in want:
-        q[:, INDEX["ncontact"]] = vol * np.bincount(who, minlength=P)
-    if "fab_rr" in want:
-        q[:, INDEX["fab_rr"]:INDEX["fab_rr"] + 4] = vol[:, None] * per_particle(nn)
-    if "sig_rr" in want:
-        f_r, f_phi = np.einsum("ij,ij->i", f_s, er[who]), np.einsum("ij,ij->i", f_s, ephi[who])
-        q[:, INDEX["sig_rr"]:INDEX["sig_rr"] + 4] = per_particle(
-            a_s[:, None] * _outer(f_r, f_phi, n_r, n_phi))
-    if "def_rr" in want:
-        q[:, INDEX["def_rr"]:INDEX["def_rr"] + 4] = per_particle(
-            (-np.pi * h * delta_s * a_s)[:, None] * nn)
+        q[:, INDEX["ncontact"]] = vol * nc
+    for name, values in (("fab_rr", vol[:, None] * fab), ("sig_rr", sig), ("def_rr", dfm)):
+        if name in want:
+            q[:, INDEX[name]:INDEX[name] + 4] = values
+
+
+@njit(cache=True, nogil=True)
+def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih,
+                         nc, fab, sig, dfm):
+    """Per-disk sums over its contacts (side 2 sees -f and -n; i2 < 0: wall contact):
+    count, sum n (x) n, sum f (x) l with l = a n, and pi h sum Delta (x) l with
+    Delta = -overlap n; tensors in the disk's polar basis (rr, rphi, phir, phiphi)."""
+    for c in range(i1.shape[0]):
+        for side in range(2):
+            p = i1[c] if side == 0 else i2[c]
+            if p < 0:
+                break
+            s = 1.0 if side == 0 else -1.0
+            n_r = s * (nx[c] * er[p, 0] + ny[c] * er[p, 1])
+            n_phi = s * (nx[c] * ephi[p, 0] + ny[c] * ephi[p, 1])
+            f_r = s * (fx[c] * er[p, 0] + fy[c] * er[p, 1])
+            f_phi = s * (fx[c] * ephi[p, 0] + fy[c] * ephi[p, 1])
+            d = -pih * overlap[c] * a[p]
+            nc[p] += 1.0
+            fab[p, 0] += n_r * n_r
+            fab[p, 1] += n_r * n_phi
+            fab[p, 2] += n_phi * n_r
+            fab[p, 3] += n_phi * n_phi
+            sig[p, 0] += a[p] * f_r * n_r
+            sig[p, 1] += a[p] * f_r * n_phi
+            sig[p, 2] += a[p] * f_phi * n_r
+            sig[p, 3] += a[p] * f_phi * n_phi
+            dfm[p, 0] += d * n_r * n_r
+            dfm[p, 1] += d * n_r * n_phi
+            dfm[p, 2] += d * n_phi * n_r
+            dfm[p, 3] += d * n_phi * n_phi
 
 
 def _rows_of(ids, wanted):
     """Row of each id in the atom ids; an unknown id is a user error."""
-    order = None if np.all(ids[1:] > ids[:-1]) else np.argsort(ids, kind="stable")
-    sorted_ids = ids if order is None else ids[order]
-    rows = np.minimum(np.searchsorted(sorted_ids, wanted), len(ids) - 1)
-    bad = sorted_ids[rows] != wanted
-    rows = rows if order is None else order[rows]
+    ids = ids.astype(np.int64)
+    wanted = wanted.astype(np.int64)
+    top = int(ids.max(initial=0))
+    if top < 8 * len(ids) + 1_000_000:               # a lookup table: O(P + N)
+        table = np.full(top + 2, -1, dtype=np.int64)
+        table[ids] = np.arange(len(ids))
+        rows = table[np.clip(wanted, 0, top + 1)]
+        bad = (rows < 0) | (wanted < 0) | (wanted > top)
+    else:                                           # sparse ids: sort and search
+        order = np.argsort(ids, kind="stable")
+        pos = np.minimum(np.searchsorted(ids[order], wanted), len(ids) - 1)
+        rows = order[pos]
+        bad = ids[rows] != wanted
     if np.any(bad):
         raise UserError(f"the contact dump names atom id {int(wanted[bad][0])}, which is not "
                         "in the atom dump of the same time step; use dumps of the same run")
@@ -143,5 +168,14 @@ def _rows_of(ids, wanted):
 
 def ring_sums(particle, ring, w, q, n_rings):
     """S[k, c] = sum_p w_pk q[p, c]; shape (n_rings, n_channels)."""
-    W = sp.csr_array((w, (ring, particle)), shape=(n_rings, q.shape[0]))
-    return W @ q
+    out = np.zeros((n_rings, q.shape[1]))
+    _scatter(particle, ring, w, np.ascontiguousarray(q), out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _scatter(particle, ring, w, q, out):
+    for t in range(particle.shape[0]):
+        p, k, wt = particle[t], ring[t], w[t]
+        for c in range(q.shape[1]):
+            out[k, c] += wt * q[p, c]
