@@ -129,3 +129,21 @@ def test_chunks_merge_into_the_one_pass_result():
         accumulate(frames[17:]))
     assert np.allclose(ragged.mean(), one.mean(), rtol=1e-14, atol=0)
     assert ragged.n_frames == one.n_frames == 24 and len(one.block_means()) == 6
+
+
+def test_empty_ring_and_ring_without_contacts_are_flagged_nan():
+    frame = hex_crystal(extent=0.06)
+    # drop the contacts of the disks beyond 0.04 m: a ring there has disks but no contacts
+    a, c = frame.atoms, frame.contacts
+    far = set(a["id"][np.hypot(a["x"], a["y"]) > 0.04].astype(int))
+    keep = np.array([int(i) not in far and int(j) not in far for i, j in zip(c["id1"], c["id2"])])
+    frame = Frame(0, 0.0, a, {k: v[keep] for k, v in c.items()})
+    rings = Rings(np.array([0.01, 0.03, 0.045, 0.055, 0.08, 0.09]), H)
+    p = average([frame], rings)
+    flags = list(p.flags)
+    assert flags[0] == "" and np.isfinite(p.values["eps_rr"][0])
+    assert "no_contacts" in flags[2] and "singular_fabric" in flags[2]
+    assert np.isnan(p.values["eps_rr"][2]) and p.values["coordination"][2] == 0
+    assert flags[4].startswith("empty") and p.values["nu"][4] == 0
+    assert np.isnan(p.values["v_phi"][4]) and np.isnan(p.values["eps_rr"][4])
+    assert np.all(np.isnan(p.sem["nu"]))            # one frame: no error estimate

@@ -1,0 +1,126 @@
+"""Benchmark the dump reader and the ring-averaging engine on a paper-scene run.
+
+    python benchmarks/averaging.py RUN_DIR      # a run of the paper geometry (e.g. the demo)
+
+Prints a markdown table: reader MB/s beside MDAnalysis' DumpReader on the same per-atom
+dump (ratio measured in this run), engine frames/s (frames already in memory), the
+whole `average_run`, and peak traced memory of the engine for 10^2, 10^3, 10^4 frames.
+"""
+
+from __future__ import annotations
+
+import gzip
+import itertools
+import sys
+import tempfile
+import time
+import tracemalloc
+import warnings
+from pathlib import Path
+
+from granavg.average import RingAverage, Rings, average_run, frame_sums
+from granavg.kernels import CHANNELS
+from granavg.profiles import QUANTITIES
+from granavg.reader import DumpReader, Frame, FramePairs
+from granavg.rundir import read_manifest
+
+
+def best_of(fn, repeat=3):
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def reader_rows(run: Path, plain: Path):
+    size = plain.stat().st_size / 1e6
+    list(DumpReader(plain, ["x"]))                  # load the compiled kernel
+    rows = []
+    for label, fn in [
+        ("granavg, all 11 columns", lambda: list(DumpReader(plain))),
+        ("granavg, x y radius (density)", lambda: list(DumpReader(plain, ["x", "y", "radius"]))),
+        ("granavg, gzip file, all columns", lambda: list(DumpReader(run / "atoms.dump.gz"))),
+    ]:
+        rows.append((label, size / best_of(fn)))
+    import MDAnalysis as mda
+
+    def mdanalysis():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            u = mda.Universe(str(plain), format="LAMMPSDUMP")
+            for ts in u.trajectory:
+                ts.positions, ts.velocities
+    rows.append(("MDAnalysis 2.x DumpReader (positions, velocities)",
+                 size / best_of(mdanalysis, repeat=1)))
+    return rows
+
+
+def engine_rows(run: Path, m):
+    scene = m["scene"]
+    frames = list(itertools.islice(FramePairs(DumpReader(run / "atoms.dump.gz"),
+                                              DumpReader(run / "contacts.dump.gz"),
+                                              dt=m["derived"]["dt_s"]), 40))
+    rows = []
+    for n in (20, 60):
+        rings = Rings.count(n, scene["R_i"], scene["R_o"], scene["h"])
+        for label, channels in (("all quantities", CHANNELS),
+                                ("nu and v", ("vol", "mom_r", "mom_phi"))):
+            frame_sums(frames[0], rings, scene["rho_p"], channels)
+            dt = best_of(lambda: [frame_sums(f, rings, scene["rho_p"], channels)
+                                  for f in frames]) / len(frames)
+            rows.append((f"{n} rings, {label}", 1 / dt))
+    return frames, rows
+
+
+def memory_rows(frames, m):
+    scene = m["scene"]
+    rings = Rings.count(20, scene["R_i"], scene["R_o"], scene["h"])
+    rows = []
+    for n in (100, 1000, 10000):
+        stream = (Frame(k, 0.5 * k, f.atoms, f.contacts)
+                  for k, f in zip(range(n), itertools.cycle(frames)))
+        tracemalloc.start()
+        t0 = time.perf_counter()
+        RingAverage(stream, rings, list(QUANTITIES), scene["rho_p"], 0.0, 250.0).run(False)
+        elapsed = time.perf_counter() - t0
+        peak = tracemalloc.get_traced_memory()[1] / 1e6
+        tracemalloc.stop()
+        rows.append((n, peak, elapsed))
+    return rows
+
+
+def main(run):
+    run = Path(run)
+    m = read_manifest(run)
+    with tempfile.TemporaryDirectory() as tmp:
+        plain = Path(tmp) / "atoms.dump"
+        plain.write_bytes(gzip.decompress((run / "atoms.dump.gz").read_bytes()))
+        reader = reader_rows(run, plain)
+        size = plain.stat().st_size / 1e6
+    frames, engine = engine_rows(run, m)
+    t0 = time.perf_counter()
+    prof = average_run(run, bins=20, t_min=0.0, progress=False)
+    whole = time.perf_counter() - t0
+    memory = memory_rows(frames, m)
+    mda = reader[-1][1]
+    print(f"Per-atom dump: {size:.1f} MB, {len(list(DumpReader(run / 'atoms.dump.gz', ['x'])))}"
+          f" frames of {len(frames[0].atoms['x'])} disks; contacts per frame: "
+          f"{len(frames[0].contacts['id1'])}\n")
+    print("| reader | MB/s | vs MDAnalysis |\n|---|---|---|")
+    for label, mbs in reader:
+        print(f"| {label} | {mbs:.0f} | {mbs / mda:.1f}x |")
+    print("\n| engine (one core, frames in memory) | frames/s |\n|---|---|")
+    for label, fps in engine:
+        print(f"| {label} | {fps:.0f} |")
+    print(f"\nWhole `average_run` (read both dumps, 20 rings, all quantities): "
+          f"{prof.n_frames} frames in {whole:.2f} s = {prof.n_frames / whole:.0f} frames/s\n")
+    print("| frames averaged | peak traced memory MB | seconds |\n|---|---|---|")
+    for n, peak, elapsed in memory:
+        print(f"| {n} | {peak:.1f} | {elapsed:.1f} |")
+    print(f"\nPeak memory at 10^4 frames / at 10^2 frames: {memory[-1][1] / memory[0][1]:.2f}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
