@@ -92,6 +92,10 @@ class RingProfiles:
         path.parent.mkdir(parents=True, exist_ok=True)
         table = self.to_frame()
         if parquet:
+            try:
+                import pyarrow  # noqa: F401  (pandas' Parquet engine)
+            except ImportError:
+                raise UserError("--parquet needs pyarrow: pip install 'granavg[parquet]'") from None
             table.to_parquet(path, index=False)
         else:
             table.to_csv(path, index=False, float_format="%.10g")

@@ -3,6 +3,7 @@
 import gzip
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -37,6 +38,15 @@ def test_average_writes_the_table_and_sidecar(small_run, tmp_path):
     # an existing output is never overwritten
     again = average(small_run, out)
     assert again.returncode == 2 and "exists" in again.stderr
+
+
+def test_parquet_output_holds_the_same_table(small_run, tmp_path):
+    assert average(small_run, tmp_path / "p.csv").returncode == 0
+    proc = average(small_run, tmp_path / "p.parquet", "--parquet")
+    assert proc.returncode == 0, proc.stderr
+    csv, parquet = pd.read_csv(tmp_path / "p.csv"), pd.read_parquet(tmp_path / "p.parquet")
+    assert list(parquet.columns) == list(csv.columns)
+    assert np.allclose(parquet["sigma_rr"], csv["sigma_rr"], rtol=1e-9)
 
 
 def test_density_alone_reads_no_contacts(small_run, plain_dumps, tmp_path):
