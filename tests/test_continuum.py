@@ -1,0 +1,122 @@
+"""Continuum analysis (Eqs. 8-15) on profiles whose answers are known."""
+
+import numpy as np
+import pytest
+
+from granavg.continuum import (alternates, decay_range, deformation_rate_and_spin,
+                               deformation_rate_and_spin_fit, equations_of_motion,
+                               fit_shear_band, orientation, power_law, stiffness)
+from granavg.errors import UserError
+
+R_I, R_O, OMEGA = 0.1032, 0.2524, 0.1
+
+
+def rings(n):
+    edges = np.linspace(R_I, R_O, n + 1)
+    return 0.5 * (edges[1:] + edges[:-1])
+
+
+def test_an_exact_exponential_gives_back_v0_and_s():
+    r = rings(60)
+    v0, s = 0.645 * OMEGA * R_I, 0.0127
+    v = v0 * np.exp(-(r - R_I) / s)
+    v[r > R_I + 9 * s] = 1e-9 * v0                      # a floor far below the band
+    band = fit_shear_band(r, v, np.full_like(r, 1e-4 * v0), R_I)
+    assert band.v0 == pytest.approx(v0, rel=1e-9) and band.s == pytest.approx(s, rel=1e-9)
+    assert 0 < band.v0_err < 1e-4 * v0                  # from the 1e-4 v0 errors given
+
+
+def test_the_decay_range_stops_at_the_noise_floor():
+    rng = np.random.default_rng(2)
+    r = rings(60)
+    v0, s, floor = 0.0066, 0.0127, 5e-5
+    v = v0 * np.exp(-(r - R_I) / s) + rng.normal(0, floor, len(r))
+    sem = np.full(len(r), floor)
+    n, noise = decay_range(v, sem)
+    r_floor = R_I + s * np.log(v0 / noise)              # where the exponential meets it
+    assert abs(r[n - 1] - r_floor) <= 2 * (r[1] - r[0])
+    band = fit_shear_band(r, v, sem, R_I)
+    assert band.s == pytest.approx(s, rel=0.1) and band.r_max == r[n - 1]
+
+
+def test_stress_exponents_zero_and_minus_two():
+    r = rings(20)
+    n, err = power_law(r, 3e-3 / r**2)
+    assert n == pytest.approx(-2, abs=1e-12) and err < 1e-9
+    assert power_law(r, np.full_like(r, -9.4))[0] == pytest.approx(0, abs=1e-12)
+
+
+def equilibrium(n):
+    r = rings(n)
+    c = 3e-3
+    return r, (np.full(n, -9.0), c / r**2, c / r**2, np.full(n, -9.0))
+
+
+def test_an_equilibrium_field_has_zero_residuals_converging_at_second_order():
+    errors = []
+    for n in (20, 40, 80, 160):
+        r, sigma = equilibrium(n)
+        radial, tangential = equations_of_motion(r, sigma)
+        assert np.allclose(radial, 0, atol=1e-12)       # constant diagonal: exact
+        errors.append(np.abs(tangential).max())
+    order = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(np.diff(order) > 0) and order[-1] > 1.85   # tends to 2 (measured 1.93)
+
+
+def test_inertia_enters_the_radial_balance():
+    r, sigma = equilibrium(20)
+    rho, v = np.full(20, 850.0), np.full(20, 0.01)
+    radial, _ = equations_of_motion(r, sigma, rho, v)
+    assert np.allclose(radial, rho * v**2)
+
+
+def test_rigid_rotation_has_no_deformation_rate_and_spin_omega():
+    r = rings(20)
+    D, W = deformation_rate_and_spin(r, OMEGA * r)
+    assert np.allclose(D, 0, atol=1e-15) and np.allclose(W, OMEGA, rtol=1e-12)
+
+
+def test_fit_and_profile_deformation_rates_agree_for_an_exponential():
+    r = rings(200)
+    v0, s = 0.0066, 0.0127
+    band = fit_shear_band(r, v0 * np.exp(-(r - R_I) / s), np.full(200, 1e-9), R_I)
+    D, W = deformation_rate_and_spin(r, v0 * np.exp(-(r - R_I) / s))
+    Df, Wf = deformation_rate_and_spin_fit(r, band, R_I)
+    # finite differences of h = 0.75 mm against s = 12.7 mm: O((h/s)^2) ~ 3e-3 at the edge
+    assert np.allclose(D[:100], Df[:100], rtol=3e-3) and np.allclose(W[:100], Wf[:100], rtol=3e-3)
+    assert np.allclose(D[1:100], Df[1:100], rtol=1e-3) and np.allclose(W[1:100], Wf[1:100], rtol=1e-3)
+
+
+@pytest.mark.parametrize("theta", [0.0, 0.3, -0.7, 1.2])
+def test_orientation_of_a_rotated_tensor(theta):
+    c, s = np.cos(theta), np.sin(theta)
+    Q = np.array([[c, -s], [s, c]])
+    for eig in ([2.0, 0.5], [-3.0, -1.0]):              # fabric-like, compressive stress
+        T = Q @ np.diag(eig) @ Q.T
+        got = orientation((T[0, 0], T[0, 1], T[1, 0], T[1, 1]))
+        assert np.isclose((got - theta + np.pi / 2) % np.pi - np.pi / 2, 0, atol=1e-12)
+
+
+def test_crystal_stiffness_is_linear_in_the_fabric():
+    """For the compressed hexagonal crystal, tr sigma / tr eps / k_n = tr F / (2 pi h)."""
+    from tests.test_engine_analytic import H, average, hex_crystal
+    from granavg.average import Rings
+
+    p = average([hex_crystal(k=10.0)], Rings.count(6, 0.03, 0.09, H))
+    comps = ("rr", "rphi", "phir", "phiphi")
+    bulk, _ = stiffness([p.values[f"sigma_{c}"] for c in comps],
+                        [p.values[f"eps_{c}"] for c in comps], 10.0)
+    trF = p.values["F_rr"] + p.values["F_phiphi"]
+    assert np.allclose(bulk, trF / (2 * np.pi * H), rtol=1e-10)
+
+
+def test_alternating_signs():
+    assert alternates([1.0, -2.0, 0.5]) and not alternates([1.0, 2.0, -1.0])
+    assert not alternates([np.nan, 1.0])
+
+
+@pytest.mark.parametrize("v", [np.full(20, np.nan), np.zeros(20), np.array([0.006])])
+def test_degenerate_profiles_give_a_clear_message(v):
+    r = rings(len(v))
+    with pytest.raises(UserError, match="no decay to fit"):
+        fit_shear_band(r, v, np.full(len(v), 1e-5), R_I)
