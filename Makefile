@@ -1,5 +1,6 @@
 # granavg: two commands do all set-up on a fresh machine (Python >= 3.10 with venv).
-#   make demo   builds .venv, runs the demo scene end to end into demo-out/<date-time>/
+#   make demo   builds .venv; simulates, averages and reports the demo scene into
+#               demo-out/<date-time>/ (open report.html there)
 #   make test   builds .venv, runs the test suite
 VENV   ?= .venv
 PYTHON ?= python3
@@ -14,7 +15,7 @@ $(VENV)/.installed: pyproject.toml
 	touch $@
 
 demo: $(VENV)/.installed
-	$(BIN)/granavg simulate --preset demo --omp 2 --out demo-out/$$(date +%Y%m%d-%H%M%S)
+	$(BIN)/granavg demo --out demo-out/$$(date +%Y%m%d-%H%M%S)
 
 test: $(VENV)/.installed
 	$(BIN)/python -m pytest -q

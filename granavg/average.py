@@ -86,6 +86,23 @@ class RingProfiles:
         cols["flags"] = self.flags
         return pd.DataFrame(cols)
 
+    @classmethod
+    def read(cls, path) -> "RingProfiles":
+        """Profiles written by :meth:`write` (CSV or Parquet, with its JSON sidecar)."""
+        path = Path(path)
+        side = path.with_name(path.name + ".json")
+        if not path.exists() or not side.exists():
+            raise UserError(f"{path}: profiles or their sidecar {side.name} not found; "
+                            "write them with 'granavg average'")
+        table = pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
+        meta = json.loads(side.read_text())
+        rings = Rings(np.asarray(meta["rings"]["edges_m"]), meta["rings"]["h_m"])
+        names = [c for c in table.columns if f"{c}_sem" in table.columns]
+        return cls(rings, {n: table[n].to_numpy() for n in names},
+                   {n: table[f"{n}_sem"].to_numpy() for n in names},
+                   table["flags"].fillna("").to_numpy(dtype=object),
+                   int(table["n_frames"].iloc[0]), meta)
+
     def write(self, path, parquet: bool = False) -> Path:
         """Write the table (CSV, or Parquet) and a JSON sidecar ``<path>.json``."""
         path = Path(path)

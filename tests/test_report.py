@@ -1,0 +1,91 @@
+"""Analysis, figures and report of a real (small) run, and degenerate input."""
+
+import json
+
+import matplotlib.image as mpimg
+import numpy as np
+import pandas as pd
+import pytest
+
+from granavg.analysis import analyze
+from granavg.average import RingProfiles
+from granavg.figures import FIGURES, fig2, fig4
+
+from .conftest import run_cli
+
+
+@pytest.fixture(scope="module")
+def profiles(small_run, tmp_path_factory):
+    d = tmp_path_factory.mktemp("profiles")
+    for n in (8, 16):
+        proc = run_cli("average", small_run, "--bins", n, "--t-min", 1, "--block-time", 0.5,
+                       "--out", d / f"p{n}.csv", "--no-progress")
+        assert proc.returncode == 0, proc.stderr
+    return d / "p8.csv", d / "p16.csv"
+
+
+@pytest.fixture(scope="module")
+def report(profiles, tmp_path_factory):
+    out = tmp_path_factory.mktemp("report") / "r"
+    proc = run_cli("analyze", *profiles, "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+def test_every_figure_is_a_valid_image_in_png_and_pdf(report):
+    for name in FIGURES:
+        img = mpimg.imread(report / "figures" / f"{name}.png")
+        assert img.ndim == 3 and img.shape[0] > 200 and img.shape[1] > 300
+        assert (report / "figures" / f"{name}.pdf").read_bytes().startswith(b"%PDF")
+
+
+def test_the_axes_hold_the_plotted_profiles(profiles):
+    p8, p16 = (RingProfiles.read(p) for p in profiles)
+    summary = analyze(p8, p16, p8.meta["run_manifest"])
+    ax = fig2(p8, p16, summary)
+    nu_lines = [ln for ln in ax[0].get_lines() if "nu (8 rings)" in ln.get_label()]
+    assert len(nu_lines) == 1
+    assert np.allclose(nu_lines[0].get_xdata(), p8.rings.centre)
+    assert np.allclose(nu_lines[0].get_ydata(), p8.values["nu"])
+    fit = [ln for ln in ax[1].get_lines() if ln.get_label().startswith("fit")]
+    assert len(fit) == 1 and ax[1].get_yscale() == "log" and "Omega" in ax[1].get_ylabel()
+    ax4 = fig4(p8, p16, summary)
+    labels = [ln.get_label() for ln in ax4[0].get_lines()]
+    assert "sigma_rphi (16 rings)" in labels
+    line = next(ln for ln in ax4[0].get_lines() if ln.get_label() == "sigma_rphi (16 rings)")
+    assert np.allclose(line.get_ydata(), p16.values["sigma_rphi"])
+    assert "(Pa)" in ax4[0].get_ylabel()
+
+
+def test_report_and_summary_hold_the_headline_numbers(report):
+    summary = json.loads((report / "summary.json").read_text())
+    html = (report / "report.html").read_text()
+    sb = summary["numbers"]["shear_band"]
+    assert f"{sb['v0_over_omega_Ri']:.4g}" in html and f"{sb['s_m']:.4g}" in html
+    assert "0.645" in html and "0.0127" in html                  # the paper's values beside
+    assert len(summary["claims"]) == 9
+    for claim in summary["claims"]:
+        assert claim["claim"] in html and claim["evidence"] in html.replace("&#x27;", "'")
+    assert html.count("data:image/png;base64,") == len(FIGURES)   # self-contained
+    assert "src='http" not in html and 'src="http' not in html
+
+
+def test_degenerate_profiles_give_one_line(profiles, tmp_path):
+    """The band is fitted on the finer profile: no flow or an all-NaN v_phi there."""
+    p16 = pd.read_csv(profiles[1])
+    for name, edit in (("noflow", lambda t: t.assign(v_phi=0.0)),
+                       ("nan", lambda t: t.assign(v_phi=np.nan))):
+        bad = tmp_path / f"{name}.csv"
+        edit(p16).to_csv(bad, index=False)
+        (tmp_path / f"{name}.csv.json").write_text((profiles[1].parent / "p16.csv.json").read_text())
+        proc = run_cli("analyze", profiles[0], bad, "--out", tmp_path / f"out-{name}")
+        assert proc.returncode == 2 and "no decay to fit" in proc.stderr, proc.stderr
+        assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_a_single_ring_is_refused(small_run, tmp_path):
+    one = tmp_path / "p1.csv"
+    assert run_cli("average", small_run, "--bins", 1, "--t-min", 1, "--out", one,
+                   "--no-progress").returncode == 0
+    proc = run_cli("analyze", one, one, "--out", tmp_path / "r")
+    assert proc.returncode == 2 and "at least 4 rings" in proc.stderr
