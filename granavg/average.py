@@ -100,7 +100,7 @@ class RingProfiles:
         names = [c for c in table.columns if f"{c}_sem" in table.columns]
         return cls(rings, {n: table[n].to_numpy() for n in names},
                    {n: table[f"{n}_sem"].to_numpy() for n in names},
-                   table["flags"].fillna("").to_numpy(dtype=object),
+                   np.array([f if isinstance(f, str) else "" for f in table["flags"]], dtype=object),
                    int(table["n_frames"].iloc[0]), meta)
 
     def write(self, path, parquet: bool = False) -> Path:
