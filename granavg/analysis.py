@@ -73,6 +73,14 @@ def analyze(p20, p60, manifest) -> dict:
                          nu[0] < num["density"]["nu_bulk"] and nu[-1] < num["density"]["nu_bulk"],
                          f"nu = {nu[0]:.3f} (inner ring), {num['density']['nu_bulk']:.3f} (bulk), "
                          f"{nu[-1]:.3f} (outer ring)"))
+    nu60, r60 = p60.values["nu"], p60.rings.centre
+    near = (r60 - R_i < 3 * d_mean) | (scene["R_o"] - r60 < 3 * d_mean)
+    wiggle_wall = float(np.nanstd(np.diff(nu60[near])))
+    wiggle_bulk = float(np.nanstd(np.diff(nu60[bulk(len(nu60))])))
+    num["density"].update({"nu_wiggle_walls": wiggle_wall, "nu_wiggle_bulk": wiggle_bulk})
+    claims.append(_claim("layering at the walls, none in the bulk", wiggle_wall > 2 * wiggle_bulk,
+                         f"ring-to-ring spread of nu ({p60.rings.n} rings): {wiggle_wall:.3f} "
+                         f"within 3 d of a wall, {wiggle_bulk:.3f} in the bulk"))
     claims.append(_claim("exponential decay over about two decades", num["shear_band"]["decades"] >= 1.5,
                          f"{num['shear_band']['decades']:.2f} decades from the first ring to the noise"))
 

@@ -17,6 +17,8 @@ _NUMBERS = [  # (section, key, label, unit, paper key)
     ("density", "nu_inner", "nu, inner ring", "-", None),
     ("density", "nu_bulk", "nu, bulk", "-", None),
     ("density", "nu_outer", "nu, outer ring", "-", None),
+    ("density", "nu_wiggle_walls", "ring-to-ring spread of nu near the walls", "-", None),
+    ("density", "nu_wiggle_bulk", "ring-to-ring spread of nu in the bulk", "-", None),
     ("fabric", "anisotropy_max", "largest |dev F| / tr F", "-", None),
     ("stress_exponents", "sigma_rr", "exponent of sigma_rr", "-", "exp_sigma_rr"),
     ("stress_exponents", "sigma_phiphi", "exponent of sigma_phiphi", "-", "exp_sigma_phiphi"),
