@@ -134,8 +134,10 @@ def analyze(p20, p60, manifest) -> dict:
                          f"Pearson r = {pearson:.3f} over {good.sum()} bulk rings"))
 
     # Fig. 6: orientations
-    ori = {q: np.degrees(c.orientation(tensor(p60, q))) for q in ("F", "sigma", "eps")}
-    series["orientation"] = ori
+    for p in (p20, p60):
+        series[f"orientation_{p.rings.n}"] = {
+            q: np.degrees(c.orientation(tensor(p, q))) for q in ("F", "sigma", "eps")}
+    ori = series[f"orientation_{p60.rings.n}"]
     inband = slice(0, max(band.n_rings, 2))
     diff = max(np.nanmax(np.abs(_angle_diff(ori[a][inband], ori[b][inband])))
                for a, b in (("F", "sigma"), ("F", "eps"), ("sigma", "eps")))

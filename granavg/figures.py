@@ -118,9 +118,12 @@ def fig5(p20, p60, summary, axes=None):
 def fig6(p20, p60, summary, axes=None):
     """Orientation of the major axes of F, sigma and eps to e_r against r (Fig. 6)."""
     ax = _axes(axes, 1, size=(5.0, 3.4))
-    for k, (name, deg) in enumerate(summary["series"]["orientation"].items()):
-        ax[0].plot(p60.rings.centre, deg, marker=MARKERS[k], color=OKABE_ITO[k], ls="-", lw=0.8,
-                   ms=4, label=f"phi_{name} ({p60.rings.n} rings)")
+    for p in (p20, p60):
+        closed = p is p20
+        for k, (name, deg) in enumerate(summary["series"][f"orientation_{p.rings.n}"].items()):
+            ax[0].plot(p.rings.centre, deg, marker=MARKERS[k], color=OKABE_ITO[k],
+                       mfc=OKABE_ITO[k] if closed else "none", ls="-" if closed else "none",
+                       lw=0.8, ms=4, label=f"phi_{name} ({p.rings.n} rings)")
     ax[0].set(xlabel="r (m)", ylabel="orientation of the major axis (deg)",
               title="tensor orientations")
     ax[0].legend(fontsize=7)

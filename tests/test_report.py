@@ -89,3 +89,17 @@ def test_a_single_ring_is_refused(small_run, tmp_path):
                    "--no-progress").returncode == 0
     proc = run_cli("analyze", one, one, "--out", tmp_path / "r")
     assert proc.returncode == 2 and "at least 4 rings" in proc.stderr
+
+
+@pytest.mark.parametrize("name", list(FIGURES))
+def test_every_panel_plots_both_ring_counts(profiles, name):
+    p8, p16 = (RingProfiles.read(p) for p in profiles)
+    summary = analyze(p8, p16, p8.meta["run_manifest"])
+    axes = FIGURES[name](p8, p16, summary)
+    for ax in axes:
+        lengths = {len(ln.get_xdata()) for ln in ax.get_lines()
+                   if np.isfinite(np.asarray(ln.get_ydata(), float)).any()}
+        near_wall = name == "fig9"                   # only the rings near the inner wall
+        assert near_wall or {8, 16} <= lengths, (name, ax.get_title(), lengths)
+        assert lengths and ax.get_xlabel() and "(" in ax.get_ylabel()   # labelled with units
+    axes[0].figure.clf()
