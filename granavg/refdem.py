@@ -1,9 +1,9 @@
 """A small reference DEM in 2D with LAMMPS' contact law and integrator (SI units).
 
 It exists to check LAMMPS runs and granavg's averaging against an independent engine
-with the same physics; it is not a production engine (no MPI, no neighbour skin; the
-pair loop is plain Python for now, fine for collisions, not yet for a cell). It follows,
-operation for operation, so that results agree to round-off:
+with the same physics; it is not a production engine (numpy, no MPI, no neighbour skin:
+candidate pairs come from a k-d tree every step). It follows, operation for operation,
+so that results agree to round-off:
 
 - ``pair gran/hooke/history`` (Kn Kt gamma_n gamma_t mu, dampflag 1): for a pair in
   contact (r < r_i + r_j), with del = x_i - x_j, the normal force on i
@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .contact_law import LammpsCoefficients
 
@@ -64,79 +65,78 @@ class ReferenceDEM:
     def __init__(self, disks: Disks, coeffs: LammpsCoefficients, dt: float):
         self.d, self.c, self.dt = disks, coeffs, dt
         self.step_count = 0
-        self.history = {}                  # (i, j) with i < j -> shear displacement (2,)
+        self.history = (np.empty(0, int), np.empty((0, 2)))   # sorted pair keys, springs
         self.contacts = None
         self.compute_forces(update_history=False)       # like LAMMPS' setup
 
     def pairs(self):
-        """Candidate pairs (i < j) closer than the sum of their radii: brute force."""
+        """Touching pairs (i < j, not both frozen), from a k-d tree of the centres."""
         x, r = self.d.x, self.d.radius
-        i, j = np.triu_indices(len(r), 1)
-        both_frozen = self.d.frozen[i] & self.d.frozen[j]
+        ij = cKDTree(x).query_pairs(2.0 * r.max(), output_type="ndarray")
+        ij = ij[np.lexsort((ij[:, 1], ij[:, 0]))] if len(ij) else np.empty((0, 2), int)
+        i, j = ij[:, 0], ij[:, 1]
         dist2 = np.sum((x[i] - x[j]) ** 2, axis=1)
-        touch = (dist2 < (r[i] + r[j]) ** 2) & ~both_frozen
+        touch = (dist2 < (r[i] + r[j]) ** 2) & ~(self.d.frozen[i] & self.d.frozen[j])
         return i[touch], j[touch]
 
     def compute_forces(self, update_history=True):
-        """Forces and torques of the current positions and velocities."""
+        """Forces and torques of the current positions and velocities (vectorised over
+        contacts, each operation in LAMMPS' order)."""
         d, c, dt = self.d, self.c, self.dt
         d.force[:] = 0.0
         d.torque[:] = 0.0
         i, j = self.pairs()
-        new_history = {}
-        rows = []
-        for a, b in zip(i.tolist(), j.tolist()):
-            delx, dely = d.x[a] - d.x[b]
-            rsq = delx * delx + dely * dely
-            r = np.sqrt(rsq)
-            rinv, rsqinv = 1.0 / r, 1.0 / rsq
-            vr1, vr2 = d.v[a] - d.v[b]
-            vnnr = vr1 * delx + vr2 * dely
-            vn1, vn2 = delx * vnnr * rsqinv, dely * vnnr * rsqinv
-            vt1, vt2 = vr1 - vn1, vr2 - vn2
-            wr3 = (d.radius[a] * d.omega[a] + d.radius[b] * d.omega[b]) * rinv
-            mi, mj = d.mass[a], d.mass[b]
-            meff = mi * mj / (mi + mj)
-            if d.frozen[a]:
-                meff = mj
-            if d.frozen[b]:
-                meff = mi
-            damp = meff * c.gamma_n * vnnr * rsqinv
-            ccel = c.kn * (d.radius[a] + d.radius[b] - r) * rinv - damp
-            vtr1, vtr2 = vt1 + dely * wr3, vt2 - delx * wr3
-            shear = self.history.get((a, b), np.zeros(2)).copy()
-            if update_history:
-                shear += np.array([vtr1 * dt, vtr2 * dt])
-            shrmag = np.sqrt(shear[0] * shear[0] + shear[1] * shear[1])
-            rsht = (shear[0] * delx + shear[1] * dely) * rsqinv
-            if update_history:
-                shear -= rsht * np.array([delx, dely])
-            fs1 = -(c.kt * shear[0] + meff * c.gamma_t * vtr1)
-            fs2 = -(c.kt * shear[1] + meff * c.gamma_t * vtr2)
-            fs = np.sqrt(fs1 * fs1 + fs2 * fs2)
-            mu = c.mu_wall if (d.frozen[a] or d.frozen[b]) else c.mu
-            fn = mu * abs(ccel * r)
-            if fs > fn:
-                if shrmag != 0.0:
-                    t1 = meff * c.gamma_t * vtr1 / c.kt
-                    t2 = meff * c.gamma_t * vtr2 / c.kt
-                    shear = np.array([(fn / fs) * (shear[0] + t1) - t1,
-                                      (fn / fs) * (shear[1] + t2) - t2])
-                    fs1 *= fn / fs
-                    fs2 *= fn / fs
-                else:
-                    fs1 = fs2 = 0.0
-            new_history[(a, b)] = shear
-            fx, fy = delx * ccel + fs1, dely * ccel + fs2
-            tor3 = rinv * (delx * fs2 - dely * fs1)
-            d.force[a] += (fx, fy)
-            d.force[b] -= (fx, fy)
-            d.torque[a] -= d.radius[a] * tor3
-            d.torque[b] -= d.radius[b] * tor3
-            rows.append((a, b, delx * ccel, dely * ccel, fs1, fs2))
+        delx, dely = d.x[i, 0] - d.x[j, 0], d.x[i, 1] - d.x[j, 1]
+        rsq = delx * delx + dely * dely
+        r = np.sqrt(rsq)
+        rinv, rsqinv = 1.0 / r, 1.0 / rsq
+        vr1, vr2 = d.v[i, 0] - d.v[j, 0], d.v[i, 1] - d.v[j, 1]
+        vnnr = vr1 * delx + vr2 * dely
+        vt1, vt2 = vr1 - delx * vnnr * rsqinv, vr2 - dely * vnnr * rsqinv
+        wr3 = (d.radius[i] * d.omega[i] + d.radius[j] * d.omega[j]) * rinv
+        mi, mj = d.mass[i], d.mass[j]
+        meff = np.where(d.frozen[j], mi, np.where(d.frozen[i], mj, mi * mj / (mi + mj)))
+        ccel = c.kn * (d.radius[i] + d.radius[j] - r) * rinv - meff * c.gamma_n * vnnr * rsqinv
+        vtr1, vtr2 = vt1 + dely * wr3, vt2 - delx * wr3
+        keys = i * len(d.radius) + j
+        s1, s2 = self._old_history(keys)
         if update_history:
-            self.history = new_history
-        self.contacts = np.array(rows).reshape(-1, 6)
+            s1, s2 = s1 + vtr1 * dt, s2 + vtr2 * dt
+        shrmag = np.sqrt(s1 * s1 + s2 * s2)
+        rsht = (s1 * delx + s2 * dely) * rsqinv
+        if update_history:
+            s1, s2 = s1 - rsht * delx, s2 - rsht * dely
+        fs1 = -(c.kt * s1 + meff * c.gamma_t * vtr1)
+        fs2 = -(c.kt * s2 + meff * c.gamma_t * vtr2)
+        fs = np.sqrt(fs1 * fs1 + fs2 * fs2)
+        mu = np.where(d.frozen[i] | d.frozen[j], c.mu_wall, c.mu)
+        fn = mu * np.abs(ccel * r)
+        slide = fs > fn
+        with np.errstate(invalid="ignore", divide="ignore"):
+            scale = np.where(slide, fn / fs, 1.0)
+            t1, t2 = meff * c.gamma_t * vtr1 / c.kt, meff * c.gamma_t * vtr2 / c.kt
+        rescale = slide & (shrmag != 0.0)
+        s1 = np.where(rescale, scale * (s1 + t1) - t1, s1)
+        s2 = np.where(rescale, scale * (s2 + t2) - t2, s2)
+        fs1 = np.where(slide, np.where(rescale, fs1 * scale, 0.0), fs1)
+        fs2 = np.where(slide, np.where(rescale, fs2 * scale, 0.0), fs2)
+        fx, fy = delx * ccel + fs1, dely * ccel + fs2
+        tor3 = rinv * (delx * fs2 - dely * fs1)
+        n = len(d.radius)
+        d.force[:, 0] = np.bincount(i, fx, n) - np.bincount(j, fx, n)
+        d.force[:, 1] = np.bincount(i, fy, n) - np.bincount(j, fy, n)
+        d.torque[:] = -(np.bincount(i, d.radius[i] * tor3, n) + np.bincount(j, d.radius[j] * tor3, n))
+        if update_history:
+            self.history = (keys, np.column_stack([s1, s2]))
+        self.contacts = np.column_stack([i, j, delx * ccel, dely * ccel, fs1, fs2])
+
+    def _old_history(self, keys):
+        """Tangential springs of these contacts from the last step (0 for new ones)."""
+        old_keys, old = self.history
+        pos = np.minimum(np.searchsorted(old_keys, keys), max(len(old_keys) - 1, 0))
+        found = (old_keys[pos] == keys) if len(old_keys) else np.zeros(len(keys), bool)
+        return (np.where(found, old[pos, 0], 0.0) if len(old_keys) else np.zeros(len(keys)),
+                np.where(found, old[pos, 1], 0.0) if len(old_keys) else np.zeros(len(keys)))
 
     def step(self):
         """One velocity-Verlet step of ``fix nve/sphere disc`` + ``enforce2d``."""
