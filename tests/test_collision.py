@@ -11,58 +11,24 @@ import pytest
 
 from granavg.contact_law import (ContactLaw, contact_duration, disk_mass, effective_mass,
                                  restitution, to_lammps)
-from granavg.lammps_session import lammps_session
+from .lammps_two_body import D, lammps_trajectory
 
-D, RHO_AREA = 0.00742, 1060 * 0.006
 M = disk_mass(D, 1060, 0.006)
 
 
 def collide(law, partner_frozen, steps_per_tc=400, v0=0.01):
-    """Head-on collision along x; returns (contact time s, restitution)."""
+    """Head-on collision along x in LAMMPS; returns (contact time s, restitution, dt)."""
     c = to_lammps(law, effective_mass(M, M))
     dt = c.t_c / steps_per_tc
     v1, v2 = (v0, 0.0) if partner_frozen else (v0 / 2, -v0 / 2)
-    with lammps_session(["-log", "none"]) as lmp:
-        lmp.commands_string(f"""
-            units si
-            dimension 2
-            boundary f f p
-            atom_style sphere 1
-            atom_modify map array
-            comm_modify vel yes
-            region box block -0.05 0.05 -0.05 0.05 -0.005 0.005
-            create_box 4 box
-            create_atoms 1 single {-0.5 * D - 1e-4} 0 0
-            create_atoms {4 if partner_frozen else 1} single {0.5 * D + 1e-4} 0 0
-            set type * diameter {D}
-            set type * density/disc {RHO_AREA}
-            set atom 1 vx {v1}
-            set atom 2 vx {v2}
-            group mobile type 1
-            group walls type 4
-            pair_style gran/hooke/history {c.kn} {c.kt} {c.gamma_n} {c.gamma_t} {c.mu} 1
-            pair_coeff * *
-            neighbor 0.001 bin
-            fix integrate mobile nve/sphere disc
-            fix frozen walls freeze
-            fix flat all enforce2d
-            timestep {dt}
-            run 0""")
-        in_contact, before = 0, None
-        for _ in range(5 * steps_per_tc):
-            x = lmp.numpy.extract_atom("x")[:2, 0].copy()
-            v = lmp.numpy.extract_atom("v")[:2, 0].copy()
-            idx = np.argsort(lmp.numpy.extract_atom("id")[:2])
-            x, v = x[idx], v[idx]
-            overlap = D - (x[1] - x[0])
-            if before is None:
-                before = v[0] - v[1]
-            if overlap > 0:
-                in_contact += 1
-            elif in_contact:
-                return in_contact * dt, (v[1] - v[0]) / before, dt
-            lmp.command("run 1 pre no post no")
-    raise AssertionError("the disks never separated")
+    start = [(-0.5 * D - 1e-4, 0, v1, 0, 0), (0.5 * D + 1e-4, 0, v2, 0, 0)]
+    _, _, traj = lammps_trajectory(c, dt, start, partner_frozen, 5 * steps_per_tc)
+    x1, x2, vx1, vx2 = traj[:, 0], traj[:, 2], traj[:, 4], traj[:, 6]
+    touching = D - (x2 - x1) > 0
+    first = int(np.argmax(touching))
+    after = first + int(np.argmin(touching[first:]))
+    assert touching.any() and not touching[after], "the disks never separated"
+    return (after - first) * dt, (vx2[after] - vx1[after]) / (v1 - v2), dt
 
 
 @pytest.mark.parametrize("e_n", [0.5, 0.9, 1.0])
