@@ -27,6 +27,11 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--omp", type=int, default=1, help="OpenMP threads per rank")
     sim.add_argument("--resume", action="store_true",
                      help="continue the interrupted run in --out from its last restart")
+    sim.add_argument("--start", metavar="DATA", help="shear this prepared packing (e.g. "
+                     "RUN/prepared.data of an earlier run) instead of preparing one")
+    sim.add_argument("--engine", default="lammps", choices=["lammps", "reference"],
+                     help="reference: granavg's built-in DEM (needs --start; for "
+                     "cross-checks, not production)")
     sim.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
     avg = sub.add_parser("average", help="ring profiles of a run (Eqs. 1-7, SI units)")
@@ -72,13 +77,15 @@ def _simulate(args) -> int:
         raise UserError("--np and --omp must be >= 1")
     progress = False if args.no_progress else None
     if args.resume:
-        if args.overrides:
-            raise UserError("--resume continues the run as it was set up; drop --set")
+        if args.overrides or args.start or args.engine != "lammps":
+            raise UserError("--resume continues the run as it was set up; drop --set, "
+                            "--start and --engine")
         out = resume(args.out, np_ranks=args.np, omp_threads=args.omp, progress=progress)
     else:
         scene = preset(args.preset).with_overrides(args.overrides)
         out = simulate(scene, args.out, np_ranks=args.np, omp_threads=args.omp,
-                       progress=progress, preset=args.preset)
+                       progress=progress, preset=args.preset, start=args.start,
+                       engine=args.engine)
     logging.getLogger("granavg").info("run complete: %s", out)
     return 0
 

@@ -58,3 +58,10 @@ def contact_table(raw: np.ndarray, radius_of_type: np.ndarray) -> np.ndarray:
         radius_of_type[t1] + radius_of_type[t2] - dist,
     ])
     return out[out[:, 9] > 0]
+
+
+def radius_of_type(derived) -> np.ndarray:
+    """Radius (m) of each atom type of a :class:`~granavg.scene.Derived` scene (index 0
+    unused), for :func:`contact_table`."""
+    s = derived.scene
+    return np.array([0.0, s.d_s / 2, s.d_l / 2, derived.wall_d / 2, derived.wall_d / 2])

@@ -22,9 +22,12 @@ def open_text(path, mode="rt"):
 
 
 def write_frame(fh, timestep, time, columns, data, box, fmt, item="ENTRIES"):
-    """Write one frame in LAMMPS dump text format (``dump local`` style by default)."""
-    head = [
-        "ITEM: UNITS", "si", "ITEM: TIME", repr(float(time)), "ITEM: TIMESTEP", str(timestep),
+    """Write one frame in LAMMPS dump text format (``dump local`` style by default;
+    ``item="ATOMS"`` for a per-atom dump). ``time=None`` leaves out the UNITS and TIME
+    items, as granavg's per-atom dumps do."""
+    when = [] if time is None else ["ITEM: UNITS", "si", "ITEM: TIME", repr(float(time))]
+    head = when + [
+        "ITEM: TIMESTEP", str(timestep),
         f"ITEM: NUMBER OF {item}", str(len(data)), "ITEM: BOX BOUNDS ff ff pp",
         *(f"{lo:.16e} {hi:.16e}" for lo, hi in box),
         f"ITEM: {item} " + " ".join(columns),

@@ -28,7 +28,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from . import __version__
-from .contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table
+from .contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table, radius_of_type
 from .dumpfile import open_text, write_frame
 from .reader import DumpReader
 from .errors import LammpsError, UserError
@@ -61,8 +61,12 @@ class Interrupted(Exception):
     """The run was stopped by a signal; results so far are kept and can be resumed."""
 
 
+ENGINES = ("lammps", "reference")
+
+
 def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
-             progress: bool | None = None, preset: str | None = None) -> Path:
+             progress: bool | None = None, preset: str | None = None, start=None,
+             engine: str = "lammps") -> Path:
     """Run a new Couette simulation into the empty directory ``out``.
 
     Parameters
@@ -79,6 +83,13 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         Show a progress bar; ``None`` shows it only on a terminal.
     preset : str, optional
         Name of the preset the scene came from, recorded in the manifest.
+    start : path, optional
+        A prepared packing (``prepared.data`` of an earlier run, or any sphere-style
+        LAMMPS data file of this scene): shear it instead of preparing a new one.
+        Contacts start with unloaded tangential springs (data files hold no history).
+    engine : {"lammps", "reference"}
+        ``reference`` runs :mod:`granavg.refdem` instead of LAMMPS (needs ``start``, one
+        process, no restart files): for cross-validation, not production.
 
     Returns
     -------
@@ -86,15 +97,31 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         The run directory, with ``manifest.json`` status ``complete``.
     """
     derived = scene.derive()                      # refuse before touching the disk
-    if not DECK.exists():
+    start = _check_start(start, engine, np_ranks, omp_threads)
+    if engine == "lammps" and not DECK.exists():
         raise UserError(f"the LAMMPS deck {DECK} is missing; install granavg from its "
                         "source tree with 'pip install -e .' (the deck lives beside it)")
     out = claim_new(Path(out))
-    (out / "deck").mkdir()
-    shutil.copy2(DECK, out / "deck" / DECK.name)
-    manifest = _new_manifest(derived, preset, np_ranks, omp_threads)
+    if engine == "lammps":
+        (out / "deck").mkdir()
+        shutil.copy2(DECK, out / "deck" / DECK.name)
+    manifest = _new_manifest(derived, preset, np_ranks, omp_threads, start, engine)
     write_manifest(out, manifest)
     return _execute(out, derived, manifest, resume_from=None, progress=progress)
+
+
+def _check_start(start, engine, np_ranks, omp_threads):
+    if engine not in ENGINES:
+        raise UserError(f"unknown engine {engine!r}; choose one of: {', '.join(ENGINES)}")
+    if start is not None:
+        start = Path(start).resolve()
+        if not start.is_file():
+            raise UserError(f"--start {start}: no such file; give a prepared packing such "
+                            "as RUN/prepared.data")
+    if engine == "reference" and (start is None or np_ranks > 1 or omp_threads > 1):
+        raise UserError("the reference engine shears a prepared packing in one process: "
+                        "give --start RUN/prepared.data and no --np/--omp")
+    return start
 
 
 def resume(out, *, np_ranks: int | None = None, omp_threads: int | None = None,
@@ -108,6 +135,9 @@ def resume(out, *, np_ranks: int | None = None, omp_threads: int | None = None,
     manifest = read_manifest(out)
     if manifest.get("status") == "complete":
         raise UserError(f"{out} is already complete; nothing to resume")
+    if manifest["execution"].get("engine", "lammps") != "lammps":
+        raise UserError(f"{out} was run by the reference engine, which writes no restart "
+                        "files; run it again with a new --out")
     scene = Scene.from_dict(manifest["scene"])
     derived = scene.derive()
     restart_step, restart_path = _usable_restart(out, derived)
@@ -131,11 +161,17 @@ def _execute(out, derived, manifest, resume_from, progress):
     manifest["status"] = "running"
     write_manifest(out, manifest)
     ex = manifest["execution"]
-    variables = _deck_variables(out, derived, embedded=ex["np"] == 1, resume=resume_from)
-    (out / "run.sh").write_text(_command_script(variables, ex))
+    start = manifest.get("start")
+    if ex.get("engine") != "reference":
+        variables = _deck_variables(out, derived, embedded=ex["np"] == 1,
+                                    resume=resume_from, start=start)
+        (out / "run.sh").write_text(_command_script(variables, ex))
     try:
         with _signals_interrupt():
-            if ex["np"] == 1:
+            if ex.get("engine") == "reference":
+                from .refdem_run import run_reference
+                run_reference(out, derived, Path(start), progress)
+            elif ex["np"] == 1:
                 _run_embedded(out, derived, variables, ex["omp"], progress)
             else:
                 _run_mpi(out, derived, variables, ex["np"], ex["omp"], progress)
@@ -157,13 +193,13 @@ def _run_embedded(out, derived: Derived, variables, omp, progress):
         if scene.contacts else None
     with lammps_session(_cmdargs(out, variables, omp), log_hint=str(out / "log.lammps")) as lmp:
         lmp.file(str(out / "deck" / DECK.name))
-        _check_inserted(lmp, scene)
+        _check_inserted(lmp, scene, variables["start"])
         lmp.command("run 0")                     # set up; writes the atom dump if due
         step = int(lmp.get_thermo("step"))
         stride = max(1, derived.n_shear // 400)
-        with _bar(derived, step, progress) as bar:
+        with shear_bar(derived, step, progress) as bar:
             while True:
-                if writer is not None and _is_dump_step(step, derived):
+                if writer is not None and is_dump_step(step, derived):
                     writer.write(lmp, lammps, step)
                 if step >= derived.n_shear:
                     break
@@ -180,7 +216,7 @@ def _run_mpi(out, derived: Derived, variables, np_ranks, omp, progress):
     log.info("running %s", shlex.join(cmd))
     logfile = out / "log.lammps"
     start = int(variables["restart_step"])
-    with open(out / "mpirun.out", "ab") as sink, _bar(derived, start, progress) as bar:
+    with open(out / "mpirun.out", "ab") as sink, shear_bar(derived, start, progress) as bar:
         proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=lammps_env())
         try:
             done = start
@@ -207,7 +243,7 @@ def convert_raw_contacts(raw_path: Path, out_path: Path, derived: Derived) -> No
 
     Appends to ``out_path`` (a resumed run continues the file) and removes the raw file.
     """
-    radius = _radius_of_type(derived)
+    radius = radius_of_type(derived)
     with open_text(out_path, "at") as fh:
         for frame in DumpReader(raw_path):
             raw = frame.data[:, [frame.columns.index(c) for c in RAW_COLUMNS]]
@@ -221,7 +257,7 @@ class _ContactWriter:
 
     def __init__(self, path: Path, derived: Derived):
         self.path, self.derived = path, derived
-        self.radius = _radius_of_type(derived)
+        self.radius = radius_of_type(derived)
         self.box = None
 
     def write(self, lmp, lammps, step):
@@ -238,12 +274,8 @@ class _ContactWriter:
                         contact_table(raw, self.radius), self.box, FORMAT)
 
 
-def _radius_of_type(derived: Derived) -> np.ndarray:
-    s = derived.scene
-    return np.array([0.0, s.d_s / 2, s.d_l / 2, derived.wall_d / 2, derived.wall_d / 2])
-
-
-def _is_dump_step(step, d: Derived) -> bool:
+def is_dump_step(step, d: Derived) -> bool:
+    """Whether the deck dumps at this shear step."""
     return step >= d.n_dump_start and step % d.dump_every == 0
 
 
@@ -251,10 +283,13 @@ def _next_dump_step(step, d: Derived) -> int:
     return max(d.n_dump_start, (step // d.dump_every + 1) * d.dump_every)
 
 
-def _check_inserted(lmp, scene: Scene) -> None:
+def _check_inserted(lmp, scene: Scene, start) -> None:
     lmp.command("variable granavg_nmob equal count(mobile)")
     n = int(lmp.extract_variable("granavg_nmob"))
     want = scene.n_small + scene.n_large
+    if n != want and start != "none":
+        raise UserError(f"the start file {start} holds {n} disks, the scene {want}; set "
+                        "n_small, n_large and the geometry of the run that wrote it")
     if n != want:
         raise UserError(f"only {n} of {want} disks could be inserted at grow_from="
                         f"{scene.grow_from}; lower grow_from or the number of disks")
@@ -279,7 +314,7 @@ def _usable_restart(out, derived):
     return max(ok), restarts[max(ok)]
 
 
-def _deck_variables(out, derived: Derived, embedded: bool, resume) -> dict:
+def _deck_variables(out, derived: Derived, embedded: bool, resume, start) -> dict:
     s = derived.scene
     v = {k: repr(x) if isinstance(x, float) else str(x)
          for k, x in derived.lammps_variables().items()}
@@ -287,6 +322,7 @@ def _deck_variables(out, derived: Derived, embedded: bool, resume) -> dict:
         "out": str(out), "drive": "python" if embedded else "lammps",
         "contacts": ("python" if embedded else "native") if s.contacts else "none",
         "resume": str(resume) if resume else "none", "resuming": "1" if resume else "0",
+        "start": str(start) if start else "none", "starting": "1" if start else "0",
         "astyle": "custom/gz" if s.gzip else "custom",
         "lstyle": "local/gz" if s.gzip else "local", "ext": _ext(s),
         "thermo_every": str(max(1, derived.n_shear // 200)),
@@ -316,8 +352,9 @@ def _command_script(variables, ex) -> str:
         shlex.join(cmd) + "\n"
 
 
-def _new_manifest(d: Derived, preset, np_ranks, omp) -> dict:
+def _new_manifest(d: Derived, preset, np_ranks, omp, start=None, engine="lammps") -> dict:
     s, c = d.scene, d.coeffs
+    lammps = engine == "lammps"
     return {
         "granavg_version": __version__,
         "units": "SI (m, s, kg, N, rad/s)",
@@ -340,22 +377,28 @@ def _new_manifest(d: Derived, preset, np_ranks, omp) -> dict:
             "dump_every_steps": d.dump_every, "dump_interval_s": d.dump_every * d.dt,
             "first_dump_step": d.n_dump_start, "restart_every_steps": d.restart_every,
         },
-        "preparation": PREPARATION,
+        "start": str(start) if start else None,
+        "preparation": PREPARATION if start is None else
+        f"the packing in {start} (contacts start with unloaded tangential springs)",
         "wall_model": WALLS,
         "seeds": {"large_disks": s.seed, "small_disks": s.seed + 1},
         "lammps_version": lammps_version(),
-        "execution": {"np": np_ranks, "omp": omp,
-                      "mode": "embedded" if np_ranks == 1 else "mpirun"},
+        "execution": {"engine": engine, "np": np_ranks, "omp": omp,
+                      "mode": "reference" if not lammps else
+                      "embedded" if np_ranks == 1 else "mpirun"},
         "started": _now(),
         "finished": None,
         "files": {
-            "deck/couette.lmp": "the LAMMPS deck run (variables in run.sh)",
-            "run.sh": "the exact LAMMPS command line with every variable",
-            "log.lammps": "LAMMPS log",
+            **({"deck/couette.lmp": "the LAMMPS deck run (variables in run.sh)",
+                "run.sh": "the exact LAMMPS command line with every variable",
+                "log.lammps": "LAMMPS log"} if lammps else {}),
+            **({"prepared.data": "the prepared packing at t = 0 (LAMMPS data file; "
+                "--start reuses it)"} if lammps and start is None else {}),
             ATOMS.format(ext=_ext(s)): "per-atom dump (docs/outputs.md)",
             **({CONTACTS.format(ext=_ext(s)): "per-contact dump (docs/outputs.md)"}
                if s.contacts else {}),
-            "restart/restart.<step>.bin": "LAMMPS restart files for --resume",
+            **({"restart/restart.<step>.bin": "LAMMPS restart files for --resume"}
+               if lammps else {}),
         },
     }
 
@@ -409,7 +452,7 @@ def _last_error(out) -> str:
 
 
 @contextmanager
-def _bar(derived: Derived, start_step, progress):
+def shear_bar(derived: Derived, start_step, progress):
     bar = tqdm(total=round(derived.n_shear * derived.dt, 6), initial=start_step * derived.dt,
                unit="s", desc="shear (simulated s)", disable=None if progress is None
                else not progress, bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s "

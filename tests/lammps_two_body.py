@@ -7,9 +7,11 @@ from granavg.lammps_session import lammps_session
 D, RHO_AREA = 0.00742, 1060 * 0.006
 
 
-def lammps_trajectory(c, dt, start, frozen2, steps):
-    """x, v, omega of both disks after each step, and the masses/radii LAMMPS uses."""
+def lammps_trajectory(c, dt, start, frozen2, steps, wall_diameter=D):
+    """x, v, omega of both disks after each step, and the masses/radii LAMMPS uses
+    (a frozen second disk has diameter ``wall_diameter``)."""
     (x1, y1, vx1, vy1, w1), (x2, y2, vx2, vy2, w2) = start
+    L = max(0.05, 1.5 * (D + wall_diameter))
     out = []
     with lammps_session(["-log", "none"]) as lmp:
         lmp.commands_string(f"""
@@ -19,11 +21,12 @@ def lammps_trajectory(c, dt, start, frozen2, steps):
             atom_style sphere 1
             atom_modify map array sort 0 0
             comm_modify vel yes
-            region box block -0.05 0.05 -0.05 0.05 -0.005 0.005
+            region box block -{L} {L} -{L} {L} -0.005 0.005
             create_box 4 box
             create_atoms 1 single {x1!r} {y1!r} 0
             create_atoms {4 if frozen2 else 1} single {x2!r} {y2!r} 0
             set type * diameter {D}
+            set type 4 diameter {wall_diameter!r}
             set type * density/disc {RHO_AREA}
             set atom 1 vx {vx1!r} vy {vy1!r} omega 0 0 {w1!r}
             set atom 2 vx {vx2!r} vy {vy2!r} omega 0 0 {w2!r}
