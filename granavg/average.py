@@ -1,8 +1,9 @@
 """Ring averaging of a run: frames -> accumulators -> profiles (Eqs. 1-7), SI units.
 
 :class:`RingAverage` follows MDAnalysis' ``AnalysisBase``: ``run()`` calls
-``_prepare``, ``_single_frame`` for every frame and ``_conclude``; the results are one
-:class:`RingProfiles`. :func:`average_run` builds the readers for a run directory,
+``prepare``, ``add`` for every frame and ``conclude``; the results are one
+:class:`RingProfiles`. In-situ averaging (:mod:`granavg.insitu`) calls the same three
+steps with frames taken from a running LAMMPS. :func:`average_run` builds the readers for a run directory,
 reading only the columns (and the contact dump only if) the requested quantities need.
 """
 
@@ -143,32 +144,37 @@ class RingAverage:
         self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
         self.channels = sorted({c for g in self.groups for c in QUANTITIES[g][1]})
         self.results: RingProfiles | None = None
+        self.meta: dict = {}
 
     def run(self, progress: bool | None = None) -> RingProfiles:
         """Accumulate every frame with t >= t_min; returns the profiles."""
-        self._prepare()
+        self.prepare()
         for frame in tqdm(self.frames, desc="averaging", unit="frame",
                           disable=None if progress is None else not progress):
-            if frame.time >= self.t_min:
-                self._single_frame(frame)
-        return self._conclude()
+            self.add(frame)
+        return self.conclude()
 
-    def _prepare(self):
+    def prepare(self):
+        """Start with an empty accumulator."""
         self.acc = RingAccumulator((self.rings.n, len(CHANNELS)), self.t_min, self.block_time)
 
-    def _single_frame(self, frame):
-        self.acc.add(frame.timestep, frame.time, frame_sums(
-            frame, self.rings, self.rho_p, self.channels))
+    def add(self, frame):
+        """Accumulate one frame (ignored if t < t_min)."""
+        if frame.time >= self.t_min:
+            self.acc.add(frame.timestep, frame.time, frame_sums(
+                frame, self.rings, self.rho_p, self.channels))
 
-    def _conclude(self) -> RingProfiles:
+    def conclude(self) -> RingProfiles:
+        """Profiles of the frames added so far."""
         acc, V = self.acc, self.rings.volume
         if acc.n_frames == 0:
             raise UserError(f"no frame at t >= t_min = {self.t_min:g} s; lower --t-min")
         S = acc.mean()
         vals = values(S, V, self.rho_p, self.groups)
         sem = standard_errors(acc.block_means(), V, self.rho_p, self.groups, list(vals))
+        meta = {**self.meta, "frames": {**self.meta.get("frames", {}), "n": acc.n_frames}}
         self.results = RingProfiles(self.rings, vals, sem, flags(S, self.groups),
-                                    acc.n_frames)
+                                    acc.n_frames, meta)
         return self.results
 
 
@@ -222,27 +228,39 @@ def average_run(run_dir=None, *, bins=None, edges=None, t_min=None, block_time=N
     if contacts is None and (run_dir / f"contacts.{ext}").exists():
         contacts = run_dir / f"contacts.{ext}"
     groups = _groups(quantities, contacts is not None)
+    averager = ring_average(manifest, groups, bins=bins, edges=edges, t_min=t_min,
+                            block_time=block_time)
+    atom_cols, contact_cols = needed_columns(groups)
+    need_contacts = any(QUANTITIES[g][2] for g in groups)
+    reader_a = DumpReader(atoms, _order(atom_cols), atom_cols)
+    reader_c = DumpReader(contacts, _order(contact_cols), contact_cols) if need_contacts else None
+    averager.frames = FramePairs(reader_a, reader_c, dt=derived["dt_s"])
+    profiles = averager.run(progress)
+    profiles.meta["files"] = {"atoms": str(atoms),
+                              "contacts": str(reader_c.path) if reader_c else None}
+    return profiles
+
+
+def ring_average(manifest: dict, groups, *, bins=None, edges=None, t_min=None,
+                 block_time=None, frames=None) -> RingAverage:
+    """A :class:`RingAverage` of a run (its manifest) with granavg's defaults: 20 equal
+    rings from R_i to R_o, t_min = two inner-ring rotations, blocks of a 20th of the
+    averaged span. Its profiles' ``meta`` describe the average (SI units)."""
+    scene, derived = manifest["scene"], manifest["derived"]
     rings = Rings(np.asarray(edges, float), scene["h"]) if edges is not None else \
         Rings.count(20 if bins is None else bins, scene["R_i"], scene["R_o"], scene["h"])
     T = 2 * math.pi / scene["Omega"]
     t_min = 2 * T if t_min is None else float(t_min)
     t_end = derived["t_end_s"]
     block_time = block_time or max(derived["dump_interval_s"], (t_end - t_min) / 20)
-    atom_cols, contact_cols = needed_columns(groups)
-    need_contacts = any(QUANTITIES[g][2] for g in groups)
-    reader_a = DumpReader(atoms, _order(atom_cols), atom_cols)
-    reader_c = DumpReader(contacts, _order(contact_cols), contact_cols) if need_contacts else None
-    frames = FramePairs(reader_a, reader_c, dt=derived["dt_s"])
-    profiles = RingAverage(frames, rings, groups, scene["rho_p"], t_min, block_time).run(progress)
-    acc_meta = {"t_min_s": t_min, "block_time_s": block_time}
-    profiles.meta = {
+    avg = RingAverage(frames, rings, groups, scene["rho_p"], t_min, block_time)
+    avg.meta = {
         "granavg_version": __version__, "units": "SI (m, s, kg, N, Pa)",
-        "quantities": groups, "rings": {"edges_m": list(rings.edges), "h_m": rings.h},
-        "frames": {"n": profiles.n_frames, **acc_meta},
-        "files": {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None},
+        "quantities": list(groups), "rings": {"edges_m": list(rings.edges), "h_m": rings.h},
+        "frames": {"t_min_s": t_min, "block_time_s": block_time},
         "run_manifest": manifest,
     }
-    return profiles
+    return avg
 
 
 def _groups(quantities, have_contacts):

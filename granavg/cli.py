@@ -32,6 +32,13 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--engine", default="lammps", choices=["lammps", "reference"],
                      help="reference: granavg's built-in DEM (needs --start; for "
                      "cross-checks, not production)")
+    sim.add_argument("--average", type=int, nargs="+", metavar="N",
+                     help="average in situ over N rings (several counts allowed) while "
+                     "LAMMPS runs: writes profiles_N.csv; with --set dumps=0 no dump files")
+    sim.add_argument("--t-min", type=float, help="in-situ averages from t >= T s (default: "
+                     "two inner-ring rotations)")
+    sim.add_argument("--block-time", type=float, help="in-situ standard errors from blocks "
+                     "of this length in s (default: span/20)")
     sim.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
     avg = sub.add_parser("average", help="ring profiles of a run (Eqs. 1-7, SI units)")
@@ -77,15 +84,16 @@ def _simulate(args) -> int:
         raise UserError("--np and --omp must be >= 1")
     progress = False if args.no_progress else None
     if args.resume:
-        if args.overrides or args.start or args.engine != "lammps":
+        if args.overrides or args.start or args.engine != "lammps" or args.average:
             raise UserError("--resume continues the run as it was set up; drop --set, "
-                            "--start and --engine")
+                            "--start, --engine and --average")
         out = resume(args.out, np_ranks=args.np, omp_threads=args.omp, progress=progress)
     else:
         scene = preset(args.preset).with_overrides(args.overrides)
         out = simulate(scene, args.out, np_ranks=args.np, omp_threads=args.omp,
                        progress=progress, preset=args.preset, start=args.start,
-                       engine=args.engine)
+                       engine=args.engine, average=args.average, t_min=args.t_min,
+                       block_time=args.block_time)
     logging.getLogger("granavg").info("run complete: %s", out)
     return 0
 

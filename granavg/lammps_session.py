@@ -73,7 +73,7 @@ def lammps_version() -> int:
 
 
 @contextmanager
-def lammps_session(cmdargs, log_hint: str = "the LAMMPS log"):
+def lammps_session(cmdargs, log_hint: str = "the LAMMPS log", comm=None):
     """An in-process LAMMPS instance; its errors become :class:`LammpsError`.
 
     Parameters
@@ -83,9 +83,11 @@ def lammps_session(cmdargs, log_hint: str = "the LAMMPS log"):
         always silenced.
     log_hint : str
         Where the user should look for details, named in the error message.
+    comm : mpi4py communicator, optional
+        Run on these MPI ranks (every rank enters the session).
     """
     lammps = load_lammps()
-    lmp = lammps.lammps(cmdargs=["-screen", "none", "-nocite", *cmdargs])
+    lmp = lammps.lammps(cmdargs=["-screen", "none", "-nocite", *cmdargs], comm=comm)
     try:
         yield lmp
     except Exception as exc:

@@ -40,8 +40,10 @@ class Scene:
     ``wall_spacing * wall_d`` apart, touching R_i and R_o from outside the annulus.
     Schedule: preparation (insert at ``grow_from`` times the diameter, grow over
     ``t_grow`` s with viscous damping time ``t_damp`` s, relax ``t_relax`` s), then shear
-    for ``t_end`` s; dumps every ``dump_every`` steps (0 = about ``dump_dt`` s) from
-    ``t_dump_start`` s; restart files every ``restart_dt`` s of shear.
+    for ``t_end`` s; dumps (frames for averaging) every ``dump_every`` steps (0 = about
+    ``dump_dt`` s) from ``t_dump_start`` s; restart files every ``restart_dt`` s of shear.
+    Output: ``contacts`` (contact forces computed and dumped), ``dumps`` (dump files
+    written; 0 with in-situ averaging only), ``gzip``.
     """
 
     R_i: float = 0.1032
@@ -68,6 +70,7 @@ class Scene:
     restart_dt: float = 25.0
     seed: int = 20011
     contacts: bool = True
+    dumps: bool = True
     gzip: bool = True
 
     def with_overrides(self, pairs) -> "Scene":

@@ -20,6 +20,7 @@ import shlex
 import shutil
 import signal
 import subprocess
+import sys
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -32,6 +33,8 @@ from .contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table, radius_of_typ
 from .dumpfile import open_text, write_frame
 from .reader import DumpReader
 from .errors import LammpsError, UserError
+from .insitu import InSituAverage, profile_path
+from .lammps_frames import gather, local_atoms, local_contacts
 from .lammps_session import (executable, lammps_env, lammps_session, lammps_version,
                              load_lammps)
 from .rundir import (claim_new, frame_steps, read_manifest, restart_files, truncate_dump,
@@ -66,7 +69,8 @@ ENGINES = ("lammps", "reference")
 
 def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
              progress: bool | None = None, preset: str | None = None, start=None,
-             engine: str = "lammps") -> Path:
+             engine: str = "lammps", average=None, t_min: float | None = None,
+             block_time: float | None = None) -> Path:
     """Run a new Couette simulation into the empty directory ``out``.
 
     Parameters
@@ -90,6 +94,14 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
     engine : {"lammps", "reference"}
         ``reference`` runs :mod:`granavg.refdem` instead of LAMMPS (needs ``start``, one
         process, no restart files): for cross-validation, not production.
+    average : sequence of int, optional
+        Ring counts to average over in situ (while LAMMPS runs, from its memory): writes
+        ``profiles_<n>.csv`` for each. Under MPI each rank runs granavg with LAMMPS and
+        rank 0 gathers the frames. With ``scene.dumps`` False no dump is written.
+    t_min : float, optional
+        In-situ averages start at t_min (s); default two inner-ring rotations.
+    block_time : float, optional
+        Block length (s) of the in-situ standard errors; default a 20th of the span.
 
     Returns
     -------
@@ -98,6 +110,7 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
     """
     derived = scene.derive()                      # refuse before touching the disk
     start = _check_start(start, engine, np_ranks, omp_threads)
+    average = _check_average(derived, average, engine, t_min)
     if engine == "lammps" and not DECK.exists():
         raise UserError(f"the LAMMPS deck {DECK} is missing; install granavg from its "
                         "source tree with 'pip install -e .' (the deck lives beside it)")
@@ -106,8 +119,31 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         (out / "deck").mkdir()
         shutil.copy2(DECK, out / "deck" / DECK.name)
     manifest = _new_manifest(derived, preset, np_ranks, omp_threads, start, engine)
+    manifest["average"] = {"bins": average, "t_min_s": t_min,
+                           "block_time_s": block_time} if average else None
+    for n in average:
+        manifest["files"][profile_path(Path("."), n).name] = \
+            f"ring profiles over {n} rings, averaged in situ (docs/profiles.md)"
     write_manifest(out, manifest)
     return _execute(out, derived, manifest, resume_from=None, progress=progress)
+
+
+def _check_average(derived: Derived, average, engine, t_min):
+    scene = derived.scene
+    bins = sorted({int(n) for n in average}) if average else []
+    if any(n < 1 for n in bins):
+        raise UserError(f"--average {bins}: ring counts must be >= 1")
+    t0 = 2 * derived.period if t_min is None else t_min
+    if bins and t0 >= derived.n_shear * derived.dt:
+        raise UserError(f"in-situ averages would start at t_min = {t0:g} s, after the end "
+                        f"of shear (t_end = {scene.t_end:g} s); give --t-min below t_end")
+    if not scene.dumps and not bins:
+        raise UserError("dumps=0 writes no dump files: add --average N so the run keeps "
+                        "its profiles")
+    if bins and engine != "lammps":
+        raise UserError("--average runs inside LAMMPS; the reference engine writes dumps "
+                        "(average them with 'granavg average')")
+    return bins
 
 
 def _check_start(start, engine, np_ranks, omp_threads):
@@ -140,6 +176,13 @@ def resume(out, *, np_ranks: int | None = None, omp_threads: int | None = None,
                         "files; run it again with a new --out")
     scene = Scene.from_dict(manifest["scene"])
     derived = scene.derive()
+    if manifest.get("average"):
+        if not scene.dumps:
+            raise UserError(f"{out} averaged in situ without dumps; its averages cannot "
+                            "continue from a restart; run it again with a new --out")
+        log.warning("in-situ averages do not survive an interruption: the resumed run "
+                    "writes dumps only; average them with 'granavg average %s'", out)
+        manifest["average"] = None
     restart_step, restart_path = _usable_restart(out, derived)
     for name in (ATOMS, CONTACTS, CONTACTS_RAW):
         path = out / name.format(ext=_ext(scene))
@@ -163,8 +206,8 @@ def _execute(out, derived, manifest, resume_from, progress):
     ex = manifest["execution"]
     start = manifest.get("start")
     if ex.get("engine") != "reference":
-        variables = _deck_variables(out, derived, embedded=ex["np"] == 1,
-                                    resume=resume_from, start=start)
+        variables = _deck_variables(out, derived, embedded=ex["np"] == 1 or bool(
+            manifest.get("average")), resume=resume_from, start=start)
         (out / "run.sh").write_text(_command_script(variables, ex))
     try:
         with _signals_interrupt():
@@ -172,7 +215,9 @@ def _execute(out, derived, manifest, resume_from, progress):
                 from .refdem_run import run_reference
                 run_reference(out, derived, Path(start), progress)
             elif ex["np"] == 1:
-                _run_embedded(out, derived, variables, ex["omp"], progress)
+                run_embedded(out, derived, manifest, variables, ex["omp"], progress)
+            elif manifest.get("average"):
+                _run_mpi_python(out, derived, ex["np"], progress)
             else:
                 _run_mpi(out, derived, variables, ex["np"], ex["omp"], progress)
     except (Interrupted, KeyboardInterrupt):
@@ -186,28 +231,59 @@ def _execute(out, derived, manifest, resume_from, progress):
     return out
 
 
-def _run_embedded(out, derived: Derived, variables, omp, progress):
+def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm=None):
+    """Run the deck through the LAMMPS Python module and drive the shear in chunks; at
+    every dump step write the contact dump and/or feed the in-situ averages. Under MPI
+    (``comm``, an mpi4py communicator) every rank calls this; rank 0 gathers and writes."""
     lammps = load_lammps()
     scene = derived.scene
+    root = comm is None or comm.rank == 0
+    contacts_needed = scene.contacts and (scene.dumps or bool(manifest.get("average")))
     writer = _ContactWriter(out / CONTACTS.format(ext=_ext(scene)), derived) \
-        if scene.contacts else None
-    with lammps_session(_cmdargs(out, variables, omp), log_hint=str(out / "log.lammps")) as lmp:
+        if scene.contacts and scene.dumps and root else None
+    insitu = InSituAverage(manifest, manifest["average"]["bins"], radius_of_type(derived)) \
+        if manifest.get("average") and root else None
+    frames_needed = contacts_needed or bool(manifest.get("average"))
+    with lammps_session(_cmdargs(out, variables, omp), log_hint=str(out / "log.lammps"),
+                        comm=comm) as lmp:
         lmp.file(str(out / "deck" / DECK.name))
         _check_inserted(lmp, scene, variables["start"])
         lmp.command("run 0")                     # set up; writes the atom dump if due
         step = int(lmp.get_thermo("step"))
         stride = max(1, derived.n_shear // 400)
-        with shear_bar(derived, step, progress) as bar:
+        box = np.column_stack(lmp.extract_box()[:2])
+        with shear_bar(derived, step, progress if root else False) as bar:
             while True:
-                if writer is not None and is_dump_step(step, derived):
-                    writer.write(lmp, lammps, step)
+                if frames_needed and is_dump_step(step, derived):
+                    raw = gather(comm, local_contacts(lmp, lammps)) if contacts_needed else None
+                    atoms = gather(comm, local_atoms(lmp)) if insitu or comm else None
+                    if writer is not None:
+                        writer.write(step, raw, box)
+                    if insitu is not None:
+                        insitu.add(step, atoms, raw)
                 if step >= derived.n_shear:
                     break
-                target = min(_next_dump_step(step, derived) if writer else math.inf,
+                target = min(_next_dump_step(step, derived) if frames_needed else math.inf,
                              step + stride, derived.n_shear)
                 lmp.command(f"run {target} upto pre no post no")
                 bar.update((target - step) * derived.dt)
                 step = target
+    if insitu is not None:
+        insitu.write(out)
+
+
+def _run_mpi_python(out, derived: Derived, np_ranks, progress):
+    """``mpirun -np N python -m granavg.mpi_rank OUT``: LAMMPS and granavg on every rank
+    (in-situ averaging gathers each frame to rank 0)."""
+    cmd = [executable("mpirun"), "-np", str(np_ranks), sys.executable, "-m",
+           "granavg.mpi_rank", str(out), "--no-progress" if progress is False else "--progress"]
+    log.info("running %s", shlex.join(cmd))
+    proc = subprocess.run(cmd, env=lammps_env(), stdout=subprocess.DEVNULL,
+                          stderr=subprocess.PIPE, text=True)
+    if proc.returncode != 0:
+        tail = proc.stderr.strip().splitlines()[-1:] or ["no message"]
+        raise LammpsError(f"mpirun granavg ranks exited with code {proc.returncode}: "
+                          f"{tail[0]} (details in {out / 'log.lammps'})")
 
 
 def _run_mpi(out, derived: Derived, variables, np_ranks, omp, progress):
@@ -253,25 +329,16 @@ def convert_raw_contacts(raw_path: Path, out_path: Path, derived: Derived) -> No
 
 
 class _ContactWriter:
-    """Writes granavg's contact dump in-process from ``compute pair/local`` (SI units)."""
+    """Writes granavg's contact dump from ``compute pair/local`` rows (SI units)."""
 
     def __init__(self, path: Path, derived: Derived):
         self.path, self.derived = path, derived
         self.radius = radius_of_type(derived)
-        self.box = None
 
-    def write(self, lmp, lammps, step):
-        loc, arr = lammps.LMP_STYLE_LOCAL, lammps.LMP_TYPE_ARRAY
-        prop = lmp.numpy.extract_compute("cprop", loc, arr)
-        pair = lmp.numpy.extract_compute("cpair", loc, arr)
-        raw = np.hstack([np.asarray(prop).reshape(-1, 4), np.asarray(pair).reshape(-1, 7)]) \
-            if prop is not None and pair is not None else np.empty((0, 11))
-        if self.box is None:
-            lo, hi = lmp.extract_box()[:2]
-            self.box = np.column_stack([lo, hi])
+    def write(self, step, raw, box):
         with open_text(self.path, "at") as fh:
             write_frame(fh, step, step * self.derived.dt, COLUMNS,
-                        contact_table(raw, self.radius), self.box, FORMAT)
+                        contact_table(raw, self.radius), box, FORMAT)
 
 
 def is_dump_step(step, d: Derived) -> bool:
@@ -320,7 +387,9 @@ def _deck_variables(out, derived: Derived, embedded: bool, resume, start) -> dic
          for k, x in derived.lammps_variables().items()}
     v.update({
         "out": str(out), "drive": "python" if embedded else "lammps",
-        "contacts": ("python" if embedded else "native") if s.contacts else "none",
+        "contacts": ("python" if embedded else "native") if s.contacts and s.dumps
+        else "none",
+        "atoms_dump": "1" if s.dumps else "0",
         "resume": str(resume) if resume else "none", "resuming": "1" if resume else "0",
         "start": str(start) if start else "none", "starting": "1" if start else "0",
         "astyle": "custom/gz" if s.gzip else "custom",
@@ -394,9 +463,10 @@ def _new_manifest(d: Derived, preset, np_ranks, omp, start=None, engine="lammps"
                 "log.lammps": "LAMMPS log"} if lammps else {}),
             **({"prepared.data": "the prepared packing at t = 0 (LAMMPS data file; "
                 "--start reuses it)"} if lammps and start is None else {}),
-            ATOMS.format(ext=_ext(s)): "per-atom dump (docs/outputs.md)",
+            **({ATOMS.format(ext=_ext(s)): "per-atom dump (docs/outputs.md)"}
+               if s.dumps else {}),
             **({CONTACTS.format(ext=_ext(s)): "per-contact dump (docs/outputs.md)"}
-               if s.contacts else {}),
+               if s.contacts and s.dumps else {}),
             **({"restart/restart.<step>.bin": "LAMMPS restart files for --resume"}
                if lammps else {}),
         },

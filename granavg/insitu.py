@@ -1,0 +1,75 @@
+"""In-situ averaging: ring profiles accumulated while LAMMPS runs, without dump files.
+
+At every dump step the driver hands the frame (atoms and contacts taken from LAMMPS
+through its Python module, gathered to rank 0 under MPI) to :class:`InSituAverage`,
+which feeds the same :class:`~granavg.average.RingAverage` steps the file reader feeds:
+the profiles equal those of averaging the same run's dumps, up to the dumps' 12-digit
+rounding. SI units.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from .average import ring_average
+from .contacts import COLUMNS, contact_table
+from .lammps_frames import atoms_by_id
+from .profiles import QUANTITIES
+from .reader import Frame
+
+log = logging.getLogger(__name__)
+
+
+def profile_path(out: Path, bins: int) -> Path:
+    """Where a run's in-situ profiles over ``bins`` rings go."""
+    return Path(out) / f"profiles_{bins}.csv"
+
+
+class InSituAverage:
+    """Ring averages over several ring counts, fed frame by frame.
+
+    Parameters
+    ----------
+    manifest : dict
+        The run's manifest (geometry, rho_p, dt, Omega, t_end; ``average.t_min_s``).
+    bins : sequence of int
+        Ring counts (equal rings from R_i to R_o), e.g. (20, 60).
+    radius : ndarray, shape (5,)
+        Radius (m) of each atom type, for :func:`~granavg.contacts.contact_table`.
+    """
+
+    def __init__(self, manifest: dict, bins, radius: np.ndarray):
+        contacts = manifest["scene"].get("contacts", True)
+        self.groups = [g for g, (_, _, needs) in QUANTITIES.items() if contacts or not needs]
+        opts = manifest["average"]
+        self.averages = {n: ring_average(manifest, self.groups, bins=n,
+                                         t_min=opts.get("t_min_s"),
+                                         block_time=opts.get("block_time_s"))
+                         for n in bins}
+        for avg in self.averages.values():
+            avg.prepare()
+        self.radius, self.dt, self.contacts = radius, manifest["derived"]["dt_s"], contacts
+
+    def add(self, step: int, atoms: np.ndarray, raw_contacts: np.ndarray | None) -> None:
+        """Accumulate one frame: rows of :func:`granavg.lammps_frames.local_atoms` and
+        :func:`~granavg.lammps_frames.local_contacts` of all ranks."""
+        table = contact_table(raw_contacts, self.radius) if self.contacts else None
+        frame = Frame(step, step * self.dt, atoms_by_id(atoms),
+                      dict(zip(COLUMNS, table.T)) if table is not None else None)
+        for avg in self.averages.values():
+            avg.add(frame)
+
+    def write(self, out: Path) -> list:
+        """Conclude and write ``profiles_<bins>.csv`` (+ JSON sidecar) into ``out``."""
+        paths = []
+        for n, avg in self.averages.items():
+            profiles = avg.conclude()
+            profiles.meta["files"] = {"atoms": "in situ (no file)",
+                                      "contacts": "in situ (no file)" if self.contacts else None}
+            paths.append(profiles.write(profile_path(out, n)))
+            log.info("in-situ profiles over %d rings: %s (%d frames)", n, paths[-1],
+                     profiles.n_frames)
+        return paths
