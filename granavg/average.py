@@ -217,7 +217,17 @@ def average_run(run_dir=None, *, bins=None, edges=None, t_min=None, block_time=N
         Keys of :data:`~granavg.profiles.QUANTITIES`; default all that the files allow.
     atoms, contacts : path, optional
         Dump files to use instead of the run directory's.
+
+    See :func:`granavg.parallel.average_run_dask` for the same on dask workers.
     """
+    return run_averager(run_dir, bins=bins, edges=edges, t_min=t_min, block_time=block_time,
+                        quantities=quantities, atoms=atoms, contacts=contacts).run(progress)
+
+
+def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
+                 quantities=None, atoms=None, contacts=None, steps=None) -> RingAverage:
+    """The :class:`RingAverage` of :func:`average_run`, its frames read lazily (only
+    those with time steps in ``steps = (first, last)`` if given)."""
     run_dir = Path(run_dir) if run_dir is not None else None
     manifest = read_manifest(run_dir) if run_dir is not None else None
     if manifest is None:
@@ -228,17 +238,17 @@ def average_run(run_dir=None, *, bins=None, edges=None, t_min=None, block_time=N
     if contacts is None and (run_dir / f"contacts.{ext}").exists():
         contacts = run_dir / f"contacts.{ext}"
     groups = _groups(quantities, contacts is not None)
-    averager = ring_average(manifest, groups, bins=bins, edges=edges, t_min=t_min,
-                            block_time=block_time)
     atom_cols, contact_cols = needed_columns(groups)
     need_contacts = any(QUANTITIES[g][2] for g in groups)
-    reader_a = DumpReader(atoms, _order(atom_cols), atom_cols)
-    reader_c = DumpReader(contacts, _order(contact_cols), contact_cols) if need_contacts else None
-    averager.frames = FramePairs(reader_a, reader_c, dt=derived["dt_s"])
-    profiles = averager.run(progress)
-    profiles.meta["files"] = {"atoms": str(atoms),
+    reader_a = DumpReader(atoms, _order(atom_cols), atom_cols, steps)
+    reader_c = DumpReader(contacts, _order(contact_cols), contact_cols, steps) \
+        if need_contacts else None
+    averager = ring_average(manifest, groups, bins=bins, edges=edges, t_min=t_min,
+                            block_time=block_time,
+                            frames=FramePairs(reader_a, reader_c, dt=derived["dt_s"]))
+    averager.meta["files"] = {"atoms": str(atoms),
                               "contacts": str(reader_c.path) if reader_c else None}
-    return profiles
+    return averager
 
 
 def ring_average(manifest: dict, groups, *, bins=None, edges=None, t_min=None,

@@ -59,6 +59,10 @@ def _parser() -> argparse.ArgumentParser:
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
     avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
+    avg.add_argument("--workers", type=int, help="average on a local dask cluster of this "
+                     "many processes (frames split in chunks; same result as serial)")
+    avg.add_argument("--scheduler", metavar="ADDRESS", help="average on this dask "
+                     "scheduler's workers (tcp://host:8786); they must see the run directory")
     avg.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
     ana = sub.add_parser("analyze", help="figures 2-9, summary.json and report.html from "
@@ -107,10 +111,18 @@ def _average(args) -> int:
     if out.exists():
         raise UserError(f"{out} exists; choose another --out (results are never overwritten)")
     quantities = [q.strip() for q in args.quantities.split(",")] if args.quantities else None
-    profiles = average_run(args.run_dir, bins=args.bins, edges=args.edges, t_min=args.t_min,
-                           block_time=args.block_time, quantities=quantities,
-                           atoms=args.atoms, contacts=args.contacts,
-                           progress=False if args.no_progress else None)
+    options = dict(bins=args.bins, edges=args.edges, t_min=args.t_min,
+                   block_time=args.block_time, quantities=quantities, atoms=args.atoms,
+                   contacts=args.contacts)
+    if args.workers or args.scheduler:
+        from .parallel import average_run_dask
+        if args.workers is not None and args.workers < 1:
+            raise UserError("--workers must be >= 1")
+        profiles = average_run_dask(args.run_dir, workers=args.workers or 2,
+                                    scheduler=args.scheduler, **options)
+    else:
+        profiles = average_run(args.run_dir, progress=False if args.no_progress else None,
+                               **options)
     profiles.write(out, parquet=args.parquet)
     logging.getLogger("granavg").info("%d rings x %d frames -> %s (+ %s.json)",
                                       profiles.rings.n, profiles.n_frames, out, out.name)

@@ -26,6 +26,7 @@ from .parse import MALFORMED, NOT_FINITE, OK, parse_block
 log = logging.getLogger(__name__)
 
 CHUNK = 8 << 20
+_SKIPPED = object()     # a frame outside the requested steps
 
 
 @dataclass
@@ -71,14 +72,20 @@ class DumpReader:
         Columns to convert (others are skipped while parsing); all if None.
     needed_by : dict, optional
         For each column, what needs it: named in the error if it is missing.
+    steps : (int, int) or (int, int, int), optional
+        Only frames with first <= timestep <= last (and, with a third number ``every``,
+        timestep - first a multiple of it) are parsed and yielded; the others are skipped
+        by scanning for their end (how a dask worker reads its chunk, or a study thins
+        the frames).
     """
 
-    def __init__(self, path, columns=None, needed_by=None):
+    def __init__(self, path, columns=None, needed_by=None, steps=None):
         self.path = Path(path)
         if not self.path.exists():
             raise UserError(f"{self.path}: no such file")
         self.columns = list(columns) if columns is not None else None
         self.needed_by = dict(needed_by or {})
+        self.steps = steps
 
     def __iter__(self):
         yield from _Scanner(self).frames()
@@ -103,7 +110,10 @@ class _Scanner:
                 frame = self._frame()
                 if frame is None:
                     return
-                yield frame
+                if frame is not _SKIPPED:
+                    yield frame
+                elif self.reader.steps and self.last_step > self.reader.steps[1]:
+                    return
 
     # -- buffer -------------------------------------------------------------------------
     def _fill(self) -> bool:
@@ -187,6 +197,13 @@ class _Scanner:
         want, target = self._targets(names)
         end = self._block_end()
         rows = self.buf.count(b"\n", self.pos, end)
+        self.last_step = step
+        window = self.reader.steps
+        if window is not None and rows >= n and not (
+                window[0] <= step <= window[1]
+                and (len(window) < 3 or (step - window[0]) % window[2] == 0)):
+            self.pos, self.line = end, self.line + rows
+            return _SKIPPED
         if rows < n or (n and self.buf[end - 1] != 10):
             if end >= len(self.buf) and self.eof:
                 self._truncated(step, self.line)

@@ -21,6 +21,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -538,6 +539,9 @@ def _signals_interrupt():
     """Turn SIGTERM into :class:`Interrupted` (SIGINT already gives KeyboardInterrupt)."""
     def handler(signum, frame):
         raise Interrupted(signal.Signals(signum).name)
+    if threading.current_thread() is not threading.main_thread():   # e.g. a dask worker
+        yield
+        return
     previous = signal.signal(signal.SIGTERM, handler)
     try:
         yield

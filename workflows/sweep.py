@@ -1,0 +1,229 @@
+"""The speed/accuracy trade of the paper scene, measured (issue 6).
+
+    python workflows/sweep.py OUT [--reference RUN] [--workers 2 | --scheduler ADDR]
+
+Each setting is the `paper` preset with some knobs changed. Simulation settings (k_n with
+the same restitution, steps per contact n = t_c/dt, Omega with the total strain held)
+run as independent dask tasks (a local cluster of single-threaded processes by default,
+or the workers of a scheduler); averaging settings (run length, dump interval, ring
+count) reuse the reference run's dumps. Every run is averaged over 20 and 60 rings and
+analysed; the headline numbers are compared with the reference's, each with its
+statistical error. Writes OUT/sweep.csv, OUT/pareto.png/.pdf and OUT/README.md.
+
+The reference is the paper preset's own run (--reference RUN reuses one, e.g. the run of
+workflows/reproduce_paper.sh); it is the stiffest, finest, longest run afforded here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import resource
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+SIMULATED = {          # name: --set overrides of the paper preset
+    "k_n=2.5": ["k_n=2.5"],
+    "n_per_tc=25": ["n_per_tc=25"],
+    "Omega=0.2": ["Omega=0.2", "t_end=250", "restart_dt=12.5", "dump_dt=0.25"],
+    "k_n=2.5, n=25, Omega=0.2": ["k_n=2.5", "n_per_tc=25", "Omega=0.2", "t_end=250",
+                                 "restart_dt=12.5", "dump_dt=0.25"],
+}
+AVERAGED = {           # name: (t_end s, keep every k-th frame) on the reference's dumps
+    "t_end=250": (250.0, 1),
+    "t_end=375": (375.0, 1),
+    "dump_dt=2": (None, 4),
+}
+#: headline numbers: (label, key in metrics, relative tolerance applies)
+HEADLINES = ["v0", "s", "nu_bulk", "trF_bulk", "p_over_kn_bulk", "stiffness_slope",
+             "eom_residual"]
+
+
+def cpu_seconds() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def simulate_and_report(out: str, overrides: list) -> dict:
+    """One dask task: simulate the paper preset with overrides, average, analyse."""
+    from granavg.pipeline import report_run
+    from granavg.scene import preset
+    from granavg.simulate import simulate
+
+    out = Path(out)
+    c0, t0 = cpu_seconds(), time.perf_counter()
+    simulate(preset("paper").with_overrides(overrides), out / "run", progress=False,
+             preset="paper")
+    c1, t1 = cpu_seconds(), time.perf_counter()
+    report_run(out / "run", out / "report", progress=False)
+    return {"sim_cpu_s": c1 - c0, "sim_wall_s": t1 - t0,
+            "avg_cpu_s": cpu_seconds() - c1, "avg_wall_s": time.perf_counter() - t1}
+
+
+def average_and_report(ref_run: str, out: str, t_end, every) -> dict:
+    """Averaging settings on the reference run's dumps (no new simulation)."""
+    from granavg.average import run_averager
+    from granavg.pipeline import report_profiles
+    from granavg.rundir import read_manifest
+
+    m = read_manifest(ref_run)["derived"]
+    last = int(round(t_end / m["dt_s"])) if t_end else m["n_shear_steps"]
+    c0, t0 = cpu_seconds(), time.perf_counter()
+    profiles = [run_averager(ref_run, bins=n, steps=(m["first_dump_step"], last, every))
+                .run(False) for n in (20, 60)]
+    report = Path(out) / "report"
+    for n, p in zip((20, 60), profiles):     # what a run of this length would record
+        p.meta["run_manifest"]["derived"]["t_end_s"] = last * m["dt_s"]
+        p.write(report / f"profiles{n}.csv")
+    report_profiles(*profiles, report)
+    return {"sim_cpu_s": 0.0, "sim_wall_s": 0.0, "avg_cpu_s": cpu_seconds() - c0,
+            "avg_wall_s": time.perf_counter() - t0}
+
+
+def metrics(report_dir: Path) -> dict:
+    """Headline numbers and their statistical errors from a report directory."""
+    from granavg.average import RingProfiles
+
+    s = json.loads((report_dir / "summary.json").read_text())
+    n = s["numbers"]
+    p = RingProfiles.read(report_dir / "profiles20.csv")
+    kn = s["run"]["scene"]["k_n"]
+    bulk = slice(p.rings.n // 4, 3 * p.rings.n // 4)      # the middle half of the annulus
+
+    def mean_sem(v, e):
+        return float(np.mean(v[bulk])), float(np.sqrt(np.sum(e[bulk] ** 2)) / len(v[bulk]))
+
+    nu, nu_e = mean_sem(p.values["nu"], p.sem["nu"])
+    trf, trf_e = mean_sem(p.values["F_rr"] + p.values["F_phiphi"],
+                          np.hypot(p.sem["F_rr"], p.sem["F_phiphi"]))
+    pr, pr_e = mean_sem(-(p.values["sigma_rr"] + p.values["sigma_phiphi"]) / (2 * kn),
+                        np.hypot(p.sem["sigma_rr"], p.sem["sigma_phiphi"]) / (2 * kn))
+    sb = n["shear_band"]
+    return {"v0": sb["v0_over_omega_Ri"], "v0_err": sb["v0_over_omega_Ri_err"],
+            "s": sb["s_m"], "s_err": sb["s_m_err"], "nu_bulk": nu, "nu_bulk_err": nu_e,
+            "trF_bulk": trf, "trF_bulk_err": trf_e, "p_over_kn_bulk": pr,
+            "p_over_kn_bulk_err": pr_e, "stiffness_slope": n["stiffness"]["bulk_slope_per_m"],
+            "stiffness_slope_err": 0.0, "eom_residual": n["equations_of_motion"]["bulk_median_residual"],
+            "eom_residual_err": 0.0,
+            "dynamic_over_static": n["quasi_static"]["dynamic_over_static_max"]}
+
+
+def compare(row: dict, ref: dict) -> dict:
+    """Relative error against the reference, its noise level, and the verdict."""
+    out, ok = {}, True
+    for k in HEADLINES:
+        diff = abs(row[k] - ref[k])
+        noise = 2 * math.hypot(row[f"{k}_err"], ref[f"{k}_err"])
+        rel = diff / abs(ref[k])
+        out[f"{k}_relerr"] = rel
+        out[f"{k}_within_noise"] = diff <= noise
+        if k == "eom_residual":           # a residual: compare its level, not its value
+            good = row[k] <= max(1.05 * ref[k], ref[k] + 0.05)
+        else:
+            good = rel <= 0.05 or diff <= noise
+        out[f"{k}_ok"] = good
+        ok &= good
+    out["all_ok"] = ok
+    out["max_relerr"] = max(out[f"{k}_relerr"] for k in HEADLINES if k != "eom_residual")
+    return out
+
+
+def pareto_plot(table: pd.DataFrame, path: Path, ax=None):
+    """Cost (CPU s, simulation + averaging) against the largest relative error."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 4))
+    cost = table["sim_cpu_s"] + table["avg_cpu_s"]
+    err = table["max_relerr"].clip(lower=1e-4)
+    colors = np.where(table["all_ok"], "#009E73", "#D55E00")
+    ax.scatter(cost, err, c=colors, zorder=3)
+    for name, x, y in zip(table.index, cost, err):
+        ax.annotate(name, (x, y), fontsize=7, xytext=(4, 2), textcoords="offset points")
+    order = np.argsort(cost.values)
+    front, best = [], math.inf
+    for k in order:
+        if err.iloc[k] < best:
+            best = err.iloc[k]
+            front.append(k)
+    ax.step(cost.iloc[front], err.iloc[front], where="post", color="0.5", lw=1)
+    ax.axhline(0.05, color="0.7", ls="--", lw=1)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("cost: CPU time of simulation + averaging (s)")
+    ax.set_ylabel("largest relative error of the headline numbers (-)")
+    ax.set_title("paper scene: cost against error (green: all within 5% or noise)", fontsize=9)
+    ax.figure.tight_layout()
+    ax.figure.savefig(path.with_suffix(".png"), dpi=150)
+    ax.figure.savefig(path.with_suffix(".pdf"))
+    return ax
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("out")
+    ap.add_argument("--reference", help="an existing run of the paper preset to reuse")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--scheduler", help="dask scheduler address")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    from dask.distributed import Client, as_completed
+
+    from granavg.parallel import local_cluster
+
+    cluster = None if args.scheduler else local_cluster(args.workers)
+    costs = {}
+    with Client(args.scheduler or cluster) as client:
+        futures = {}
+        if args.reference:
+            ref_run = Path(args.reference).resolve()
+            m = json.loads((ref_run / "manifest.json").read_text())
+            from datetime import datetime
+            wall = (datetime.fromisoformat(m["finished"]) - datetime.fromisoformat(m["started"])).total_seconds()
+            futures[client.submit(average_and_report, str(ref_run), str(out / "reference"), None, 1,
+                                  pure=False)] = "reference"
+            costs["reference"] = {"sim_cpu_s": wall, "sim_wall_s": wall}   # one core: cpu = wall
+        else:
+            ref_run = out / "reference" / "run"
+            futures[client.submit(simulate_and_report, str(out / "reference"), [],
+                                  pure=False)] = "reference"
+        for name, sets in SIMULATED.items():
+            futures[client.submit(simulate_and_report, str(out / _slug(name)), sets,
+                                  pure=False)] = name
+        done = {}
+        for fut in as_completed(list(futures)):
+            name = futures[fut]
+            done[name] = {**fut.result(), **costs.get(name, {})}
+            print(f"{name}: {done[name]}", flush=True)
+            if name == "reference":
+                for aname, (t_end, every) in AVERAGED.items():
+                    f = client.submit(average_and_report, str(ref_run), str(out / _slug(aname)),
+                                      t_end, every, pure=False)
+                    for g in as_completed([f]):
+                        done[aname] = g.result()
+                        print(f"{aname}: {done[aname]}", flush=True)
+    if cluster is not None:
+        cluster.close()
+    rows = {name: {**cost, **metrics(out / _slug(name) / "report")} for name, cost in done.items()}
+    ref = rows["reference"]
+    table = pd.DataFrame({name: {**r, **compare(r, ref)} for name, r in rows.items()}).T
+    table.index.name = "setting"
+    table.to_csv(out / "sweep.csv")
+    pareto_plot(table, out / "pareto")
+    print(table[["sim_cpu_s", "avg_cpu_s", "max_relerr", "all_ok"]].to_string())
+
+
+def _slug(name: str) -> str:
+    return "".join(c if c.isalnum() or c in "=._" else "_" for c in name)
+
+
+if __name__ == "__main__":
+    main()
