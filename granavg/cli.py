@@ -105,6 +105,7 @@ def _simulate(args) -> int:
 def _average(args) -> int:
     from pathlib import Path
 
+    from .analysis import warn_if_inertial
     from .average import average_run
 
     out = Path(args.out)
@@ -124,6 +125,7 @@ def _average(args) -> int:
         profiles = average_run(args.run_dir, progress=False if args.no_progress else None,
                                **options)
     profiles.write(out, parquet=args.parquet)
+    warn_if_inertial(profiles)
     logging.getLogger("granavg").info("%d rings x %d frames -> %s (+ %s.json)",
                                       profiles.rings.n, profiles.n_frames, out, out.name)
     return 0

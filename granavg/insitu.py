@@ -14,8 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .analysis import warn_if_inertial
 from .average import ring_average
-from .contacts import COLUMNS, contact_table
+from .contacts import COLUMNS
 from .lammps_frames import atoms_by_id
 from .profiles import QUANTITIES
 from .reader import Frame
@@ -37,11 +38,9 @@ class InSituAverage:
         The run's manifest (geometry, rho_p, dt, Omega, t_end; ``average.t_min_s``).
     bins : sequence of int
         Ring counts (equal rings from R_i to R_o), e.g. (20, 60).
-    radius : ndarray, shape (5,)
-        Radius (m) of each atom type, for :func:`~granavg.contacts.contact_table`.
     """
 
-    def __init__(self, manifest: dict, bins, radius: np.ndarray):
+    def __init__(self, manifest: dict, bins):
         contacts = manifest["scene"].get("contacts", True)
         self.groups = [g for g, (_, _, needs) in QUANTITIES.items() if contacts or not needs]
         opts = manifest["average"]
@@ -51,12 +50,11 @@ class InSituAverage:
                          for n in bins}
         for avg in self.averages.values():
             avg.prepare()
-        self.radius, self.dt, self.contacts = radius, manifest["derived"]["dt_s"], contacts
+        self.dt, self.contacts = manifest["derived"]["dt_s"], contacts
 
-    def add(self, step: int, atoms: np.ndarray, raw_contacts: np.ndarray | None) -> None:
-        """Accumulate one frame: rows of :func:`granavg.lammps_frames.local_atoms` and
-        :func:`~granavg.lammps_frames.local_contacts` of all ranks."""
-        table = contact_table(raw_contacts, self.radius) if self.contacts else None
+    def add(self, step: int, atoms: np.ndarray, table: np.ndarray | None) -> None:
+        """Accumulate one frame: rows of :func:`granavg.lammps_frames.local_atoms` of all
+        ranks and their contacts (:func:`~granavg.contacts.contact_table` rows)."""
         frame = Frame(step, step * self.dt, atoms_by_id(atoms),
                       dict(zip(COLUMNS, table.T)) if table is not None else None)
         for avg in self.averages.values():
@@ -70,6 +68,7 @@ class InSituAverage:
             profiles.meta["files"] = {"atoms": "in situ (no file)",
                                       "contacts": "in situ (no file)" if self.contacts else None}
             paths.append(profiles.write(profile_path(out, n)))
+            warn_if_inertial(profiles)
             log.info("in-situ profiles over %d rings: %s (%d frames)", n, paths[-1],
                      profiles.n_frames)
         return paths

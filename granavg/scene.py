@@ -151,6 +151,23 @@ class Derived:
     dt_safe: float
 
     @property
+    def blowup_speed(self) -> float:
+        """Speed (m/s) that no disk of a sound run approaches: 10 x the larger of the
+        outer edge of the inner ring's speed Omega R_o and the speed 0.2 d_s omega_n a
+        small disk gets from an overlap of 0.2 d_s (omega_n = sqrt(k_n/m_s))."""
+        s = self.scene
+        v_contact = 0.2 * s.d_s * math.sqrt(self.coeffs.kn / self.m_small)
+        return 10.0 * max(s.Omega * s.R_o, v_contact)
+
+    @property
+    def ke_max(self) -> float:
+        """Blow-up bound of the disks' kinetic energy, J: all of them at
+        :attr:`blowup_speed`."""
+        s = self.scene
+        mass = s.n_small * self.m_small + s.n_large * self.m_large
+        return 0.5 * mass * self.blowup_speed ** 2
+
+    @property
     def period(self) -> float:
         """Rotation period of the inner ring T = 2 pi / Omega (s)."""
         return 2.0 * math.pi / self.scene.Omega
@@ -175,6 +192,7 @@ class Derived:
             "damp_gamma": self.m_small / s.t_damp, "n_shear": self.n_shear,
             "n_dump_start": self.n_dump_start, "dump_every": self.dump_every,
             "restart_every": self.restart_every, "seed": s.seed,
+            "ke_max": self.ke_max, "halt_every": 100,
         }
 
 

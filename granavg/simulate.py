@@ -16,6 +16,7 @@ from __future__ import annotations
 import datetime as _dt
 import logging
 import math
+import re
 import shlex
 import shutil
 import signal
@@ -147,6 +148,23 @@ def _check_average(derived: Derived, average, engine, t_min):
     return bins
 
 
+def _explained(exc: LammpsError, out: Path, derived: Derived) -> LammpsError:
+    """A LAMMPS error, with what it means for a Couette run and what to do."""
+    msg = str(exc)
+    m = re.search(r"halt condition .*?met on step (\d+)", msg)
+    lost = "Lost atoms" in msg
+    if not (m or lost):
+        return exc
+    where = f" near step {m.group(1)} (t = {int(m.group(1)) * derived.dt:.4g} s of shear)" \
+        if m else ""
+    what = ("disks were lost from the box" if lost else
+            f"the disks' kinetic energy passed {derived.ke_max:.3g} J (all disks at "
+            f"{derived.blowup_speed:.3g} m/s) or a disk left the annulus")
+    return LammpsError(f"the run blew up{where}: {what}; dumps and restart files written "
+                       f"before are kept in {out}; lower dt (raise n_per_tc), Omega or the "
+                       f"overlaps (k_n, grow_from)")
+
+
 def _check_start(start, engine, np_ranks, omp_threads):
     if engine not in ENGINES:
         raise UserError(f"unknown engine {engine!r}; choose one of: {', '.join(ENGINES)}")
@@ -225,7 +243,10 @@ def _execute(out, derived, manifest, resume_from, progress):
         _finish(out, manifest, "interrupted")
         raise UserError(f"run interrupted; results so far are in {out}; continue it with "
                         f"'granavg simulate --out {out} --resume'") from None
-    except BaseException:                # LAMMPS error, bad input found mid-run, or a bug
+    except LammpsError as exc:
+        _finish(out, manifest, "failed")
+        raise _explained(exc, out, derived) from None
+    except BaseException:                # bad input found mid-run, or a bug
         _finish(out, manifest, "failed")
         raise
     _finish(out, manifest, "complete")
@@ -242,9 +263,10 @@ def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm
     contacts_needed = scene.contacts and (scene.dumps or bool(manifest.get("average")))
     writer = _ContactWriter(out / CONTACTS.format(ext=_ext(scene)), derived) \
         if scene.contacts and scene.dumps and root else None
-    insitu = InSituAverage(manifest, manifest["average"]["bins"], radius_of_type(derived)) \
+    insitu = InSituAverage(manifest, manifest["average"]["bins"]) \
         if manifest.get("average") and root else None
     frames_needed = contacts_needed or bool(manifest.get("average"))
+    radius, overlaps = radius_of_type(derived), Overlaps(derived)
     with lammps_session(_cmdargs(out, variables, omp), log_hint=str(out / "log.lammps"),
                         comm=comm) as lmp:
         lmp.file(str(out / "deck" / DECK.name))
@@ -258,10 +280,13 @@ def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm
                 if frames_needed and is_dump_step(step, derived):
                     raw = gather(comm, local_contacts(lmp, lammps)) if contacts_needed else None
                     atoms = gather(comm, local_atoms(lmp)) if insitu or comm else None
+                    table = contact_table(raw, radius) if raw is not None else None
+                    if table is not None:
+                        overlaps.add(table)
                     if writer is not None:
-                        writer.write(step, raw, box)
+                        writer.write(step, table, box)
                     if insitu is not None:
-                        insitu.add(step, atoms, raw)
+                        insitu.add(step, atoms, table)
                 if step >= derived.n_shear:
                     break
                 target = min(_next_dump_step(step, derived) if frames_needed else math.inf,
@@ -271,6 +296,8 @@ def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm
                 step = target
     if insitu is not None:
         insitu.write(out)
+    if root:
+        overlaps.record(out)
 
 
 def _run_mpi_python(out, derived: Derived, np_ranks, progress):
@@ -320,26 +347,57 @@ def convert_raw_contacts(raw_path: Path, out_path: Path, derived: Derived) -> No
 
     Appends to ``out_path`` (a resumed run continues the file) and removes the raw file.
     """
-    radius = radius_of_type(derived)
+    radius, overlaps = radius_of_type(derived), Overlaps(derived)
     with open_text(out_path, "at") as fh:
         for frame in DumpReader(raw_path):
             raw = frame.data[:, [frame.columns.index(c) for c in RAW_COLUMNS]]
-            write_frame(fh, frame.timestep, frame.time, COLUMNS, contact_table(raw, radius),
-                        frame.box, FORMAT)
+            table = contact_table(raw, radius)
+            overlaps.add(table)
+            write_frame(fh, frame.timestep, frame.time, COLUMNS, table, frame.box, FORMAT)
     raw_path.unlink()
+    overlaps.record(out_path.parent)
 
 
 class _ContactWriter:
-    """Writes granavg's contact dump from ``compute pair/local`` rows (SI units)."""
+    """Appends contact-dump frames (rows of :func:`~granavg.contacts.contact_table`)."""
 
     def __init__(self, path: Path, derived: Derived):
         self.path, self.derived = path, derived
-        self.radius = radius_of_type(derived)
 
-    def write(self, step, raw, box):
+    def write(self, step, table, box):
         with open_text(self.path, "at") as fh:
-            write_frame(fh, step, step * self.derived.dt, COLUMNS,
-                        contact_table(raw, self.radius), box, FORMAT)
+            write_frame(fh, step, step * self.derived.dt, COLUMNS, table, box, FORMAT)
+
+
+#: Largest overlap accepted without a warning, as a fraction of the small diameter: the
+#: linear model and the branch vectors of Eqs. 4-7 (centre to contact point = radius)
+#: assume overlaps much smaller than a disk; at 0.2 d_s the branch vector is 10% off.
+OVERLAP_WARN = 0.2
+
+
+class Overlaps:
+    """The largest overlap seen in the frames (contact dumps or in situ); recorded in the
+    manifest as ``overlap.max_over_d_s`` with a warning above :data:`OVERLAP_WARN`."""
+
+    def __init__(self, derived: Derived):
+        self.d_s, self.max = derived.scene.d_s, 0.0
+
+    def add(self, table) -> None:
+        if len(table):
+            self.max = max(self.max, float(table[:, COLUMNS.index("overlap")].max()))
+
+    def record(self, out: Path) -> None:
+        ratio = self.max / self.d_s
+        manifest = read_manifest(out)
+        old = (manifest.get("overlap") or {}).get("max_over_d_s", 0.0)   # an earlier part
+        ratio = max(ratio, old)
+        manifest["overlap"] = {"max_over_d_s": ratio, "warn_above": OVERLAP_WARN,
+                               "from": "contact frames written or averaged"}
+        write_manifest(out, manifest)
+        if ratio > OVERLAP_WARN:
+            log.warning("largest overlap %.2f d_s is above %.2f d_s: the springs are too soft "
+                        "for the linear contact model (raise k_n or lower Omega)", ratio,
+                        OVERLAP_WARN)
 
 
 def is_dump_step(step, d: Derived) -> bool:
@@ -485,6 +543,8 @@ def _keep_old_log(out):
 
 
 def _finish(out, manifest, status):
+    """Record the end status; what the run added to the manifest on disk (overlaps) stays."""
+    manifest.update({k: v for k, v in read_manifest(out).items() if k not in manifest})
     manifest["status"] = status
     manifest["finished"] = _now()
     write_manifest(out, manifest)

@@ -11,7 +11,7 @@ import pytest
 
 from granavg.contact_law import (ContactLaw, contact_duration, disk_mass, effective_mass,
                                  restitution, to_lammps)
-from .lammps_two_body import D, lammps_trajectory
+from granavg.collision import D, lammps_trajectory
 
 M = disk_mass(D, 1060, 0.006)
 

@@ -15,19 +15,7 @@ from granavg.contact_law import ContactLaw, effective_mass, restitution, to_lamm
 from granavg.lammps_session import lammps_session
 from granavg.refdem import Disks, ReferenceDEM
 
-from .lammps_two_body import D, RHO_AREA, lammps_trajectory
-
-
-def reference_trajectory(c, dt, start, frozen2, mass, radius, steps):
-    s = np.array(start, float)
-    disks = Disks(x=s[:, :2].copy(), v=s[:, 2:4].copy(), omega=s[:, 4].copy(),
-                  radius=radius.copy(), mass=mass.copy(), frozen=np.array([False, frozen2]))
-    dem = ReferenceDEM(disks, c, dt)
-    out = []
-    for _ in range(steps):
-        dem.step()
-        out.append(np.concatenate([disks.x.ravel(), disks.v.ravel(), disks.omega]))
-    return np.array(out)
+from granavg.collision import D, RHO_AREA, lammps_trajectory, reference_trajectory
 
 
 CASES = {  # name: (law, start of disk 1 and 2: x, y, vx, vy, omega; frozen partner)
