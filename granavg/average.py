@@ -171,10 +171,17 @@ class RingAverage:
             raise UserError(f"no frame at t >= t_min = {self.t_min:g} s; lower --t-min")
         S = acc.mean()
         vals = values(S, V, self.rho_p, self.groups)
-        sem = standard_errors(acc.block_means(), V, self.rho_p, self.groups, list(vals))
+        blocks = acc.block_means()
+        sem = standard_errors(blocks, V, self.rho_p, self.groups, list(vals))
         meta = {**self.meta, "frames": {**self.meta.get("frames", {}), "n": acc.n_frames}}
-        self.results = RingProfiles(self.rings, vals, sem, flags(S, self.groups),
-                                    acc.n_frames, meta)
+        ring_flags = flags(S, self.groups)
+        if len(blocks) < 2:
+            log.warning("all %d frames fall in one time block: no standard errors (NaN, flag "
+                        "'one_block'); average more frames or shorten --block-time",
+                        acc.n_frames)
+            ring_flags = np.array([";".join(filter(None, (f, "one_block"))) for f in ring_flags],
+                                  dtype=object)
+        self.results = RingProfiles(self.rings, vals, sem, ring_flags, acc.n_frames, meta)
         return self.results
 
 

@@ -109,7 +109,8 @@ def _eps(S):
 
 def flags(S: np.ndarray, groups) -> np.ndarray:
     """Per-ring flags (';'-joined): ``empty`` (no disk), ``no_contacts``,
-    ``singular_fabric`` (eps undefined)."""
+    ``singular_fabric`` (eps undefined); :class:`~granavg.average.RingAverage` adds
+    ``one_block`` when the frames span a single time block (no standard errors)."""
     out = [[] for _ in range(S.shape[0])]
     vol = S[:, INDEX["vol"]]
     contact = {"coordination", "F", "sigma", "eps"} & set(groups)
