@@ -1,6 +1,7 @@
 """The speed/accuracy trade of the paper scene, measured (issue 6).
 
     python workflows/sweep.py OUT [--reference RUN] [--workers 2 | --scheduler ADDR]
+    python workflows/sweep.py OUT --table      # the markdown table of OUT/sweep.csv
 
 Each setting is the `paper` preset with some knobs changed. Simulation settings (k_n with
 the same restitution, steps per contact n = t_c/dt, Omega with the total strain held)
@@ -171,8 +172,12 @@ def main(argv=None):
     ap.add_argument("--reference", help="an existing run of the paper preset to reuse")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--scheduler", help="dask scheduler address")
+    ap.add_argument("--table", action="store_true", help="only print the markdown table")
     args = ap.parse_args(argv)
     out = Path(args.out)
+    if args.table:
+        print(markdown(pd.read_csv(out / "sweep.csv", index_col="setting")))
+        return
     out.mkdir(parents=True, exist_ok=True)
 
     from dask.distributed import Client, as_completed
@@ -219,6 +224,21 @@ def main(argv=None):
     table.to_csv(out / "sweep.csv")
     pareto_plot(table, out / "pareto")
     print(table[["sim_cpu_s", "avg_cpu_s", "max_relerr", "all_ok"]].to_string())
+
+
+def markdown(table: pd.DataFrame) -> str:
+    """The sweep as a markdown table: cost, each headline number's relative error
+    against the reference (* = within 2 combined standard errors), verdict."""
+    head = ["setting", "CPU s (sim + avg)", *HEADLINES, "all within 5% or noise"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, r in table.iterrows():
+        cells = [name, f"{r.sim_cpu_s:.0f} + {r.avg_cpu_s:.0f}"]
+        for k in HEADLINES:
+            star = "*" if str(r[f"{k}_within_noise"]) == "True" else ""
+            cells.append(f"{r[k]:.4g} ({100 * r[f'{k}_relerr']:.1f}%{star})")
+        cells.append("yes" if str(r.all_ok) == "True" else "no")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def _slug(name: str) -> str:

@@ -1,0 +1,20 @@
+#!/bin/sh
+# granavg's benchmark suite: every benchmark of docs/benchmarks.md, in one go.
+#   sh benchmarks/run_all.sh OUTDIR          (from the repo root; .venv from `make test`)
+# Ratios are always against a baseline measured in the same run; record the machine
+# (`nproc`, CPU model) with the numbers.
+set -e
+OUT=${1:?usage: run_all.sh OUTDIR}
+ROOT=$(cd "$(dirname "$0")/.." && pwd); BIN=${VIRTUAL_ENV:-$ROOT/.venv}/bin
+mkdir -p "$OUT"
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2)"
+echo "## LAMMPS"; sh "$ROOT/workflows/lammps_timing.sh" "$OUT/timing" 10000
+echo "## reader, engine, memory"
+"$BIN/granavg" simulate --preset demo --omp 2 --out "$OUT/demo" --no-progress
+"$BIN/python" "$ROOT/benchmarks/averaging.py" "$OUT/demo"
+echo "## dask"; "$BIN/python" "$ROOT/benchmarks/parallel.py" "$OUT/demo" 1 2
+echo "## reference DEM"
+"$BIN/granavg" simulate --preset demo --out "$OUT/small" --no-progress --set R_i=0.04 \
+  --set R_o=0.0826 --set n_small=250 --set n_large=40 --set Omega=0.5 --set t_grow=1 \
+  --set t_relax=1 --set t_end=1 --set t_dump_start=0 --set restart_dt=1
+"$BIN/python" "$ROOT/benchmarks/refdem.py" "$OUT/small/prepared.data"
