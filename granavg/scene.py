@@ -66,7 +66,7 @@ class Scene:
     t_end: float = 500.0
     t_dump_start: float = 0.0
     dump_every: int = 0
-    dump_dt: float = 0.5
+    dump_dt: float = 2.0
     restart_dt: float = 25.0
     seed: int = 20011
     contacts: bool = True
