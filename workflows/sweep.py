@@ -89,6 +89,17 @@ def average_and_report(ref_run: str, out: str, t_end, every) -> dict:
             "avg_wall_s": time.perf_counter() - t0}
 
 
+def attribute_simulation_cost(rows: dict) -> None:
+    """Averaging settings reuse the reference's dumps; charge them the part of its
+    simulation they would need (t_end / 500 s of it; all of it for a dump interval)."""
+    ref = rows["reference"]
+    for name, (t_end, _) in AVERAGED.items():
+        if name in rows and not rows[name]["sim_cpu_s"]:
+            frac = (t_end or 500.0) / 500.0
+            rows[name]["sim_cpu_s"] = frac * ref["sim_cpu_s"]
+            rows[name]["sim_wall_s"] = frac * ref["sim_wall_s"]
+
+
 def metrics(report_dir: Path) -> dict:
     """Headline numbers and their statistical errors from a report directory."""
     from granavg.average import RingProfiles
@@ -184,6 +195,7 @@ def main(argv=None):
     if args.table:                  # re-judge the measured rows (no new runs)
         old = pd.read_csv(out / "sweep.csv", index_col="setting")
         rows = {name: r.to_dict() for name, r in old.iterrows()}
+        attribute_simulation_cost(rows)
         table = pd.DataFrame({n: {**r, **compare(r, rows["reference"])}
                               for n, r in rows.items()}).T
         table.index.name = "setting"
@@ -231,6 +243,7 @@ def main(argv=None):
     if cluster is not None:
         cluster.close()
     rows = {name: {**cost, **metrics(out / _slug(name) / "report")} for name, cost in done.items()}
+    attribute_simulation_cost(rows)
     ref = rows["reference"]
     table = pd.DataFrame({name: {**r, **compare(r, ref)} for name, r in rows.items()}).T
     table.index.name = "setting"
