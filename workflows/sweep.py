@@ -7,9 +7,11 @@ Each setting is the `paper` preset with some knobs changed. Simulation settings 
 the same restitution, steps per contact n = t_c/dt, Omega with the total strain held)
 run as independent dask tasks (a local cluster of single-threaded processes by default,
 or the workers of a scheduler); averaging settings (run length, dump interval, ring
-count) reuse the reference run's dumps. Every run is averaged over 20 and 60 rings and
-analysed; the headline numbers are compared with the reference's, each with its
-statistical error. Writes OUT/sweep.csv, OUT/pareto.png/.pdf and OUT/README.md.
+count) reuse the reference run's dumps. Every run is averaged over 20 and 60 rings (other
+ring counts for the ring-count settings) and analysed; the headline numbers are compared
+with the reference's, each with its statistical error. Writes OUT/sweep.csv and
+OUT/pareto.png/.pdf and prints the markdown table. Settings already in OUT/sweep.csv are
+kept, so a sweep can be extended (add a setting, run again) or resumed.
 
 The reference is the paper preset's own run (--reference RUN reuses one, e.g. the run of
 workflows/reproduce_paper.sh); it is the stiffest, finest, longest run afforded here.
@@ -18,6 +20,7 @@ workflows/reproduce_paper.sh); it is the stiffest, finest, longest run afforded 
 from __future__ import annotations
 
 import argparse
+import logging
 import json
 import math
 import resource
@@ -34,11 +37,14 @@ SIMULATED = {          # name: --set overrides of the paper preset
     "k_n=2.5, n=25, Omega=0.2": ["k_n=2.5", "n_per_tc=25", "Omega=0.2", "t_end=250",
                                  "restart_dt=12.5", "dump_dt=0.25"],
 }
-AVERAGED = {           # name: (t_end s, keep every k-th frame) on the reference's dumps
-    "t_end=250": (250.0, 1),
-    "t_end=375": (375.0, 1),
-    "dump_dt=2": (None, 4),
+AVERAGED = {           # name: (t_end s, keep every k-th frame, ring counts) on the reference's dumps
+    "t_end=250": (250.0, 1, (20, 60)),
+    "t_end=375": (375.0, 1, (20, 60)),
+    "dump_dt=2": (None, 4, (20, 60)),
+    "rings=10/30": (None, 1, (10, 30)),
+    "rings=40/120": (None, 1, (40, 120)),
 }
+COST_COLUMNS = ["sim_cpu_s", "sim_wall_s", "avg_cpu_s", "avg_wall_s"]
 #: headline numbers: (label, key in metrics, relative tolerance applies)
 HEADLINES = ["v0", "s", "nu_bulk", "trF_bulk", "p_over_kn_bulk", "stiffness_slope",
              "eom_residual"]
@@ -46,6 +52,7 @@ HEADLINES = ["v0", "s", "nu_bulk", "trF_bulk", "p_over_kn_bulk", "stiffness_slop
 
 #: the paper's regime must be kept too (granavg.analysis.QUASI_STATIC_LIMIT)
 QUASI_STATIC_LIMIT = 0.1
+log = logging.getLogger("sweep")
 
 
 def cpu_seconds() -> float:
@@ -69,8 +76,9 @@ def simulate_and_report(out: str, overrides: list) -> dict:
             "avg_cpu_s": cpu_seconds() - c1, "avg_wall_s": time.perf_counter() - t1}
 
 
-def average_and_report(ref_run: str, out: str, t_end, every) -> dict:
-    """Averaging settings on the reference run's dumps (no new simulation)."""
+def average_and_report(ref_run: str, out: str, t_end, every, bins=(20, 60)) -> dict:
+    """Averaging settings on the reference run's dumps (no new simulation): the first
+    t_end seconds (all with None), every k-th frame, averaged over (coarse, fine) rings."""
     from granavg.average import run_averager
     from granavg.pipeline import report_profiles
     from granavg.rundir import read_manifest
@@ -79,9 +87,9 @@ def average_and_report(ref_run: str, out: str, t_end, every) -> dict:
     last = int(round(t_end / m["dt_s"])) if t_end else m["n_shear_steps"]
     c0, t0 = cpu_seconds(), time.perf_counter()
     profiles = [run_averager(ref_run, bins=n, steps=(m["first_dump_step"], last, every))
-                .run(False) for n in (20, 60)]
+                .run(False) for n in bins]
     report = Path(out) / "report"
-    for n, p in zip((20, 60), profiles):     # what a run of this length would record
+    for n, p in zip(bins, profiles):     # what a run of this length would record
         p.meta["run_manifest"]["derived"]["t_end_s"] = last * m["dt_s"]
         p.write(report / f"profiles{n}.csv")
     report_profiles(*profiles, report)
@@ -93,7 +101,7 @@ def attribute_simulation_cost(rows: dict) -> None:
     """Averaging settings reuse the reference's dumps; charge them the part of its
     simulation they would need (t_end / 500 s of it; all of it for a dump interval)."""
     ref = rows["reference"]
-    for name, (t_end, _) in AVERAGED.items():
+    for name, (t_end, _, _) in AVERAGED.items():
         if name in rows and not rows[name]["sim_cpu_s"]:
             frac = (t_end or 500.0) / 500.0
             rows[name]["sim_cpu_s"] = frac * ref["sim_cpu_s"]
@@ -106,12 +114,13 @@ def metrics(report_dir: Path) -> dict:
 
     s = json.loads((report_dir / "summary.json").read_text())
     n = s["numbers"]
-    p = RingProfiles.read(report_dir / "profiles20.csv")
+    coarse = min(report_dir.glob("profiles*.csv"), key=lambda f: int(f.stem[8:]))
+    p = RingProfiles.read(coarse)
     kn = s["run"]["scene"]["k_n"]
-    bulk = slice(p.rings.n // 4, 3 * p.rings.n // 4)      # the middle half of the annulus
+    w = bulk_weights(p.rings.edges)
 
     def mean_sem(v, e):
-        return float(np.mean(v[bulk])), float(np.sqrt(np.sum(e[bulk] ** 2)) / len(v[bulk]))
+        return float(np.sum(w * v)), float(np.sqrt(np.sum((w * e) ** 2)))
 
     nu, nu_e = mean_sem(p.values["nu"], p.sem["nu"])
     trf, trf_e = mean_sem(p.values["F_rr"] + p.values["F_phiphi"],
@@ -126,6 +135,16 @@ def metrics(report_dir: Path) -> dict:
             "stiffness_slope_err": 0.0, "eom_residual": n["equations_of_motion"]["bulk_median_residual"],
             "eom_residual_err": 0.0,
             "dynamic_over_static": n["quasi_static"]["dynamic_over_static_max"]}
+
+
+def bulk_weights(edges) -> np.ndarray:
+    """Weights of the rings in a mean over the middle half of the annulus in r (each ring
+    by the length of its overlap with it), so that ring sets of any count average the
+    same stretch; shape (n_rings,), summing to 1."""
+    e = np.asarray(edges)
+    lo, hi = e[0] + (e[-1] - e[0]) / 4, e[-1] - (e[-1] - e[0]) / 4
+    overlap = np.clip(np.minimum(e[1:], hi) - np.maximum(e[:-1], lo), 0.0, None)
+    return overlap / overlap.sum()
 
 
 def compare(row: dict, ref: dict) -> dict:
@@ -192,64 +211,71 @@ def main(argv=None):
     ap.add_argument("--table", action="store_true", help="only print the markdown table")
     args = ap.parse_args(argv)
     out = Path(args.out)
-    if args.table:                  # re-judge the measured rows (no new runs)
-        old = pd.read_csv(out / "sweep.csv", index_col="setting")
-        rows = {name: r.to_dict() for name, r in old.iterrows()}
-        attribute_simulation_cost(rows)
-        table = pd.DataFrame({n: {**r, **compare(r, rows["reference"])}
-                              for n, r in rows.items()}).T
-        table.index.name = "setting"
-        table.to_csv(out / "sweep.csv")
-        pareto_plot(table, out / "pareto")
-        print(markdown(table))
-        return
-    out.mkdir(parents=True, exist_ok=True)
+    csv = out / "sweep.csv"
+    measured = pd.read_csv(csv, index_col="setting") if csv.exists() else pd.DataFrame()
+    costs = {name: r[COST_COLUMNS].to_dict() for name, r in measured.iterrows()}
+    if not args.table:
+        out.mkdir(parents=True, exist_ok=True)
+        costs.update(run_missing(out, set(costs), args))
+    rows = {name: {**cost, **metrics(out / _slug(name) / "report")} for name, cost in costs.items()}
+    attribute_simulation_cost(rows)
+    table = pd.DataFrame({n: {**r, **compare(r, rows["reference"])} for n, r in rows.items()}).T
+    table.index.name = "setting"
+    table.to_csv(csv)
+    pareto_plot(table, out / "pareto")
+    print(markdown(table))
 
+
+def run_missing(out: Path, have: set, args) -> dict:
+    """Run on dask every setting not yet in OUT/sweep.csv; returns their costs.
+
+    Settings measured before are kept as they are (a sweep can be extended or resumed
+    without losing what it measured)."""
     from dask.distributed import Client, as_completed
 
     from granavg.parallel import local_cluster
 
+    todo_sim = [n for n in SIMULATED if n not in have]
+    todo_avg = [n for n in AVERAGED if n not in have]
+    ref_run = Path(args.reference).resolve() if args.reference else out / "reference" / "run"
+    done = {}
     cluster = None if args.scheduler else local_cluster(args.workers)
-    costs = {}
     with Client(args.scheduler or cluster) as client:
         futures = {}
-        if args.reference:
-            ref_run = Path(args.reference).resolve()
-            m = json.loads((ref_run / "manifest.json").read_text())
-            from datetime import datetime
-            wall = (datetime.fromisoformat(m["finished"]) - datetime.fromisoformat(m["started"])).total_seconds()
-            futures[client.submit(average_and_report, str(ref_run), str(out / "reference"), None, 1,
-                                  pure=False)] = "reference"
-            costs["reference"] = {"sim_cpu_s": wall, "sim_wall_s": wall}   # one core: cpu = wall
-        else:
-            ref_run = out / "reference" / "run"
-            futures[client.submit(simulate_and_report, str(out / "reference"), [],
-                                  pure=False)] = "reference"
-        for name, sets in SIMULATED.items():
-            futures[client.submit(simulate_and_report, str(out / _slug(name)), sets,
-                                  pure=False)] = name
-        done = {}
-        for fut in as_completed(list(futures)):
+        if "reference" not in have:
+            if args.reference:
+                m = json.loads((ref_run / "manifest.json").read_text())
+                from datetime import datetime
+                wall = (datetime.fromisoformat(m["finished"]) -
+                        datetime.fromisoformat(m["started"])).total_seconds()
+                done["reference"] = {"sim_cpu_s": wall, "sim_wall_s": wall}  # one core
+                futures[client.submit(average_and_report, str(ref_run),
+                                      str(out / "reference"), None, 1, pure=False)] = "reference"
+            else:
+                futures[client.submit(simulate_and_report, str(out / "reference"), [],
+                                      pure=False)] = "reference"
+        for name in todo_sim:
+            futures[client.submit(simulate_and_report, str(out / _slug(name)),
+                                  SIMULATED[name], pure=False)] = name
+
+        def averaged():
+            return {client.submit(average_and_report, str(ref_run), str(out / _slug(n)),
+                                  *AVERAGED[n], pure=False): n for n in todo_avg}
+
+        if "reference" in have:          # its dumps exist: the averaging can start now
+            futures.update(averaged())
+        pending = as_completed(list(futures))
+        for fut in pending:
             name = futures[fut]
-            done[name] = {**fut.result(), **costs.get(name, {})}
-            print(f"{name}: {done[name]}", flush=True)
+            done[name] = {**fut.result(), **done.get(name, {})}
+            log.info("%s: %s", name, done[name])
             if name == "reference":
-                for aname, (t_end, every) in AVERAGED.items():
-                    f = client.submit(average_and_report, str(ref_run), str(out / _slug(aname)),
-                                      t_end, every, pure=False)
-                    for g in as_completed([f]):
-                        done[aname] = g.result()
-                        print(f"{aname}: {done[aname]}", flush=True)
+                more = averaged()
+                futures.update(more)
+                pending.update(more)
     if cluster is not None:
         cluster.close()
-    rows = {name: {**cost, **metrics(out / _slug(name) / "report")} for name, cost in done.items()}
-    attribute_simulation_cost(rows)
-    ref = rows["reference"]
-    table = pd.DataFrame({name: {**r, **compare(r, ref)} for name, r in rows.items()}).T
-    table.index.name = "setting"
-    table.to_csv(out / "sweep.csv")
-    pareto_plot(table, out / "pareto")
-    print(table[["sim_cpu_s", "avg_cpu_s", "max_relerr", "all_ok"]].to_string())
+    return done
 
 
 def markdown(table: pd.DataFrame) -> str:
@@ -274,4 +300,5 @@ def _slug(name: str) -> str:
 
 
 if __name__ == "__main__":
+    logging.basicConfig(level=logging.INFO, format="sweep: %(message)s")
     main()
