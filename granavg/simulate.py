@@ -39,6 +39,7 @@ from .insitu import InSituAverage, profile_path
 from .lammps_frames import gather, local_atoms, local_contacts
 from .lammps_session import (executable, lammps_env, lammps_session, lammps_version,
                              load_lammps)
+from .run_record import Overlaps, Timing
 from .rundir import (claim_new, frame_steps, read_manifest, restart_files, truncate_dump,
                      write_manifest)
 from .scene import Derived, Scene
@@ -275,9 +276,11 @@ def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm
         step = int(lmp.get_thermo("step"))
         stride = max(1, derived.n_shear // 400)
         box = np.column_stack(lmp.extract_box()[:2])
+        timing = Timing()
         with shear_bar(derived, step, progress if root else False) as bar:
             while True:
                 if frames_needed and is_dump_step(step, derived):
+                    timing.start_frame()
                     raw = gather(comm, local_contacts(lmp, lammps)) if contacts_needed else None
                     atoms = gather(comm, local_atoms(lmp)) if insitu or comm else None
                     table = contact_table(raw, radius) if raw is not None else None
@@ -287,17 +290,20 @@ def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm
                         writer.write(step, table, box)
                     if insitu is not None:
                         insitu.add(step, atoms, table)
+                    timing.end_frame()
                 if step >= derived.n_shear:
                     break
                 target = min(_next_dump_step(step, derived) if frames_needed else math.inf,
                              step + stride, derived.n_shear)
-                lmp.command(f"run {target} upto pre no post no")
+                with timing.lammps():
+                    lmp.command(f"run {target} upto pre no post no")
                 bar.update((target - step) * derived.dt)
                 step = target
     if insitu is not None:
         insitu.write(out)
     if root:
         overlaps.record(out)
+        timing.record(out)
 
 
 def _run_mpi_python(out, derived: Derived, np_ranks, progress):
@@ -367,37 +373,6 @@ class _ContactWriter:
     def write(self, step, table, box):
         with open_text(self.path, "at") as fh:
             write_frame(fh, step, step * self.derived.dt, COLUMNS, table, box, FORMAT)
-
-
-#: Largest overlap accepted without a warning, as a fraction of the small diameter: the
-#: linear model and the branch vectors of Eqs. 4-7 (centre to contact point = radius)
-#: assume overlaps much smaller than a disk; at 0.2 d_s the branch vector is 10% off.
-OVERLAP_WARN = 0.2
-
-
-class Overlaps:
-    """The largest overlap seen in the frames (contact dumps or in situ); recorded in the
-    manifest as ``overlap.max_over_d_s`` with a warning above :data:`OVERLAP_WARN`."""
-
-    def __init__(self, derived: Derived):
-        self.d_s, self.max = derived.scene.d_s, 0.0
-
-    def add(self, table) -> None:
-        if len(table):
-            self.max = max(self.max, float(table[:, COLUMNS.index("overlap")].max()))
-
-    def record(self, out: Path) -> None:
-        ratio = self.max / self.d_s
-        manifest = read_manifest(out)
-        old = (manifest.get("overlap") or {}).get("max_over_d_s", 0.0)   # an earlier part
-        ratio = max(ratio, old)
-        manifest["overlap"] = {"max_over_d_s": ratio, "warn_above": OVERLAP_WARN,
-                               "from": "contact frames written or averaged"}
-        write_manifest(out, manifest)
-        if ratio > OVERLAP_WARN:
-            log.warning("largest overlap %.2f d_s is above %.2f d_s: the springs are too soft "
-                        "for the linear contact model (raise k_n or lower Omega)", ratio,
-                        OVERLAP_WARN)
 
 
 def is_dump_step(step, d: Derived) -> bool:

@@ -113,3 +113,15 @@ def test_inner_wall_drags_and_no_disk_leaves_the_annulus(run):
     # (a packing turning as a body with a slipping wall would fail the second check)
     assert np.mean(inner) > 0.1 * wall_speed
     assert abs(np.mean(outer)) < 0.2 * np.mean(inner)
+
+
+def test_the_run_records_where_its_time_went(small_run):
+    """The manifest's timing: one entry per frame taken from LAMMPS (the contact dump's
+    frames), and the parts never add up to more than the run's own wall time."""
+    from datetime import datetime
+    m, _, _, contacts = load(small_run)
+    t = m["timing"]
+    assert t["frames"] == len(contacts)
+    assert t["lammps_steps_s"] > 0 and t["frames_s"] > 0
+    wall = (datetime.fromisoformat(m["finished"]) - datetime.fromisoformat(m["started"]))
+    assert t["lammps_steps_s"] + t["frames_s"] <= wall.total_seconds() + 1.0   # 1 s: clock resolution
