@@ -244,7 +244,7 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
     atoms = Path(atoms) if atoms else run_dir / f"atoms.{ext}"
     if contacts is None and (run_dir / f"contacts.{ext}").exists():
         contacts = run_dir / f"contacts.{ext}"
-    groups = _groups(quantities, contacts is not None)
+    groups = groups_for(quantities, contacts is not None)
     atom_cols, contact_cols = needed_columns(groups)
     need_contacts = any(QUANTITIES[g][2] for g in groups)
     reader_a = DumpReader(atoms, _order(atom_cols), atom_cols, steps)
@@ -280,7 +280,9 @@ def ring_average(manifest: dict, groups, *, bins=None, edges=None, t_min=None,
     return avg
 
 
-def _groups(quantities, have_contacts):
+def groups_for(quantities, have_contacts: bool) -> list:
+    """The quantity groups to compute: the requested ones (checked), or all that the
+    data allow (without contacts, only those that need none)."""
     if quantities is None:
         return [g for g, (_, _, needs) in QUANTITIES.items() if have_contacts or not needs]
     unknown = [q for q in quantities if q not in QUANTITIES]

@@ -39,6 +39,9 @@ def _parser() -> argparse.ArgumentParser:
                      "two inner-ring rotations)")
     sim.add_argument("--block-time", type=float, help="in-situ standard errors from blocks "
                      "of this length in s (default: span/20)")
+    sim.add_argument("--quantities", help="comma-separated quantities the run is for (as "
+                     "for 'average'); if none needs contact forces (nu, rho, v, omega, "
+                     "dsigma, dsigma_fluct), LAMMPS computes and writes no contact output")
     sim.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
     avg = sub.add_parser("average", help="ring profiles of a run (Eqs. 1-7, SI units)")
@@ -88,18 +91,24 @@ def _simulate(args) -> int:
         raise UserError("--np and --omp must be >= 1")
     progress = False if args.no_progress else None
     if args.resume:
-        if args.overrides or args.start or args.engine != "lammps" or args.average:
+        if (args.overrides or args.start or args.engine != "lammps" or args.average
+                or args.quantities):
             raise UserError("--resume continues the run as it was set up; drop --set, "
-                            "--start, --engine and --average")
+                            "--start, --engine, --average and --quantities")
         out = resume(args.out, np_ranks=args.np, omp_threads=args.omp, progress=progress)
     else:
         scene = preset(args.preset).with_overrides(args.overrides)
         out = simulate(scene, args.out, np_ranks=args.np, omp_threads=args.omp,
                        progress=progress, preset=args.preset, start=args.start,
                        engine=args.engine, average=args.average, t_min=args.t_min,
-                       block_time=args.block_time)
+                       block_time=args.block_time, quantities=_names(args.quantities))
     logging.getLogger("granavg").info("run complete: %s", out)
     return 0
+
+
+def _names(text):
+    """'nu, v' -> ['nu', 'v']; None stays None (all quantities)."""
+    return [q.strip() for q in text.split(",")] if text else None
 
 
 def _average(args) -> int:
@@ -111,10 +120,9 @@ def _average(args) -> int:
     out = Path(args.out)
     if out.exists():
         raise UserError(f"{out} exists; choose another --out (results are never overwritten)")
-    quantities = [q.strip() for q in args.quantities.split(",")] if args.quantities else None
     options = dict(bins=args.bins, edges=args.edges, t_min=args.t_min,
-                   block_time=args.block_time, quantities=quantities, atoms=args.atoms,
-                   contacts=args.contacts)
+                   block_time=args.block_time, quantities=_names(args.quantities),
+                   atoms=args.atoms, contacts=args.contacts)
     if args.workers or args.scheduler:
         from .parallel import average_run_dask
         if args.workers is not None and args.workers < 1:

@@ -15,10 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from .analysis import warn_if_inertial
-from .average import ring_average
+from .average import groups_for, ring_average
 from .contacts import COLUMNS
 from .lammps_frames import atoms_by_id
-from .profiles import QUANTITIES
 from .reader import Frame
 
 log = logging.getLogger(__name__)
@@ -42,8 +41,8 @@ class InSituAverage:
 
     def __init__(self, manifest: dict, bins):
         contacts = manifest["scene"].get("contacts", True)
-        self.groups = [g for g, (_, _, needs) in QUANTITIES.items() if contacts or not needs]
         opts = manifest["average"]
+        self.groups = groups_for(opts.get("quantities"), contacts)
         self.averages = {n: ring_average(manifest, self.groups, bins=n,
                                          t_min=opts.get("t_min_s"),
                                          block_time=opts.get("block_time_s"))

@@ -23,16 +23,20 @@ OVERLAP_WARN = 0.2
 
 class Overlaps:
     """The largest overlap seen in the frames (contact dumps or in situ); recorded in the
-    manifest as ``overlap.max_over_d_s`` with a warning above :data:`OVERLAP_WARN`."""
+    manifest as ``overlap.max_over_d_s`` with a warning above :data:`OVERLAP_WARN`. A run
+    that took no contact frames (``contacts=0``) records nothing rather than a zero."""
 
     def __init__(self, derived: Derived):
-        self.d_s, self.max = derived.scene.d_s, 0.0
+        self.d_s, self.max, self.seen = derived.scene.d_s, 0.0, False
 
     def add(self, table) -> None:
+        self.seen = True
         if len(table):
             self.max = max(self.max, float(table[:, COLUMNS.index("overlap")].max()))
 
     def record(self, out: Path) -> None:
+        if not self.seen:
+            return
         ratio = self.max / self.d_s
         manifest = read_manifest(out)
         old = (manifest.get("overlap") or {}).get("max_over_d_s", 0.0)   # an earlier part

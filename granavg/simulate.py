@@ -13,6 +13,7 @@ raw contact dump, which granavg converts to the same contact-dump format afterwa
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import logging
 import math
@@ -33,8 +34,10 @@ from tqdm.auto import tqdm
 from . import __version__
 from .contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table, radius_of_type
 from .dumpfile import open_text, write_frame
+from .profiles import QUANTITIES
 from .reader import DumpReader
 from .errors import LammpsError, UserError
+from .average import groups_for
 from .insitu import InSituAverage, profile_path
 from .lammps_frames import gather, local_atoms, local_contacts
 from .lammps_session import (executable, lammps_env, lammps_session, lammps_version,
@@ -73,7 +76,7 @@ ENGINES = ("lammps", "reference")
 def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
              progress: bool | None = None, preset: str | None = None, start=None,
              engine: str = "lammps", average=None, t_min: float | None = None,
-             block_time: float | None = None) -> Path:
+             block_time: float | None = None, quantities=None) -> Path:
     """Run a new Couette simulation into the empty directory ``out``.
 
     Parameters
@@ -105,12 +108,17 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         In-situ averages start at t_min (s); default two inner-ring rotations.
     block_time : float, optional
         Block length (s) of the in-situ standard errors; default a 20th of the span.
+    quantities : sequence of str, optional
+        The quantities the run is for (names of :data:`granavg.profiles.QUANTITIES`);
+        if none of them needs contact forces, LAMMPS computes and writes no contact
+        output (``contacts`` off), and the in-situ averages compute only these.
 
     Returns
     -------
     Path
         The run directory, with ``manifest.json`` status ``complete``.
     """
+    scene = scene_for(scene, quantities)
     derived = scene.derive()                      # refuse before touching the disk
     start = _check_start(start, engine, np_ranks, omp_threads)
     average = _check_average(derived, average, engine, t_min)
@@ -122,13 +130,30 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         (out / "deck").mkdir()
         shutil.copy2(DECK, out / "deck" / DECK.name)
     manifest = _new_manifest(derived, preset, np_ranks, omp_threads, start, engine)
-    manifest["average"] = {"bins": average, "t_min_s": t_min,
-                           "block_time_s": block_time} if average else None
+    manifest["average"] = {"bins": average, "t_min_s": t_min, "block_time_s": block_time,
+                           "quantities": quantities} if average else None
     for n in average:
         manifest["files"][profile_path(Path("."), n).name] = \
             f"ring profiles over {n} rings, averaged in situ (docs/profiles.md)"
     write_manifest(out, manifest)
     return _execute(out, derived, manifest, resume_from=None, progress=progress)
+
+
+def scene_for(scene: Scene, quantities) -> Scene:
+    """The scene with contact output only when a requested quantity needs it: contact
+    forces for coordination, F, sigma and eps; positions and velocities for the rest."""
+    if quantities is None:
+        return scene
+    groups_for(quantities, have_contacts=True)        # unknown names are refused
+    needs = [q for q in quantities if QUANTITIES[q][2]]
+    if needs and not scene.contacts:
+        raise UserError(f"--quantities {needs[0]} needs contact forces, but the scene has "
+                        "contacts=0; drop the quantity or the setting")
+    if not needs and scene.contacts:
+        log.info("no requested quantity needs contact forces: LAMMPS computes and writes "
+                 "no contact output")
+        return dataclasses.replace(scene, contacts=False)
+    return scene
 
 
 def _check_average(derived: Derived, average, engine, t_min):

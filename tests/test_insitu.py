@@ -23,10 +23,11 @@ AVERAGE = ["--average", "8", "--t-min", "1.5", "--block-time", "0.35"]
 def runs(small_run, tmp_path_factory):
     start = small_run / "prepared.data"
     out = {}
-    for name, extra, np_ in (("serial", [], 1), ("mpi2", ["dumps=0"], 2)):
+    for name, extra, np_, cli in (("serial", [], 1, []), ("mpi2", ["dumps=0"], 2, []),
+                                  ("nu_v", ["dumps=0"], 1, ["--quantities", "nu,v"])):
         out[name] = tmp_path_factory.mktemp(name) / "run"
         proc = run_cli(*small_cell_args(out[name], *CELL, *extra, np=np_), "--start", start,
-                       *AVERAGE)
+                       *AVERAGE, *cli)
         assert proc.returncode == 0, proc.stderr
     return out
 
@@ -50,9 +51,25 @@ def test_two_ranks_write_no_dumps_and_the_same_manifest(runs):
     assert m2["status"] == "complete" and m2["execution"]["np"] == 2
     differ = {k for k in m1 if m1[k] != m2[k]}
     # the largest overlap is a maximum over two realisations: recorded in both
-    assert differ <= {"execution", "started", "finished", "scene", "files", "overlap"}, differ
+    assert differ <= {"execution", "started", "finished", "scene", "files", "overlap",
+                      "timing"}, differ
     assert 0 < m2["overlap"]["max_over_d_s"] < m2["overlap"]["warn_above"]
     assert {k for k in m1["scene"] if m1["scene"][k] != m2["scene"][k]} == {"dumps"}
+
+
+def test_a_run_for_density_and_velocity_takes_no_contacts_and_gets_the_same_answer(runs):
+    """--quantities nu,v: LAMMPS computes no contact output (contacts off in the scene,
+    no overlap record, no contact frames), only nu and v are averaged, and they are the
+    full run's values: the trajectory does not depend on what is taken from it."""
+    m = json.loads((runs["nu_v"] / "manifest.json").read_text())
+    assert m["scene"]["contacts"] is False and "overlap" not in m
+    assert m["average"]["quantities"] == ["nu", "v"]
+    slim = RingProfiles.read(runs["nu_v"] / "profiles_8.csv")
+    full = RingProfiles.read(runs["serial"] / "profiles_8.csv")
+    assert set(slim.values) == {"nu", "v_r", "v_phi"}
+    for q, v in slim.values.items():
+        np.testing.assert_array_equal(v, full.values[q], err_msg=q)
+        np.testing.assert_array_equal(slim.sem[q], full.sem[q], err_msg=q)
 
 
 QUANTITIES = ["nu", "v_phi", "F_rr", "F_phiphi", "sigma_rr", "sigma_phiphi", "sigma_rphi",
@@ -79,6 +96,8 @@ def test_two_ranks_give_the_same_profiles_within_standard_errors(runs):
     (["--set", "dumps=0"], "add --average"),
     (["--average", "8", "--t-min", "100"], "after the end of shear"),
     (["--average", "0"], "ring counts must be >= 1"),
+    (["--quantities", "nu,pressure"], "unknown quantity 'pressure'"),
+    (["--quantities", "sigma", "--set", "contacts=0"], "sigma needs contact forces"),
 ])
 def test_in_situ_refusals(tmp_path, args, message):
     proc = run_cli(*small_cell_args(tmp_path / "r"), *args)
