@@ -88,3 +88,17 @@ class RingAccumulator:
     def block_means(self) -> list:
         """Mean ring sums of each block, in time order."""
         return [s / n for _, (n, s) in sorted(self.blocks.items())]
+
+    def block_sums(self):
+        """Frame counts and summed ring sums of the blocks, in time order.
+
+        Returns
+        -------
+        counts : ndarray, shape (n_blocks,)
+        sums : ndarray, shape (n_blocks, *shape)
+        """
+        items = sorted(self.blocks.items())
+        if not items:
+            return np.zeros(0), np.zeros((0, *self.shape))
+        return (np.array([n for _, (n, _) in items], float),
+                np.stack([s for _, (_, s) in items]))

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,9 +28,18 @@ from .profiles import (ATOM_COLUMNS, CONTACT_COLUMNS, QUANTITIES, flags,
                        standard_errors, values)
 from .reader import DumpReader, FramePairs
 from .rundir import read_manifest
+from .timeseries import DRIFT_Z, TimeSeries, stationarity
+from .uncertainty import Replicates
 from .weights import ring_weights
 
 log = logging.getLogger(__name__)
+
+#: Base time blocks of the blocking analysis: one per frame, at most this many.
+MAX_BLOCKS = 512
+#: Suffix of the replicate profiles written beside a profiles table.
+REPLICATES = ".replicates.npz"
+#: Suffix of the per-frame time series written beside a profiles table.
+TIMESERIES = ".timeseries.csv"
 
 
 @dataclass(frozen=True)
@@ -67,7 +77,28 @@ class Rings:
 
 @dataclass
 class RingProfiles:
-    """Time-averaged ring profiles and their standard errors (SI units)."""
+    """Time-averaged ring profiles and their standard errors (SI units).
+
+    Attributes
+    ----------
+    rings : Rings
+    values, sem : dict of name -> ndarray, shape (n_rings,)
+        Values and standard errors (blocking analysis for one run, between-run for an
+        ensemble).
+    flags : ndarray of str, shape (n_rings,)
+    n_frames : int
+    meta : dict
+        The JSON sidecar (``meta["errors"]`` says how the errors were made and where
+        they are only lower bounds).
+    replicates : Replicates, optional
+        Profiles on parts of the data (jackknife blocks, or one per realisation): the
+        errors of derived numbers (fits, maxima) come from them.
+    n_runs : ndarray, optional
+        Realisations with a finite value per ring (ensembles only), shape (n_rings,).
+    timeseries : DataFrame, optional
+        The state of every frame read (:mod:`granavg.timeseries`), written as
+        ``<path>.timeseries.csv``; ``meta["stationarity"]`` judges the averaging window.
+    """
 
     rings: Rings
     values: dict
@@ -75,6 +106,9 @@ class RingProfiles:
     flags: np.ndarray
     n_frames: int
     meta: dict = field(default_factory=dict)
+    replicates: Replicates | None = None
+    n_runs: np.ndarray | None = None
+    timeseries: pd.DataFrame | None = None
 
     def to_frame(self) -> pd.DataFrame:
         """One row per ring: r_lo, r_hi, r, V, n_frames, each value and ``<name>_sem``,
@@ -82,6 +116,8 @@ class RingProfiles:
         cols = {"r_lo": self.rings.edges[:-1], "r_hi": self.rings.edges[1:],
                 "r": self.rings.centre, "V": self.rings.volume,
                 "n_frames": np.full(self.rings.n, self.n_frames)}
+        if self.n_runs is not None:
+            cols["n_runs"] = self.n_runs
         for name, v in self.values.items():
             cols[name], cols[f"{name}_sem"] = v, self.sem[name]
         cols["flags"] = self.flags
@@ -99,13 +135,23 @@ class RingProfiles:
         meta = json.loads(side.read_text())
         rings = Rings(np.asarray(meta["rings"]["edges_m"]), meta["rings"]["h_m"])
         names = [c for c in table.columns if f"{c}_sem" in table.columns]
+        reps = path.with_name(path.name + REPLICATES)
+        replicates = None
+        if reps.exists():
+            with np.load(reps) as z:
+                replicates = Replicates(str(z["kind"]), {k: z[k] for k in z.files if k != "kind"})
+        series = path.with_name(path.name + TIMESERIES)
         return cls(rings, {n: table[n].to_numpy() for n in names},
                    {n: table[f"{n}_sem"].to_numpy() for n in names},
                    np.array([f if isinstance(f, str) else "" for f in table["flags"]], dtype=object),
-                   int(table["n_frames"].iloc[0]), meta)
+                   int(table["n_frames"].iloc[0]), meta, replicates,
+                   table["n_runs"].to_numpy() if "n_runs" in table.columns else None,
+                   pd.read_csv(series) if series.exists() else None)
 
     def write(self, path, parquet: bool = False) -> Path:
-        """Write the table (CSV, or Parquet) and a JSON sidecar ``<path>.json``."""
+        """Write the table (CSV, or Parquet), a JSON sidecar ``<path>.json`` and the
+        replicates ``<path>.replicates.npz``: each to a temporary name first, renamed
+        only when all are complete."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         table = self.to_frame()
@@ -114,10 +160,29 @@ class RingProfiles:
                 import pyarrow  # noqa: F401  (pandas' Parquet engine)
             except ImportError:
                 raise UserError("--parquet needs pyarrow: pip install 'granavg[parquet]'") from None
-            table.to_parquet(path, index=False)
-        else:
-            table.to_csv(path, index=False, float_format="%.10g")
-        path.with_name(path.name + ".json").write_text(json.dumps(self.meta, indent=2) + "\n")
+        targets = [path, path.with_name(path.name + ".json")]
+        if self.replicates is not None:
+            targets.append(path.with_name(path.name + REPLICATES))
+        if self.timeseries is not None:
+            targets.append(path.with_name(path.name + TIMESERIES))
+        tmp = [t.with_name(f".{t.name}.tmp{os.getpid()}") for t in targets]
+        try:
+            if parquet:
+                table.to_parquet(tmp[0], index=False)
+            else:
+                table.to_csv(tmp[0], index=False, float_format="%.10g")
+            tmp[1].write_text(json.dumps(self.meta, indent=2) + "\n")
+            extra = iter(tmp[2:])
+            if self.replicates is not None:
+                with open(next(extra), "wb") as fh:
+                    np.savez(fh, kind=self.replicates.kind, **self.replicates.values)
+            if self.timeseries is not None:
+                self.timeseries.to_csv(next(extra), index=False, float_format="%.8g")
+            for t, final in zip(tmp, targets):
+                os.replace(t, final)
+        finally:
+            for t in tmp:
+                t.unlink(missing_ok=True)
         return path
 
 
@@ -135,14 +200,17 @@ class RingAverage:
     t_min : float
         Frames before t_min (s) are not averaged.
     block_time : float
-        Block length (s) for standard errors.
+        Length (s) of the base time blocks of the blocking analysis.
+    series : TimeSeries, optional
+        Records the state of every frame (also those before t_min).
     """
 
     def __init__(self, frames, rings: Rings, groups, rho_p: float, t_min: float,
-                 block_time: float):
+                 block_time: float, series: TimeSeries | None = None):
         self.frames, self.rings, self.groups = frames, rings, list(groups)
         self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
         self.channels = sorted({c for g in self.groups for c in QUANTITIES[g][1]})
+        self.series = series
         self.results: RingProfiles | None = None
         self.meta: dict = {}
 
@@ -155,11 +223,15 @@ class RingAverage:
         return self.conclude()
 
     def prepare(self):
-        """Start with an empty accumulator."""
+        """Start with an empty accumulator (and time series)."""
         self.acc = RingAccumulator((self.rings.n, len(CHANNELS)), self.t_min, self.block_time)
+        if self.series is not None:
+            self.series.rows = []
 
     def add(self, frame):
-        """Accumulate one frame (ignored if t < t_min)."""
+        """Record the frame's state; accumulate it if t >= t_min."""
+        if self.series is not None:
+            self.series.add(frame)
         if frame.time >= self.t_min:
             self.acc.add(frame.timestep, frame.time, frame_sums(
                 frame, self.rings, self.rho_p, self.channels))
@@ -171,18 +243,57 @@ class RingAverage:
             raise UserError(f"no frame at t >= t_min = {self.t_min:g} s; lower --t-min")
         S = acc.mean()
         vals = values(S, V, self.rho_p, self.groups)
-        blocks = acc.block_means()
-        sem = standard_errors(blocks, V, self.rho_p, self.groups, list(vals))
+        counts, sums = acc.block_sums()
+        sem, lower, replicates = standard_errors(counts, sums, V, self.rho_p, self.groups)
         meta = {**self.meta, "frames": {**self.meta.get("frames", {}), "n": acc.n_frames}}
         ring_flags = flags(S, self.groups)
-        if len(blocks) < 2:
+        extra = [[] for _ in ring_flags]
+        if len(counts) < 2:
             log.warning("all %d frames fall in one time block: no standard errors (NaN, flag "
                         "'one_block'); average more frames or shorten --block-time",
                         acc.n_frames)
-            ring_flags = np.array([";".join(filter(None, (f, "one_block"))) for f in ring_flags],
-                                  dtype=object)
-        self.results = RingProfiles(self.rings, vals, sem, ring_flags, acc.n_frames, meta)
+            extra = [["one_block"] for _ in ring_flags]
+        else:
+            bound = np.zeros(len(V), bool)
+            for name, lb in lower.items():
+                bound |= lb & np.isfinite(vals[name])
+            for k in np.flatnonzero(bound):
+                extra[k].append("sem_lower_bound")
+        ring_flags = np.array([";".join(filter(None, (f, *e))) for f, e in zip(ring_flags, extra)],
+                              dtype=object)
+        meta["errors"] = {
+            "method": "blocking analysis over time blocks (Flyvbjerg-Petersen; level by "
+                      "Lee et al. 2011); derived numbers from delete-one-block jackknife",
+            "base_blocks": int(len(counts)),
+            "jackknife_blocks": replicates.n if replicates else 0,
+            "lower_bound": {n: [int(k) for k in np.flatnonzero(lb & np.isfinite(vals[n]))]
+                            for n, lb in lower.items() if np.any(lb & np.isfinite(vals[n]))}}
+        series = None
+        if self.series is not None and self.series.rows:
+            series = self.series.frame()
+            meta["stationarity"] = stationarity(series, self.t_min)
+            warn_if_drifting(meta["stationarity"], self.t_min)
+        self.results = RingProfiles(self.rings, vals, sem, ring_flags, acc.n_frames, meta,
+                                    replicates, timeseries=series)
         return self.results
+
+
+def warn_if_drifting(judged: dict, t_min: float) -> list:
+    """Log a warning naming each quantity that drifts over the window; returns them."""
+    drifting = [q for q, r in judged.items() if r["drifts"]]
+    unsure = [q for q, r in judged.items() if r.get("undetermined")]
+    if unsure:
+        log.warning("the averaging window t >= %g s may not be steady in %s: the change "
+                    "exceeds %g errors, but the errors are only lower bounds (fluctuations "
+                    "as slow as the window)", t_min, ", ".join(unsure), DRIFT_Z)
+    if drifting:
+        starts = [judged[q]["steady_from_s"] for q in drifting]
+        where = ("it would be steady from t = %.0f s (--t-min)" % max(starts)
+                 if None not in starts else "no later start gives a steady stretch")
+        log.warning("the averaging window t >= %g s is not steady: %s; %s", t_min, ", ".join(
+            f"{q} {judged[q]['first_half']:.3g} -> {judged[q]['second_half']:.3g} "
+            f"({judged[q]['z']:.1f} errors)" for q in drifting), where)
+    return drifting
 
 
 def frame_sums(frame, rings: Rings, rho_p: float, channels) -> np.ndarray:
@@ -219,7 +330,8 @@ def average_run(run_dir=None, *, bins=None, edges=None, t_min=None, block_time=N
     t_min : float, optional
         Start of the average (s); default two inner-ring rotations, 2 T = 4 pi / Omega.
     block_time : float, optional
-        Block length (s) for standard errors; default a 20th of the averaged span.
+        Length (s) of the base blocks of the blocking analysis; default one dump
+        interval (at most 512 blocks over the averaged span).
     quantities : sequence of str, optional
         Keys of :data:`~granavg.profiles.QUANTITIES`; default all that the files allow.
     atoms, contacts : path, optional
@@ -261,16 +373,17 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
 def ring_average(manifest: dict, groups, *, bins=None, edges=None, t_min=None,
                  block_time=None, frames=None) -> RingAverage:
     """A :class:`RingAverage` of a run (its manifest) with granavg's defaults: 20 equal
-    rings from R_i to R_o, t_min = two inner-ring rotations, blocks of a 20th of the
-    averaged span. Its profiles' ``meta`` describe the average (SI units)."""
+    rings from R_i to R_o, t_min = two inner-ring rotations, base blocks of one dump
+    interval (at most 512). Its profiles' ``meta`` describe the average (SI units)."""
     scene, derived = manifest["scene"], manifest["derived"]
     rings = Rings(np.asarray(edges, float), scene["h"]) if edges is not None else \
         Rings.count(20 if bins is None else bins, scene["R_i"], scene["R_o"], scene["h"])
     T = 2 * math.pi / scene["Omega"]
     t_min = 2 * T if t_min is None else float(t_min)
     t_end = derived["t_end_s"]
-    block_time = block_time or max(derived["dump_interval_s"], (t_end - t_min) / 20)
-    avg = RingAverage(frames, rings, groups, scene["rho_p"], t_min, block_time)
+    block_time = block_time or max(derived["dump_interval_s"], (t_end - t_min) / MAX_BLOCKS)
+    series = TimeSeries(scene["R_i"], scene["R_o"], scene["h"], scene["rho_p"], scene["d_s"])
+    avg = RingAverage(frames, rings, groups, scene["rho_p"], t_min, block_time, series)
     avg.meta = {
         "granavg_version": __version__, "units": "SI (m, s, kg, N, Pa)",
         "quantities": list(groups), "rings": {"edges_m": list(rings.edges), "h_m": rings.h},

@@ -37,15 +37,24 @@ def _parser() -> argparse.ArgumentParser:
                      "LAMMPS runs: writes profiles_N.csv; with --set dumps=0 no dump files")
     sim.add_argument("--t-min", type=float, help="in-situ averages from t >= T s (default: "
                      "two inner-ring rotations)")
-    sim.add_argument("--block-time", type=float, help="in-situ standard errors from blocks "
-                     "of this length in s (default: span/20)")
+    sim.add_argument("--block-time", type=float, help="in-situ standard errors: base blocks "
+                     "of this length in s (default: one dump interval, at most 512)")
     sim.add_argument("--quantities", help="comma-separated quantities the run is for (as "
                      "for 'average'); if none needs contact forces (nu, rho, v, omega, "
                      "dsigma, dsigma_fluct), LAMMPS computes and writes no contact output")
+    sim.add_argument("--seeds", type=int, metavar="K", help="run K independent "
+                     "realisations (different random packings) into OUT/seed<N>/, on a "
+                     "dask cluster; average them together with 'granavg average RUN RUN ...'")
+    sim.add_argument("--workers", type=int, default=2, help="with --seeds: processes of "
+                     "the local dask cluster, one single-threaded LAMMPS each (default 2)")
+    sim.add_argument("--scheduler", metavar="ADDRESS", help="with --seeds: run the "
+                     "realisations on this dask scheduler's workers")
     sim.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
     avg = sub.add_parser("average", help="ring profiles of a run (Eqs. 1-7, SI units)")
-    avg.add_argument("run_dir", help="run directory of 'granavg simulate' (manifest + dumps)")
+    avg.add_argument("run_dir", nargs="+", help="run directory of 'granavg simulate' "
+                     "(manifest + dumps); several: independent realisations of one scene, "
+                     "combined into ensemble profiles with between-run errors")
     avg.add_argument("--atoms", help="per-atom dump to use instead of the run's")
     avg.add_argument("--contacts", help="per-contact dump to use instead of the run's")
     rings = avg.add_mutually_exclusive_group()
@@ -56,7 +65,9 @@ def _parser() -> argparse.ArgumentParser:
     avg.add_argument("--t-min", type=float, help="average frames with t >= T s "
                      "(default: two inner-ring rotations)")
     avg.add_argument("--block-time", type=float,
-                     help="block length in s for standard errors (default: span/20)")
+                     help="length in s of the base time blocks of the blocking analysis "
+                     "behind the standard errors (default: one dump interval, at most 512 "
+                     "blocks)")
     avg.add_argument("--quantities", help="comma-separated subset of: nu, rho, v, omega, "
                      "coordination, F, sigma, dsigma, dsigma_fluct, eps (default: all)")
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
@@ -96,6 +107,16 @@ def _simulate(args) -> int:
             raise UserError("--resume continues the run as it was set up; drop --set, "
                             "--start, --engine, --average and --quantities")
         out = resume(args.out, np_ranks=args.np, omp_threads=args.omp, progress=progress)
+    elif args.seeds is not None:
+        from .ensemble import simulate_ensemble
+        if args.np != 1 or args.omp != 1 or args.start or args.engine != "lammps" or args.average:
+            raise UserError("--seeds runs each realisation as one single-threaded LAMMPS "
+                            "task; drop --np, --omp, --start, --engine and --average")
+        scene = preset(args.preset).with_overrides(args.overrides)
+        runs = simulate_ensemble(scene, args.out, args.seeds, workers=args.workers,
+                                 scheduler=args.scheduler, preset=args.preset,
+                                 quantities=_names(args.quantities))
+        out = ", ".join(str(r) for r in runs)
     else:
         scene = preset(args.preset).with_overrides(args.overrides)
         out = simulate(scene, args.out, np_ranks=args.np, omp_threads=args.omp,
@@ -116,6 +137,7 @@ def _average(args) -> int:
 
     from .analysis import warn_if_inertial
     from .average import average_run
+    from .ensemble import average_runs
 
     out = Path(args.out)
     if out.exists():
@@ -123,15 +145,18 @@ def _average(args) -> int:
     options = dict(bins=args.bins, edges=args.edges, t_min=args.t_min,
                    block_time=args.block_time, quantities=_names(args.quantities),
                    atoms=args.atoms, contacts=args.contacts)
+    if len(args.run_dir) > 1 and (args.atoms or args.contacts):
+        raise UserError("--atoms and --contacts name the dumps of one run; give one run "
+                        "directory with them")
     if args.workers or args.scheduler:
         from .parallel import average_run_dask
         if args.workers is not None and args.workers < 1:
             raise UserError("--workers must be >= 1")
-        profiles = average_run_dask(args.run_dir, workers=args.workers or 2,
-                                    scheduler=args.scheduler, **options)
+        profiles = average_runs(args.run_dir, average_run_dask, workers=args.workers or 2,
+                                scheduler=args.scheduler, **options)
     else:
-        profiles = average_run(args.run_dir, progress=False if args.no_progress else None,
-                               **options)
+        profiles = average_runs(args.run_dir, average_run,
+                                progress=False if args.no_progress else None, **options)
     profiles.write(out, parquet=args.parquet)
     warn_if_inertial(profiles)
     logging.getLogger("granavg").info("%d rings x %d frames -> %s (+ %s.json)",
@@ -173,6 +198,8 @@ def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="granavg: %(message)s")
+    for noisy in ("distributed", "tornado", "bokeh"):     # dask's own chatter
+        logging.getLogger(noisy).setLevel(logging.DEBUG if args.verbose else logging.WARNING)
     try:
         return {"simulate": _simulate, "average": _average, "analyze": _analyze,
                 "demo": _demo}[args.command](args)

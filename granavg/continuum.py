@@ -3,9 +3,17 @@
 Pure functions of arrays over rings (radius r in m); no plotting. Conventions:
 
 - sigma = sum f (x) l with f the force on the particle is tension-positive (a compressed
-  packing has sigma_rr < 0); with rho a = div sigma, steady and axisymmetric, the radial
-  balance is Eq. 11: 0 = rho v_phi^2 + r d(sigma_rr)/dr + sigma_rr - sigma_phiphi.
-- Eq. 12 is used as printed: 0 = r d(sigma_rphi)/dr + sigma_rphi + sigma_phir.
+  packing has sigma_rr < 0). Its *first* index is the force's, the second the branch
+  vector's (sigma_ij = f_i l_j), so the force balance takes the divergence on the second
+  index: (div T)_i = d_j T_ij.
+- Momentum balance, steady and axisymmetric: div(sigma - dsigma) = 0, with the dynamic
+  stress dsigma = rho <v (x) v> of Eq. 6 (the momentum flux; the mean flow's part
+  rho v_phi^2 e_phi (x) e_phi is the inertial term of Eq. 11, so no separate rho v_phi^2
+  is added). Times r, in components:
+  radial (Eq. 11): r dT_rr/dr + T_rr - T_phiphi, tangential (Eq. 12 with this index
+  order): r dT_phir/dr + T_rphi + T_phir, for T = sigma - dsigma. The paper prints
+  r d(sigma_rphi)/dr, which is the same equation for the transposed convention
+  (sigma_ij = l_i f_j); for a symmetric tensor both agree.
 - Eq. 14: D_rphi = (dv/dr - v/r)/2, W_rphi = (dv/dr + v/r)/2, so a rigid rotation
   v = Omega r has D = 0 and W = Omega, the same sign as the particles' spin omega.
 """
@@ -66,7 +74,7 @@ def decay_range(v, sem):
     return n, noise
 
 
-def fit_shear_band(r, v, sem, R_i) -> ShearBand:
+def fit_shear_band(r, v, sem, R_i, n_rings=None) -> ShearBand:
     """Weighted least-squares fit of ln v = ln v0 - (r - R_i)/s over the decay range.
 
     Parameters
@@ -75,9 +83,19 @@ def fit_shear_band(r, v, sem, R_i) -> ShearBand:
         Ring radius (m), v_phi and its standard error (m/s).
     R_i : float
         Inner ring radius (m).
+    n_rings : int, optional
+        Fit this many inner rings instead of the decay range (for replicates and the
+        range-sensitivity of s).
+
+    The errors ``v0_err`` and ``s_err`` treat the rings as independent; the analysis
+    replaces them by errors from replicates (:mod:`granavg.uncertainty`).
     """
     r, v, sem = (np.asarray(x, float) for x in (r, v, sem))
     n, noise = decay_range(v, sem)
+    if n_rings is not None:
+        n = int(min(max(n_rings, 0), len(r)))
+        if not np.all(np.isfinite(v[:n]) & (v[:n] > 0)):
+            n = 0
     if n < 3:
         raise UserError(f"v_phi is above its noise level ({noise:.3g} m/s) in only {n} "
                         "ring(s) next to the inner wall; no decay to fit (use finer rings "
@@ -100,7 +118,10 @@ def power_law(r, y, sem=None):
 
     With standard errors the fit is weighted (relative errors sem/|y|) and the error
     follows from them, inflated by the scatter if that is larger; without, points weigh
-    the same and the error comes from the scatter alone.
+    the same and the error comes from the scatter alone. Either error assumes
+    independent rings; ring errors of one run are strongly correlated (the whole cell's
+    pressure moves every ring), so the analysis takes the exponent's error from
+    replicates instead.
     """
     r, y = np.asarray(r, float), np.abs(np.asarray(y, float))
     weighted = sem is not None
@@ -122,10 +143,15 @@ def trace(T):
 
 
 def deviator_norm(T):
-    """|dev T|: Frobenius norm of the deviator of the symmetric part of T,
-    sqrt(2 ((T_rr - T_phiphi)/2)^2 + 2 ((T_rphi + T_phir)/2)^2)."""
+    """|dev T|: the magnitude of the eigenvalues +-(T_1 - T_2)/2 of the deviator of the
+    symmetric part of T, sqrt(((T_rr - T_phiphi)/2)^2 + ((T_rphi + T_phir)/2)^2).
+
+    This is the "dev" of the analysis and of Figs. 3 and 5 (half the eigenvalue
+    difference). The paper's text does not define its scalar norm; the Frobenius norm
+    of the deviator is sqrt(2) times this, the full eigenvalue difference 2 times.
+    """
     rr, rp, pr, pp = (np.asarray(t, float) for t in T)
-    return np.sqrt(0.5 * (rr - pp) ** 2 + 0.5 * (rp + pr) ** 2)
+    return np.sqrt(0.25 * (rr - pp) ** 2 + 0.25 * (rp + pr) ** 2)
 
 
 def orientation(T):
@@ -153,23 +179,36 @@ def derivative(r, y):
     return np.gradient(np.asarray(y, float), np.asarray(r, float), edge_order=2)
 
 
-def equations_of_motion(r, sigma, rho=None, v_phi=None):
-    """Residuals of Eqs. 11 and 12 per ring (Pa).
+def equations_of_motion(r, T):
+    """Residuals r (div T)_r and r (div T)_phi per ring (Pa), steady and axisymmetric.
 
     Parameters
     ----------
-    r : ndarray
+    r : ndarray, shape (n_rings,)
         Ring radii, m.
-    sigma : tuple of 4 ndarray
-        Stress components rr, rphi, phir, phiphi (Pa); static, or static + dynamic.
-    rho, v_phi : ndarray, optional
-        Density (kg/m^3) and velocity (m/s) for the inertial term rho v_phi^2 of Eq. 11.
+    T : tuple of 4 ndarray, shape (n_rings,) each
+        Components rr, rphi, phir, phiphi (Pa), first index the force's: the static
+        stress sigma alone, or the total sigma - dsigma (momentum balance; see the
+        module's conventions).
+
+    Returns
+    -------
+    radial : ndarray
+        r dT_rr/dr + T_rr - T_phiphi (Eq. 11; with T = sigma - dsigma its inertial term
+        rho v_phi^2 comes from -dsigma_phiphi).
+    tangential : ndarray
+        r dT_phir/dr + T_rphi + T_phir (Eq. 12, divergence on the second index).
     """
-    rr, rp, pr, pp = sigma
-    inertial = 0.0 if rho is None else np.asarray(rho) * np.asarray(v_phi) ** 2
-    radial = inertial + r * derivative(r, rr) + (rr - pp)
-    tangential = r * derivative(r, rp) + (rp + pr)
+    rr, rp, pr, pp = (np.asarray(t, float) for t in T)
+    radial = r * derivative(r, rr) + (rr - pp)
+    tangential = r * derivative(r, pr) + (rp + pr)
     return radial, tangential
+
+
+def momentum_flux_total(sigma, dsigma):
+    """sigma - dsigma componentwise: the tensor whose divergence vanishes in steady
+    flow (Pa)."""
+    return tuple(np.asarray(s) - np.asarray(d) for s, d in zip(sigma, dsigma))
 
 
 def deformation_rate_and_spin(r, v_phi):
@@ -187,10 +226,3 @@ def deformation_rate_and_spin_fit(r, band: ShearBand, R_i):
 def eigen_rotation(omega, W):
     """omega* = omega - W_rphi (1/s): the particles' spin beyond the continuum's (Fig. 9)."""
     return np.asarray(omega) - np.asarray(W)
-
-
-def alternates(x) -> bool:
-    """True if consecutive values (ignoring NaN) change sign at every step."""
-    x = np.asarray(x, float)
-    x = x[np.isfinite(x)]
-    return len(x) >= 2 and bool(np.all(np.sign(x[1:]) * np.sign(x[:-1]) < 0))

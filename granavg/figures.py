@@ -131,7 +131,9 @@ def fig6(p20, p60, summary, axes=None):
 
 
 def fig7(p20, p60, summary, axes=None):
-    """Residuals of the equations of motion (Eqs. 11-12), static vs. total (Fig. 7)."""
+    """Residuals of the equations of motion (Eqs. 11-12), r div T, for the static stress
+    alone and for the total T = sigma - dsigma whose divergence vanishes in steady flow
+    (Fig. 7)."""
     ax = _axes(axes, 2)
     for k, p in enumerate((p20, p60)):
         st, tot, scale = summary["series"][f"eom_{p.rings.n}"]
@@ -141,7 +143,7 @@ def fig7(p20, p60, summary, axes=None):
                        label=f"static ({p.rings.n} rings)")
             ax[j].plot(p.rings.centre, tot[j] / scale, marker=MARKERS[k + 2], ls="none",
                        color=OKABE_ITO[1], mfc=OKABE_ITO[1] if k == 0 else "none",
-                       label=f"static + dynamic ({p.rings.n} rings)")
+                       label=f"total, sigma - dsigma ({p.rings.n} rings)")
             ax[j].set(xlabel="r (m)", ylabel=f"residual / {scale:.3g} Pa (-)", title=title)
     for a in ax:
         a.axhline(0, color="k", lw=0.5)
@@ -190,7 +192,42 @@ def fig9(p20, p60, summary, axes=None):
     return ax
 
 
-FIGURES = {"fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
+#: Panels of the time-series figure: (columns, y label, log scale).
+_SERIES_PANELS = [
+    (("C", "C_bulk"), "coordination (contacts per disk)", False),
+    (("P_bulk_Pa",), "bulk static pressure -tr(sigma)/2 (Pa)", True),
+    (("rattler_fraction",), "rattler fraction, < 2 contacts (-)", False),
+    (("overlap_mean_over_d", "overlap_max_over_d"), "overlap / d_s (-)", True),
+    (("ke_J",), "kinetic energy (J)", True),
+    (("psi6_bulk", "psi6_bulk_ordered"), "bulk hexatic order |psi_6|, share > 0.8 (-)", False),
+]
+
+
+def fig_timeseries(p20, p60, summary, axes=None):
+    """The packing's state against time, the averaging window shaded (t >= t_min);
+    one line per realisation for an ensemble."""
+    ts = p20.timeseries if p20.timeseries is not None else p60.timeseries
+    if axes is None:
+        _, axes = plt.subplots(2, 3, figsize=(12.6, 6.0), constrained_layout=True)
+    ax = np.atleast_1d(axes).ravel()
+    if ts is None:
+        ax[0].text(0.5, 0.5, "no time series (profiles from an older granavg)",
+                   ha="center", transform=ax[0].transAxes)
+        return ax
+    t_min = (p20.meta.get("frames") or {}).get("t_min_s", 0.0)
+    runs = list(ts.groupby("run")) if "run" in ts else [(None, ts)]
+    for a, (cols, label, log) in zip(ax, _SERIES_PANELS):
+        for k, col in enumerate(c for c in cols if c in ts):
+            for j, (run, part) in enumerate(runs):
+                a.plot(part.t_s, part[col], color=OKABE_ITO[k], lw=0.8, alpha=1 if j == 0 else 0.5,
+                       label=col if j == 0 else None)
+        a.axvspan(t_min, ts.t_s.max(), color="0.9", zorder=0, label="averaged")
+        a.set(xlabel="t (s)", ylabel=label, yscale="log" if log else "linear")
+        a.legend(fontsize=6)
+    return ax
+
+
+FIGURES = {"timeseries": fig_timeseries, "fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
            "fig7": fig7, "fig8": fig8, "fig9": fig9}
 
 

@@ -47,7 +47,9 @@ class InSituAverage:
                                          t_min=opts.get("t_min_s"),
                                          block_time=opts.get("block_time_s"))
                          for n in bins}
-        for avg in self.averages.values():
+        for k, avg in enumerate(self.averages.values()):
+            if k:
+                avg.series = None                 # one time series serves every ring count
             avg.prepare()
         self.dt, self.contacts = manifest["derived"]["dt_s"], contacts
 
@@ -61,9 +63,14 @@ class InSituAverage:
 
     def write(self, out: Path) -> list:
         """Conclude and write ``profiles_<bins>.csv`` (+ JSON sidecar) into ``out``."""
-        paths = []
+        paths, first = [], None
         for n, avg in self.averages.items():
             profiles = avg.conclude()
+            if first is None:
+                first = profiles
+            else:
+                profiles.timeseries = first.timeseries
+                profiles.meta["stationarity"] = first.meta.get("stationarity")
             profiles.meta["files"] = {"atoms": "in situ (no file)",
                                       "contacts": "in situ (no file)" if self.contacts else None}
             paths.append(profiles.write(profile_path(out, n)))

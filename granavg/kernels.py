@@ -97,9 +97,9 @@ def _contact_channels(q, atoms, contacts, er, ephi, vol, h, want):
     """Add each contact to both of its disks (only the disk of a wall contact)."""
     ids = atoms["id"]
     pair = contacts["wall"] == 0
-    i1 = _rows_of(ids, contacts["id1"])
+    i1 = rows_of(ids, contacts["id1"])
     i2 = np.full(len(i1), -1, dtype=np.int64)
-    i2[pair] = _rows_of(ids, contacts["id2"][pair])
+    i2[pair] = rows_of(ids, contacts["id2"][pair])
     nc = np.zeros(len(vol))
     fab, sig, dfm = (np.zeros((len(vol), 4)) for _ in range(3))
     _accumulate_contacts(i1, i2, contacts["fnx"] + contacts["ftx"],
@@ -145,7 +145,7 @@ def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih,
             dfm[p, 3] += d * n_phi * n_phi
 
 
-def _rows_of(ids, wanted):
+def rows_of(ids, wanted):
     """Row of each id in the atom ids; an unknown id is a user error."""
     ids = ids.astype(np.int64)
     wanted = wanted.astype(np.int64)

@@ -3,8 +3,9 @@
 Values come from the sums averaged over all frames (:mod:`granavg.accumulate`):
 ratios such as v = <nu v>/<nu> and eps = <sum Delta l> <F>^-1 are taken of the averages,
 not averaged per frame. The standard error of every value is the spread of the same
-value computed per time block, divided by sqrt(number of blocks) (frames are correlated;
-blocks much longer than the correlation time are not).
+value computed per time block, by blocking analysis (:mod:`granavg.uncertainty`): blocks
+are merged until they are long against the correlation time, and where that is not
+reached the error is flagged as a lower bound.
 
 Columns (SI units; docs/profiles.md): ``nu`` (-), ``rho`` (kg/m^3), ``v_r``, ``v_phi``
 (m/s), ``omega`` (rad/s), ``coordination`` (-), ``F_*`` (-), ``sigma_*`` (Pa),
@@ -14,11 +15,10 @@ tensor components ``rr, rphi, phir, phiphi`` in each particle's polar basis.
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
 from .kernels import INDEX, TENSOR
+from .uncertainty import Replicates, blocking_errors, jackknife_sums
 
 #: quantity group -> (profile columns, channels it needs, needs contacts)
 QUANTITIES = {
@@ -129,12 +129,46 @@ def flags(S: np.ndarray, groups) -> np.ndarray:
     return np.array([";".join(f) for f in out], dtype=object)
 
 
-def standard_errors(block_means, V, rho_p, groups, names) -> dict:
-    """Standard error of each value from the spread over blocks (NaN with < 2 blocks)."""
-    if len(block_means) < 2:
-        return {n: np.full(len(V), np.nan) for n in names}
-    per_block = [values(b, V, rho_p, groups) for b in block_means]
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)     # all-NaN rings stay NaN
-        return {n: np.nanstd([pb[n] for pb in per_block], axis=0, ddof=1)
-            / np.sqrt(len(per_block)) for n in names}
+def block_values(mean_sums, V, rho_p, groups) -> dict:
+    """Profile values of many blocks at once.
+
+    Parameters
+    ----------
+    mean_sums : ndarray, shape (m, n_rings, n_channels)
+        Mean ring sums of m blocks (or replicates).
+
+    Returns
+    -------
+    dict of name -> ndarray, shape (m, n_rings)
+    """
+    m, n = mean_sums.shape[:2]
+    flat = values(mean_sums.reshape(m * n, -1), np.tile(V, m), rho_p, groups)
+    return {k: v.reshape(m, n) for k, v in flat.items()}
+
+
+def standard_errors(counts, sums, V, rho_p, groups):
+    """Standard errors of every value by blocking analysis (:mod:`granavg.uncertainty`).
+
+    Parameters
+    ----------
+    counts : ndarray, shape (n_blocks,)
+        Frames in each time block.
+    sums : ndarray, shape (n_blocks, n_rings, n_channels)
+        Summed ring sums of each block.
+
+    Returns
+    -------
+    sem : dict of name -> ndarray (n_rings,)
+        NaN with fewer than two blocks.
+    lower_bound : dict of name -> ndarray of bool (n_rings,)
+        True where the blocking analysis reached no plateau (the error is a lower bound).
+    replicates : Replicates or None
+        Delete-one-block jackknife profiles (None with fewer than two blocks).
+    """
+    evaluate = lambda m: block_values(m, V, rho_p, groups)      # noqa: E731
+    if len(counts) < 2:
+        names = list(values(np.zeros((len(V), len(INDEX))), V, rho_p, groups))
+        nan = {n: np.full(len(V), np.nan) for n in names}
+        return nan, {n: np.ones(len(V), bool) for n in names}, None
+    sem, lower = blocking_errors(counts, sums, evaluate)
+    return sem, lower, Replicates("jackknife", evaluate(jackknife_sums(counts, sums)))

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
-from granavg.continuum import (alternates, decay_range, deformation_rate_and_spin,
+from granavg.continuum import (decay_range, deformation_rate_and_spin,
                                deformation_rate_and_spin_fit, equations_of_motion,
-                               fit_shear_band, orientation, power_law, stiffness)
+                               fit_shear_band, momentum_flux_total, orientation, power_law,
+                               stiffness)
 from granavg.errors import UserError
 
 R_I, R_O, OMEGA = 0.1032, 0.2524, 0.1
@@ -63,11 +64,43 @@ def test_an_equilibrium_field_has_zero_residuals_converging_at_second_order():
     assert np.all(np.diff(order) > 0) and order[-1] > 1.85   # tends to 2 (measured 1.93)
 
 
-def test_inertia_enters_the_radial_balance():
-    r, sigma = equilibrium(20)
-    rho, v = np.full(20, 850.0), np.full(20, 0.01)
-    radial, _ = equations_of_motion(r, sigma, rho, v)
-    assert np.allclose(radial, rho * v**2)
+def steady_rotating_flow(n, omega=0.1, rho=850.0, T0=2e-3, P0=9.0, A=3e-3):
+    """A steady rigid rotation v_phi = omega r with an isotropic fluctuation stress
+    rho T(r), T = T0 r (m^2/s^2), and a static stress chosen so that div(sigma - dsigma)
+    vanishes: sigma - dsigma = -P0 on the diagonal and A/r^2 off it (Pa)."""
+    r = rings(n)
+    v = omega * r
+    T = T0 * r
+    dsigma = (rho * T, 0 * r, 0 * r, rho * v**2 + rho * T)        # rho <v v>, Eq. 6
+    total = (-P0 + 0 * r, A / r**2, A / r**2, -P0 + 0 * r)
+    sigma = tuple(t + d for t, d in zip(total, dsigma))
+    return r, rho, v, T, sigma, dsigma
+
+
+def test_the_momentum_balance_is_div_of_sigma_minus_dsigma():
+    r, rho, v, T, sigma, dsigma = steady_rotating_flow(400)
+    radial, tangential = equations_of_motion(r, momentum_flux_total(sigma, dsigma))
+    # second-order finite differences on 400 rings: residual/terms ~ (dr/r)^2 ~ 1e-5
+    assert np.abs(radial).max() < 1e-9 and np.abs(tangential).max() < 2e-4 * 3e-3 / r[0] ** 2
+    # the old combination, sigma + dsigma plus a separate rho v_phi^2, does not vanish:
+    # it leaves 2 rho T0 r - rho v^2 (the inertia cancelled, the fluctuations' sign flipped)
+    old, _ = equations_of_motion(r, tuple(s + d for s, d in zip(sigma, dsigma)))
+    old = old + rho * v**2
+    assert np.allclose(old, 2 * rho * 2e-3 * r - rho * v**2, rtol=1e-6)
+    assert np.abs(old).min() > 1e3 * np.abs(radial).max()
+
+
+def test_the_tangential_balance_takes_the_divergence_on_the_second_index():
+    """sigma_ij = f_i l_j: (div T)_phi = dT_phir/dr + (T_rphi + T_phir)/r. A torque-free,
+    non-symmetric field: T_phir = A/r, T_rphi = 0."""
+    r = rings(400)
+    A = 1e-3
+    T = (np.zeros_like(r), np.zeros_like(r), A / r, np.zeros_like(r))
+    _, tangential = equations_of_motion(r, T)
+    assert np.abs(tangential).max() < 1e-4 * A / r[0]     # finite differences, (dr/r)^2
+    transposed = (T[0], T[2], T[1], T[3])              # the paper's printed index order
+    _, wrong = equations_of_motion(r, transposed)
+    assert np.allclose(wrong, A / r, rtol=1e-4)
 
 
 def test_rigid_rotation_has_no_deformation_rate_and_spin_omega():
@@ -108,11 +141,6 @@ def test_crystal_stiffness_is_linear_in_the_fabric():
                         [p.values[f"eps_{c}"] for c in comps], 10.0)
     trF = p.values["F_rr"] + p.values["F_phiphi"]
     assert np.allclose(bulk, trF / (2 * np.pi * H), rtol=1e-10)
-
-
-def test_alternating_signs():
-    assert alternates([1.0, -2.0, 0.5]) and not alternates([1.0, 2.0, -1.0])
-    assert not alternates([np.nan, 1.0])
 
 
 @pytest.mark.parametrize("v", [np.full(20, np.nan), np.zeros(20), np.array([0.006])])

@@ -132,8 +132,9 @@ def metrics(report_dir: Path) -> dict:
             "s": sb["s_m"], "s_err": sb["s_m_err"], "nu_bulk": nu, "nu_bulk_err": nu_e,
             "trF_bulk": trf, "trF_bulk_err": trf_e, "p_over_kn_bulk": pr,
             "p_over_kn_bulk_err": pr_e, "stiffness_slope": n["stiffness"]["bulk_slope_per_m"],
-            "stiffness_slope_err": 0.0, "eom_residual": n["equations_of_motion"]["bulk_median_residual"],
-            "eom_residual_err": 0.0,
+            "stiffness_slope_err": n["stiffness"]["bulk_slope_per_m_err"],
+            "eom_residual": n["equations_of_motion"]["bulk_median_residual"],
+            "eom_residual_err": n["equations_of_motion"]["bulk_median_residual_err"],
             "dynamic_over_static": n["quasi_static"]["dynamic_over_static_max"]}
 
 

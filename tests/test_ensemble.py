@@ -1,0 +1,84 @@
+"""Ensembles: independent realisations on dask (real LAMMPS runs of the small cell) and
+their combination into profiles with between-run errors, through the real CLI."""
+
+import json
+
+import numpy as np
+import pytest
+
+from granavg.analysis import analyze
+from granavg.average import RingProfiles, average_run
+from granavg.ensemble import combine_runs
+from granavg.errors import UserError
+from tests.conftest import SMALL_CELL, run_cli
+
+SHORT = [s if not s.startswith("t_end") else "t_end=3" for s in SMALL_CELL]
+
+
+@pytest.fixture(scope="module")
+def ensemble(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ens") / "e"
+    sets = [a for s in SHORT for a in ("--set", s)]
+    proc = run_cli("simulate", "--preset", "demo", "--out", out, "--seeds", 3, "--workers", 2,
+                   *sets)
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+def test_each_seed_is_its_own_complete_run(ensemble):
+    record = json.loads((ensemble / "ensemble.json").read_text())
+    assert len(set(record["seeds"])) == 3 and set(record["runs"].values()) == {"complete"}
+    packings = []
+    for name in record["runs"]:
+        manifest = json.loads((ensemble / name / "manifest.json").read_text())
+        assert manifest["status"] == "complete"
+        packings.append((ensemble / name / "prepared.data").read_text())
+    assert len(set(packings)) == 3                      # different random packings
+
+
+def test_average_of_runs_is_their_mean_with_the_between_run_error(ensemble, tmp_path):
+    runs = sorted(p for p in ensemble.iterdir() if p.is_dir())
+    opts = dict(bins=8, t_min=1.5)
+    proc = run_cli("average", *runs, "--bins", 8, "--t-min", 1.5, "--out", tmp_path / "e.csv",
+                   "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    ens = RingProfiles.read(tmp_path / "e.csv")
+    single = [average_run(r, progress=False, **opts) for r in runs]
+    for name in ("nu", "v_phi", "sigma_rr", "eps_rphi"):
+        x = np.stack([p.values[name] for p in single])
+        assert np.allclose(ens.values[name], x.mean(axis=0), rtol=1e-9, atol=0)
+        assert np.allclose(ens.sem[name], x.std(axis=0, ddof=1) / np.sqrt(3), rtol=1e-9)
+    assert np.all(ens.n_runs == 3)
+    assert [r["run"] for r in ens.meta["runs"]] == [str(r) for r in runs]
+    assert ens.replicates.kind == "runs" and ens.replicates.n == 3
+    assert "between-run" in ens.meta["errors"]["method"]
+
+
+def test_the_analysis_of_an_ensemble_uses_between_run_errors(ensemble, tmp_path):
+    runs = sorted(p for p in ensemble.iterdir() if p.is_dir())
+    p8, p16 = (RingProfiles.read(_avg(runs, n, tmp_path)) for n in (8, 16))
+    summary = analyze(p8, p16, p8.meta["run_manifest"])
+    assert summary["errors"] == {**summary["errors"], "kind": "runs", "replicates": 3}
+    assert np.isfinite(summary["numbers"]["shear_band"]["s_m_err"])
+    assert len(summary["runs"]) == 3
+
+
+def test_runs_with_different_rings_or_quantities_are_refused(ensemble, tmp_path):
+    runs = sorted(p for p in ensemble.iterdir() if p.is_dir())
+    proc = run_cli("average", runs[0], runs[1], "--atoms", runs[0] / "atoms.dump.gz",
+                   "--out", tmp_path / "x.csv")
+    assert proc.returncode == 2 and "one run directory" in proc.stderr
+    assert "Traceback" not in proc.stderr and not (tmp_path / "x.csv").exists()
+    a, b = (average_run(r, bins=n, t_min=1.5, progress=False) for r, n in zip(runs, (8, 9)))
+    with pytest.raises(UserError, match="rings differ"):
+        combine_runs([a, b], ["a", "b"])
+    b = average_run(runs[1], bins=8, t_min=1.5, quantities=["nu", "v"], progress=False)
+    with pytest.raises(UserError, match="quantities differ"):
+        combine_runs([a, b], ["a", "b"])
+
+
+def _avg(runs, n, tmp_path):
+    out = tmp_path / f"e{n}.csv"
+    proc = run_cli("average", *runs, "--bins", n, "--t-min", 1.5, "--out", out, "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    return out

@@ -1,0 +1,117 @@
+"""The per-frame state and the steadiness test: synthetic series with and without a
+trend, geometry with known answers, and a real run's time series."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from granavg.timeseries import DRIFT_Z, frame_state, stationarity, steady_from
+
+R_I, R_O, H, RHO = 0.1, 0.2, 0.006, 1000.0
+
+
+def ar1(n, phi, rng):
+    x = np.empty(n)
+    x[0] = rng.standard_normal() / np.sqrt(1 - phi**2)
+    for i in range(1, n):
+        x[i] = phi * x[i - 1] + rng.standard_normal()
+    return x
+
+
+def series(x, dt=2.0):
+    return pd.DataFrame({"t_s": dt * np.arange(len(x)), "C_bulk": x})
+
+
+@pytest.mark.parametrize("phi", [0.0, 0.8])
+def test_a_steady_correlated_series_is_not_flagged(phi):
+    rng = np.random.default_rng(11)
+    flagged = [stationarity(series(3 + 0.1 * ar1(400, phi, rng)), 0.0)["C_bulk"]["drifts"]
+               for _ in range(40)]
+    assert np.mean(flagged) <= 0.05                  # DRIFT_Z = 3: ~0.3% if errors are honest
+
+
+def test_a_trend_is_flagged_and_the_steady_start_found():
+    """A relaxation 3.5 -> 3.0 over the first 150 s, then steady with correlated noise."""
+    rng = np.random.default_rng(12)
+    t = 2.0 * np.arange(300)
+    x = 3.0 + 0.5 * np.clip(1 - t / 150, 0, None) + 0.02 * ar1(300, 0.8, rng)
+    judged = stationarity(pd.DataFrame({"t_s": t, "C_bulk": x}), 60.0)["C_bulk"]
+    assert judged["drifts"] and judged["z"] > DRIFT_Z
+    start = judged["steady_from_s"]
+    assert start is not None and 120 <= start <= 250
+    assert not stationarity(pd.DataFrame({"t_s": t, "C_bulk": x}), start)["C_bulk"]["drifts"]
+
+
+def test_a_series_that_never_settles_has_no_steady_start():
+    t = 2.0 * np.arange(200)
+    x = 3.0 - 0.004 * t + 0.001 * np.random.default_rng(1).standard_normal(200)
+    assert steady_from(pd.DataFrame({"t_s": t, "C_bulk": x}), "C_bulk", 0.0) is None
+
+
+def hexagon_frame(n_side=14, d=0.004, squeeze=0.01):
+    """Disks on a triangular lattice in the bulk zone, touching neighbours with overlap
+    squeeze * d; every lattice pair is a contact with normal force k * overlap."""
+    pts = []
+    for i in range(-n_side, n_side + 1):
+        for j in range(-n_side, n_side + 1):
+            pts.append((0.15 + (i + 0.5 * j) * d * (1 - squeeze), (j * np.sqrt(3) / 2) * d
+                        * (1 - squeeze)))
+    x, y = np.array(pts).T
+    keep = np.hypot(x, y) > 0
+    x, y = x[keep], y[keep]
+    r = np.hypot(x, y)
+    inside = (r > R_I + 0.3 * (R_O - R_I)) & (r < R_I + 0.8 * (R_O - R_I))
+    x, y = x[inside], y[inside]
+    ids = np.arange(1, len(x) + 1)
+    atoms = {"x": x, "y": y, "radius": np.full(len(x), d / 2), "id": ids,
+             "vx": np.zeros(len(x)), "vy": np.zeros(len(x)), "omegaz": np.zeros(len(x))}
+    i, j = np.triu_indices(len(x), 1)
+    dist = np.hypot(x[i] - x[j], y[i] - y[j])
+    touch = dist < d * 0.999
+    i, j, dist = i[touch], j[touch], dist[touch]
+    nx, ny = (x[j] - x[i]) / dist, (y[j] - y[i]) / dist
+    ov = d - dist
+    k = 10.0
+    contacts = {"id1": ids[i], "id2": ids[j], "wall": np.zeros(len(i)),
+                "fnx": -k * ov * nx, "fny": -k * ov * ny, "ftx": 0 * nx, "fty": 0 * ny,
+                "nx": nx, "ny": ny, "overlap": ov}
+    return atoms, contacts, k
+
+
+def test_a_hexagonal_packing_is_ordered_and_its_pressure_is_the_virial():
+    atoms, contacts, k = hexagon_frame()
+    s = frame_state(atoms, contacts, R_I, R_O, H, RHO, 0.004)
+    interior = s["C_bulk"]
+    assert 5.0 < interior <= 6.0                      # six neighbours inside, fewer at edges
+    assert s["psi6_bulk"] > 0.85 and s["psi6_bulk_ordered"] > 0.8
+    # -tr sigma / 2 of the zone: sum over contacts of (a1 + a2) k overlap / (2 V)
+    lo, hi = R_I + 0.3 * (R_O - R_I), R_I + 0.8 * (R_O - R_I)
+    V = np.pi * (hi**2 - lo**2) * H
+    expected = np.sum(0.004 * k * contacts["overlap"]) / (2 * V)
+    assert s["P_bulk_Pa"] == pytest.approx(expected, rel=1e-12)
+    assert s["overlap_max_over_d"] == pytest.approx(0.01, rel=1e-6)
+    assert s["ke_J"] == 0.0 and s["rattler_fraction"] < 0.1
+
+
+def test_random_disks_have_no_hexatic_order():
+    rng = np.random.default_rng(3)
+    r = np.sqrt(rng.uniform(R_I**2, R_O**2, 3000))
+    phi = rng.uniform(0, 2 * np.pi, 3000)
+    atoms = {"x": r * np.cos(phi), "y": r * np.sin(phi), "radius": np.full(3000, 0.001)}
+    s = frame_state(atoms, None, R_I, R_O, H, RHO, 0.002)
+    assert s["psi6_bulk"] < 0.5 and s["psi6_bulk_ordered"] < 0.1
+    assert "C" not in s                                # no contacts, no coordination
+
+
+def test_a_real_run_writes_its_time_series(small_run, tmp_path):
+    from granavg.average import RingProfiles, average_run
+
+    p = average_run(small_run, bins=6, t_min=1.5, progress=False)
+    p.write(tmp_path / "p.csv")
+    back = RingProfiles.read(tmp_path / "p.csv")
+    ts = back.timeseries
+    assert ts.t_s.iloc[0] < 1.5 <= ts.t_s.iloc[-1]    # all frames, the window marked later
+    assert np.all(np.diff(ts.step) > 0) and np.all(ts.C > 2)
+    assert np.all(ts.P_bulk_Pa > 0) and np.all(ts.overlap_max_over_d < 0.2)
+    assert set(p.meta["stationarity"]) <= {"C", "C_bulk", "P_bulk_Pa", "rattler_fraction",
+                                           "nu_bulk", "psi6_bulk"}
