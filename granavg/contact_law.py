@@ -43,6 +43,11 @@ class ContactLaw:
         Coulomb friction coefficient between disks.
     mu_wall : float
         Coulomb friction coefficient between a disk and a wall disk.
+    mu_roll : float
+        Rolling-resistance coefficient (0: none, LAMMPS ``pair gran/hooke/history``;
+        > 0: ``pair granular`` hooke + linear_history + ``rolling sds``, the same normal
+        and tangential law plus a rolling spring k_roll = k_t, damping gamma_t m_eff,
+        capped at mu_roll |F_n|).
     """
 
     k_n: float = 10.0
@@ -51,6 +56,7 @@ class ContactLaw:
     gt_over_gn: float = 0.5
     mu: float = 0.8
     mu_wall: float = 0.8
+    mu_roll: float = 0.0
 
     def __post_init__(self):
         checks = [
@@ -58,7 +64,8 @@ class ContactLaw:
             (0 < self.e_n <= 1, "e_n must be in (0, 1]"),
             (self.kt_over_kn >= 0, "kt_over_kn must be >= 0"),
             (self.gt_over_gn >= 0, "gt_over_gn must be >= 0"),
-            (self.mu >= 0 and self.mu_wall >= 0, "friction coefficients must be >= 0"),
+            (self.mu >= 0 and self.mu_wall >= 0 and self.mu_roll >= 0,
+             "friction coefficients must be >= 0"),
         ]
         for ok, msg in checks:
             if not (ok and all(math.isfinite(v) for v in asdict(self).values())):
@@ -116,6 +123,12 @@ class LammpsCoefficients:
         Contact duration of a small-small pair, s.
     m_eff_ref : float
         Reduced mass of that reference pair, kg.
+    mu_roll : float
+        Rolling-resistance coefficient (0: plain gran/hooke/history).
+    k_roll : float
+        Rolling spring, N/m (= k_t).
+    gamma_roll : float
+        Rolling damping, kg/s (= gamma_t m_eff_ref; ``rolling sds`` takes it absolute).
     """
 
     kn: float
@@ -126,6 +139,18 @@ class LammpsCoefficients:
     mu_wall: float
     t_c: float
     m_eff_ref: float
+    mu_roll: float = 0.0
+    k_roll: float = 0.0
+    gamma_roll: float = 0.0
+
+    @property
+    def pair_style(self) -> str:
+        """What LAMMPS runs: the plain linear law, or the same with rolling resistance."""
+        if self.mu_roll > 0:
+            return ("pair granular: hooke (mass_velocity damping) + tangential "
+                    "linear_history + rolling sds (the gran/hooke/history law plus rolling "
+                    "resistance)")
+        return "pair gran/hooke/history"
 
 
 def to_lammps(law: ContactLaw, m_eff_ref: float) -> LammpsCoefficients:
@@ -143,18 +168,23 @@ def to_lammps(law: ContactLaw, m_eff_ref: float) -> LammpsCoefficients:
     -------
     LammpsCoefficients
         ``gamma_n`` from the restitution, ``gamma_t = gt_over_gn * gamma_n``,
-        ``k_t = kt_over_kn * k_n`` and the reference contact duration ``t_c``.
+        ``k_t = kt_over_kn * k_n``, the reference contact duration ``t_c`` and, with
+        rolling resistance, ``k_roll = k_t`` and ``gamma_roll = gamma_t m_eff_ref``.
     """
     gamma_n = damping_for_restitution(law.k_n, law.e_n, m_eff_ref)
+    kt, gamma_t = law.kt_over_kn * law.k_n, law.gt_over_gn * gamma_n
     return LammpsCoefficients(
         kn=law.k_n,
-        kt=law.kt_over_kn * law.k_n,
+        kt=kt,
         gamma_n=gamma_n,
-        gamma_t=law.gt_over_gn * gamma_n,
+        gamma_t=gamma_t,
         mu=law.mu,
         mu_wall=law.mu_wall,
         t_c=contact_duration(law.k_n, gamma_n, m_eff_ref),
         m_eff_ref=m_eff_ref,
+        mu_roll=law.mu_roll,
+        k_roll=kt if law.mu_roll > 0 else 0.0,
+        gamma_roll=gamma_t * m_eff_ref if law.mu_roll > 0 else 0.0,
     )
 
 

@@ -187,6 +187,8 @@ class Derived:
             "n_small": s.n_small, "n_large": s.n_large, "rho_area": s.rho_p * s.h,
             "Omega": s.Omega, "kn": c.kn, "kt": c.kt, "gamma_n": c.gamma_n,
             "gamma_t": c.gamma_t, "mu": c.mu, "mu_wall": c.mu_wall, "dt": self.dt,
+            "mu_roll": c.mu_roll, "k_roll": c.k_roll, "gamma_roll": c.gamma_roll,
+            "x_gamma_t": c.gamma_t / c.gamma_n if c.gamma_n else 0.0,
             "wall_d": self.wall_d, "wall_spacing": s.wall_spacing,
             "grow_from": s.grow_from, "n_grow": self.n_grow, "n_relax": self.n_relax,
             "damp_gamma": self.m_small / s.t_damp, "n_shear": self.n_shear,

@@ -107,7 +107,8 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
     t_min : float, optional
         In-situ averages start at t_min (s); default two inner-ring rotations.
     block_time : float, optional
-        Block length (s) of the in-situ standard errors; default a 20th of the span.
+        Base block length (s) of the in-situ blocking analysis; default one dump
+        interval (at most 512 blocks).
     quantities : sequence of str, optional
         The quantities the run is for (names of :data:`granavg.profiles.QUANTITIES`);
         if none of them needs contact forces, LAMMPS computes and writes no contact
@@ -121,6 +122,9 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
     scene = scene_for(scene, quantities)
     derived = scene.derive()                      # refuse before touching the disk
     start = _check_start(start, engine, np_ranks, omp_threads)
+    if engine == "reference" and derived.coeffs.mu_roll > 0:
+        raise UserError("the reference engine has no rolling resistance (it mirrors pair "
+                        "gran/hooke/history); set mu_roll=0 or use the lammps engine")
     average = _check_average(derived, average, engine, t_min)
     if engine == "lammps" and not DECK.exists():
         raise UserError(f"the LAMMPS deck {DECK} is missing; install granavg from its "
@@ -490,10 +494,13 @@ def _new_manifest(d: Derived, preset, np_ranks, omp, start=None, engine="lammps"
         "preset": preset,
         "scene": s.to_dict(),
         "contact_law": {
-            "model": "pair gran/hooke/history (linear spring-dashpot, tangential history, "
+            "model": f"{c.pair_style} (linear spring-dashpot, tangential history, "
                      "Coulomb cap); one gamma_n set by e_n of a small-small pair",
+            "pair_style": c.pair_style,
             "k_n_N_per_m": c.kn, "k_t_N_per_m": c.kt, "gamma_n_per_s": c.gamma_n,
             "gamma_t_per_s": c.gamma_t, "mu": c.mu, "mu_wall": c.mu_wall,
+            "mu_roll": c.mu_roll, "k_roll_N_per_m": c.k_roll, "gamma_roll_kg_per_s":
+            c.gamma_roll,
             "e_n_by_pair": d.restitutions(),
         },
         "derived": {

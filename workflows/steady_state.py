@@ -1,0 +1,179 @@
+"""Which contact law or preparation gives a steady, jammed shear state? (issue 12)
+
+Usage::
+
+    python workflows/steady_state.py OUT [--seeds 2] [--t-end 250] [--only NAME ...]
+                                         [--baseline ENSEMBLE_DIR]
+
+Every candidate keeps the paper's geometry, disk counts, sizes and Omega and runs as an
+ensemble of independent packings (``granavg simulate --seeds``, dask). Each run is
+averaged over 20 and 60 rings from two rotations on (its time series and the steadiness
+test included), and the candidate is scored on the issue's targets: bulk coordination
+>= 3 and rattlers < 15% after the transient, bulk pressure steady over the window,
+dynamic/static stress <= 0.01 in the bulk, v0/(Omega R_i) within 10% of 0.645 and s
+within 15% of 12.7 mm. Resumable: candidates already in OUT are not run again. Writes
+OUT/candidates.csv, prints a markdown table and draws OUT/timeseries.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+CANDIDATES = {
+    "paper: gran/hooke/history, mu 0.8": [],
+    "higher friction: mu 2": ["mu=2", "mu_wall=2"],
+    "rolling resistance: mu_roll 0.1": ["mu_roll=0.1"],
+    "rolling resistance: mu_roll 0.3": ["mu_roll=0.3"],
+}
+TARGETS = {"C_bulk": 3.0, "rattler_fraction": 0.15, "dyn_over_static_bulk": 0.01,
+           "v0": (0.645, 0.10), "s": (0.0127, 0.15)}
+log = logging.getLogger("steady")
+
+
+def slug(name: str) -> str:
+    return "".join(ch if ch.isalnum() else "_" for ch in name).strip("_")
+
+
+def run_candidate(out: Path, overrides, seeds: int, t_end: float) -> list:
+    from granavg.ensemble import simulate_ensemble
+    from granavg.scene import preset
+
+    scene = preset("paper").with_overrides([*overrides, f"t_end={t_end}", "dump_dt=5",
+                                            f"restart_dt={t_end}"])
+    return simulate_ensemble(scene, out, seeds, workers=min(seeds, 2), preset="paper")
+
+
+def score(runs) -> dict:
+    """The targets measured on the runs (window: two rotations to the end)."""
+    from granavg.analysis import analyze, bulk, dynamic_over_static
+    from granavg.average import average_run
+    from granavg.ensemble import combine_runs
+
+    p20s, p60s = ([average_run(r, bins=n, progress=False) for r in runs] for n in (20, 60))
+    for run, p in zip(runs, p20s):
+        p.timeseries.to_csv(run.parent / f"{run.name}.timeseries.csv", index=False)
+    p20 = combine_runs(p20s, [str(r) for r in runs]) if len(runs) > 1 else p20s[0]
+    p60 = combine_runs(p60s, [str(r) for r in runs]) if len(runs) > 1 else p60s[0]
+    summary = analyze(p20, p60, p20.meta["run_manifest"])
+    t_min = p20.meta["frames"]["t_min_s"]
+    ts = [p.timeseries[p.timeseries.t_s >= t_min] for p in p20s]
+    window = pd.concat(ts)
+    drift = {q: [p.meta["stationarity"].get(q, {}).get("drifts") for p in p20s]
+             for q in ("C_bulk", "P_bulk_Pa", "nu_bulk")}
+    first = pd.concat([p.timeseries[p.timeseries.t_s < 20] for p in p20s])
+    sb = summary["numbers"]["shear_band"]
+    ratio = dynamic_over_static(p20)[bulk(p20.rings.n)]
+    return {
+        "runs": len(runs), "t_min_s": t_min,
+        "C_bulk_start": first.C_bulk.mean(), "P_bulk_start_Pa": first.P_bulk_Pa.mean(),
+        "C_bulk": window.C_bulk.mean(), "C_bulk_err": _between(ts, "C_bulk"),
+        "rattler_fraction": window.rattler_fraction.mean(),
+        "P_bulk_Pa": window.P_bulk_Pa.mean(), "P_bulk_Pa_err": _between(ts, "P_bulk_Pa"),
+        "psi6_bulk_ordered": window.psi6_bulk_ordered.mean(),
+        "pressure_drifts": sum(bool(d) for d in drift["P_bulk_Pa"]),
+        "C_drifts": sum(bool(d) for d in drift["C_bulk"]),
+        "nu_drifts": sum(bool(d) for d in drift["nu_bulk"]),
+        "dyn_over_static_bulk": float(np.nanmax(ratio)),
+        "v0": sb["v0_over_omega_Ri"], "v0_err": sb["v0_over_omega_Ri_err"],
+        "s": sb["s_m"], "s_err": sb["s_m_err"],
+        "claims": {c["claim"]: c["verdict"] for c in summary["claims"]},
+    }
+
+
+def _between(parts, q):
+    means = [p[q].mean() for p in parts]
+    return float(np.std(means, ddof=1) / math.sqrt(len(means))) if len(means) > 1 else math.nan
+
+
+def meets(row) -> dict:
+    v0, tol_v = TARGETS["v0"]
+    s, tol_s = TARGETS["s"]
+    return {"C_bulk >= 3": row["C_bulk"] >= TARGETS["C_bulk"],
+            "rattlers < 15%": row["rattler_fraction"] < TARGETS["rattler_fraction"],
+            "pressure steady": row["pressure_drifts"] == 0,
+            "dyn/static <= 0.01": row["dyn_over_static_bulk"] <= TARGETS["dyn_over_static_bulk"],
+            "v0 within 10%": abs(row["v0"] / v0 - 1) <= tol_v,
+            "s within 15%": abs(row["s"] / s - 1) <= tol_s}
+
+
+def markdown(df: pd.DataFrame) -> str:
+    head = ["candidate", "runs", "C_bulk (t<20 s -> window)", "rattlers", "P_bulk (Pa)",
+            "P drifts (runs)", "ordered share", "dyn/static bulk", "v0/(Omega R_i)", "s (mm)",
+            "targets met"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, r in df.iterrows():
+        ok = meets(r)
+        lines.append(
+            f"| {name} | {r.runs} | {r.C_bulk_start:.2f} -> {r.C_bulk:.2f} +- {r.C_bulk_err:.2f} "
+            f"| {r.rattler_fraction:.0%} | {r.P_bulk_start_Pa:.3g} -> {r.P_bulk_Pa:.3g} +- "
+            f"{r.P_bulk_Pa_err:.2g} | {r.pressure_drifts} | {r.psi6_bulk_ordered:.2f} | "
+            f"{r.dyn_over_static_bulk:.3f} | {r.v0:.3f} +- {r.v0_err:.3f} | "
+            f"{1e3 * r.s:.1f} +- {1e3 * r.s_err:.1f} | {sum(ok.values())}/6: "
+            + ", ".join(k for k, v in ok.items() if not v).join(["missing: ", ""]) + " |")
+    return "\n".join(lines)
+
+
+def plot(out: Path, runs_of: dict):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from granavg.figures import OKABE_ITO
+
+    fig, ax = plt.subplots(1, 3, figsize=(13, 3.6), constrained_layout=True)
+    for k, (name, runs) in enumerate(runs_of.items()):
+        for j, run in enumerate(runs):
+            ts = pd.read_csv(run.parent / f"{run.name}.timeseries.csv")
+            for a, q in zip(ax, ("C_bulk", "P_bulk_Pa", "rattler_fraction")):
+                if q in ts:
+                    a.plot(ts.t_s, ts[q], color=OKABE_ITO[k % 7], lw=0.8,
+                           label=name if j == 0 else None)
+    for a, (q, lab) in zip(ax, (("C_bulk", "bulk coordination (-)"),
+                                ("P_bulk_Pa", "bulk pressure (Pa)"),
+                                ("rattler_fraction", "rattler fraction (-)"))):
+        a.set(xlabel="t (s)", ylabel=lab)
+    ax[1].set_yscale("log")
+    ax[0].legend(fontsize=7)
+    fig.savefig(out / "timeseries.png", dpi=120)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("out", type=Path)
+    ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--t-end", type=float, default=250.0)
+    ap.add_argument("--only", nargs="+", help="candidate names (default: all)")
+    ap.add_argument("--baseline", type=Path, help="an existing ensemble of the paper preset "
+                    "to use as the first candidate instead of running it")
+    args = ap.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    table_path = args.out / "candidates.json"
+    done = json.loads(table_path.read_text()) if table_path.exists() else {}
+    runs_of = {}
+    for name, overrides in CANDIDATES.items():
+        if args.only and name not in args.only:
+            continue
+        where = args.baseline if (args.baseline and not overrides) else args.out / slug(name)
+        if not where.exists():
+            log.info("running %s (%s)", name, " ".join(overrides) or "paper preset")
+            run_candidate(where, overrides, args.seeds, args.t_end)
+        runs_of[name] = sorted(p for p in where.iterdir() if (p / "manifest.json").exists())
+        if name not in done:
+            done[name] = score(runs_of[name])
+            table_path.write_text(json.dumps(done, indent=2, default=float) + "\n")
+    df = pd.DataFrame.from_dict(done, orient="index")
+    df.drop(columns=["claims"]).to_csv(args.out / "candidates.csv", float_format="%.5g")
+    print(markdown(df.loc[[n for n in runs_of if n in df.index]]))
+    plot(args.out, runs_of)
+
+
+if __name__ == "__main__":
+    logging.basicConfig(level=logging.INFO, format="steady: %(message)s")
+    main()
