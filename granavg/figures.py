@@ -244,3 +244,56 @@ def save_all(p20, p60, summary, out_dir) -> dict:
         plt.close(fig)
         paths[name] = out / f"{name}.png"
     return paths
+
+
+def fig1(first, later, contacts, R_i, R_o, *, stripes=10, axes=None):
+    """The packing after shearing, disks coloured by the horizontal stripe their centre
+    was in at the first frame (the shear zone shows as bent stripes), and the contact
+    network with forces in thirds: large red, medium green, small blue (Fig. 1). Drawn
+    to scale (m).
+
+    Parameters
+    ----------
+    first, later : dict of ndarray
+        Atom columns ``id x y radius`` of the first frame and of the frame to draw.
+    contacts : dict of ndarray
+        Contact columns ``id1 id2 wall fnx fny`` of the frame to draw.
+    R_i, R_o : float
+        Ring radii (m), drawn as circles.
+    """
+    from matplotlib.collections import LineCollection, PatchCollection
+    from matplotlib.patches import Circle
+
+    ax = _axes(axes, 2, size=(5.2, 5.2))
+    order = np.argsort(first["id"])
+    pos = np.searchsorted(first["id"][order], later["id"])
+    y0 = first["y"][order][np.clip(pos, 0, len(order) - 1)]
+    band = np.floor((y0 + R_o) / (2 * R_o) * stripes).astype(int) % 2
+    colours = np.where(band == 0, OKABE_ITO[0], OKABE_ITO[4])
+    disks = PatchCollection([Circle((x, y), a) for x, y, a in
+                             zip(later["x"], later["y"], later["radius"])],
+                            facecolors=colours, edgecolors="none")
+    ax[0].add_collection(disks)
+    rows = {int(i): k for k, i in enumerate(later["id"])}
+    pair = np.asarray(contacts["wall"]) == 0
+    i1 = np.array([rows[int(i)] for i in np.asarray(contacts["id1"])[pair]], dtype=int)
+    i2 = np.array([rows[int(i)] for i in np.asarray(contacts["id2"])[pair]], dtype=int)
+    f = np.hypot(np.asarray(contacts["fnx"])[pair], np.asarray(contacts["fny"])[pair])
+    cuts = np.quantile(f, [1 / 3, 2 / 3]) if len(f) else (0, 0)
+    third = np.digitize(f, cuts)                      # 0 small, 1 medium, 2 large
+    colour_of = np.array(["#0072B2", "#009E73", "#D55E00"])          # blue, green, red
+    segments = np.stack([np.column_stack([later["x"][i1], later["y"][i1]]),
+                         np.column_stack([later["x"][i2], later["y"][i2]])], axis=1)
+    for k in (0, 1, 2):                                # large forces drawn on top
+        sel = third == k
+        ax[1].add_collection(LineCollection(segments[sel], colors=colour_of[k],
+                                            linewidths=0.4 + 0.6 * k,
+                                            label=("small", "medium", "large")[k] +
+                                            " normal forces"))
+    for a, title in zip(ax, ("disks by initial stripe", "contact forces in thirds")):
+        for R in (R_i, R_o):
+            a.add_patch(Circle((0, 0), R, fill=False, color="k", lw=0.8))
+        a.set(xlim=(-1.02 * R_o, 1.02 * R_o), ylim=(-1.02 * R_o, 1.02 * R_o), aspect="equal",
+              xlabel="x (m)", ylabel="y (m)", title=title)
+    ax[1].legend(fontsize=6, loc="upper right")
+    return ax

@@ -66,7 +66,7 @@ def test_report_and_summary_hold_the_headline_numbers(report):
     assert len(summary["claims"]) == 10
     for claim in summary["claims"]:
         assert claim["claim"] in html and claim["evidence"] in html.replace("&#x27;", "'")
-    assert html.count("data:image/png;base64,") == len(FIGURES)   # self-contained
+    assert html.count("data:image/png;base64,") == len(FIGURES) + 1   # + Fig. 1; self-contained
     assert "src='http" not in html and 'src="http' not in html
 
 
@@ -117,3 +117,27 @@ def test_the_time_series_figure_shows_every_frame_and_the_window(profiles):
         assert shaded and shaded[0].get_x() == pytest.approx(t_min)
         assert ax.get_xlabel() == "t (s)" and "(" in ax.get_ylabel()
     axes[0].figure.clf()
+
+
+def test_fig1_draws_every_disk_and_every_contact_in_thirds(small_run, tmp_path):
+    """Fig. 1 from the run's dumps: one patch per disk, coloured by its stripe at the
+    first frame; one segment per disk-disk contact, a third of them in each colour."""
+    from granavg.average import run_averager
+    from granavg.figures import fig1
+
+    frames = list(run_averager(small_run, quantities=["nu", "sigma"]).frames)
+    first, last = frames[0], frames[-1]
+    m = json.loads((small_run / "manifest.json").read_text())["scene"]
+    ax = fig1(first.atoms, last.atoms, last.contacts, m["R_i"], m["R_o"])
+    assert len(ax[0].collections[0].get_paths()) == len(last.atoms["x"])
+    colours = {tuple(c) for c in ax[0].collections[0].get_facecolors()}
+    assert len(colours) == 2                                   # alternating stripes
+    n_pairs = int(np.sum(last.contacts["wall"] == 0))
+    counts = [len(c.get_segments()) for c in ax[1].collections]
+    assert sum(counts) == n_pairs and max(counts) - min(counts) <= 2
+    assert ax[0].get_aspect() == 1.0 and ax[0].get_xlabel() == "x (m)"
+    ax[0].figure.clf()
+
+
+def test_the_report_of_a_run_includes_fig1(report):
+    assert (report / "figures" / "fig1.png").exists() and (report / "figures" / "fig1.pdf").exists()
