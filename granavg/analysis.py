@@ -157,7 +157,7 @@ def _claim(text, result, evidence, kind="claim"):
             "reproduced": result in ("reproduced", "holds"), "evidence": evidence}
 
 
-def analyze(p20, p60, manifest) -> dict:
+def analyze(p20, p60, manifest, density_series=()) -> dict:
     """Analyse coarse and fine ring profiles of one run or one ensemble.
 
     Parameters
@@ -167,6 +167,9 @@ def analyze(p20, p60, manifest) -> dict:
         replicates for the errors of derived numbers.
     manifest : dict
         The run's manifest (scene, contact law).
+    density_series : sequence of RingProfiles, optional
+        Coarse profiles of the same scene at other area fractions: Fig. 5's master curve
+        is judged on the collapse of all of them with ``p20``.
     """
     for p in (p20, p60):
         if p.rings.n < 4:
@@ -272,6 +275,14 @@ def analyze(p20, p60, manifest) -> dict:
         "anisotropy make it; an identity of the averaging, not a finding of the paper; the "
         "paper's collapse of several simulations is Fig. 5 of a density series)",
         kind="identity check"))
+
+    if density_series:
+        collapse = master_curve([p20, *density_series], geo)
+        series["density_series"] = collapse.pop("points")
+        num["master_curve"] = collapse
+        claims.append(_claim(
+            "bulk stiffness of different simulations on one master curve (Fig. 5)",
+            collapse["verdict"], collapse["evidence"]))
 
     # Fig. 6: orientations, not co-linear in the band
     for p in (p20, p60):
@@ -438,6 +449,65 @@ def _stiffness_numbers(a, b, geo):
             "bulk_pearson_r": float(np.corrcoef(trF[good], bulk_mod[good])[0, 1]),
             "identity_deviation": float(np.mean(ratio)) / geo.identity_slope - 1.0,
             "shear_relative_scatter": float(np.nanstd(shear_mod) / np.nanmean(shear_mod))}
+
+
+#: Largest relative offset of one run's bulk stiffness from the pooled master curve
+#: that still counts as collapsed.
+COLLAPSE_TOLERANCE = 0.05
+
+
+def master_curve(profiles, geo) -> dict:
+    """One straight line 2 pi E / k_n = a tr F + b through the bulk rings of runs at
+    several area fractions; each run's mean relative offset from it, with its error
+    from that run's replicates. Collapse is reproduced when every offset is within
+    COLLAPSE_TOLERANCE + 2 errors, not reproduced when one lies beyond it by 2 errors."""
+    pts = []
+    for p in profiles:
+        B, G = c.stiffness(tensor(p, "sigma"), tensor(p, "eps"), geo.k_n)
+        b = bulk(p.rings.n)
+        pts.append((c.trace(tensor(p, "F"))[b], B[b], G[b], p))
+    x = np.concatenate([t for t, _, _, _ in pts])
+    y = np.concatenate([B for _, B, _, _ in pts])
+    ok = np.isfinite(x) & np.isfinite(y)
+    a, b0 = np.polyfit(x[ok], y[ok], 1)
+    offsets, errors, fractions, labels = [], [], [], []
+    for trF, B, _, p in pts:
+        offsets.append(float(np.nanmean(B / (a * trF + b0) - 1)))
+        reps = p.replicates
+        if reps is not None and reps.n >= 2:
+            bb = bulk(p.rings.n)
+            vals = []
+            for i in range(reps.n):
+                v = {k: reps.values[k][i] for k in reps.values}
+                Bi = c.stiffness(tuple(v[f"sigma_{k}"] for k in COMPONENTS),
+                                 tuple(v[f"eps_{k}"] for k in COMPONENTS), geo.k_n)[0][bb]
+                Fi = v["F_rr"][bb] + v["F_phiphi"][bb]
+                vals.append(np.nanmean(Bi / (a * Fi + b0) - 1))
+            errors.append(reps.error(vals))
+        else:
+            errors.append(float("nan"))
+        scene = (p.meta.get("run_manifest") or {}).get("scene", {})
+        fractions.append(_area_fraction(scene))
+        labels.append(f"area fraction {fractions[-1]:.4f}")
+    verdicts = [verdict(COLLAPSE_TOLERANCE - abs(o), e, 0.0) for o, e in zip(offsets, errors)]
+    result = _both(*verdicts)
+    return {"slope_per_m": a, "intercept_per_m": b0, "runs": len(pts),
+            "area_fractions": fractions, "offsets": offsets, "offset_errors": errors,
+            "verdict": result,
+            "evidence": "pooled fit " + f"{a:.2f} tr F {b0:+.2f} 1/m; each run's mean offset "
+            "from it: " + ", ".join(f"{f:.4f}: {100 * o:+.1f} +- {100 * e:.1f}%"
+                                    for f, o, e in zip(fractions, offsets, errors)) +
+            f" (collapsed within {100 * COLLAPSE_TOLERANCE:.0f}% + 2 errors)",
+            "points": [(lab, t, B, G) for lab, (t, B, G, _) in zip(labels, pts)]}
+
+
+def _area_fraction(scene) -> float:
+    try:
+        disks = np.pi / 4 * (scene["n_small"] * scene["d_s"] ** 2 + scene["n_large"] *
+                             scene["d_l"] ** 2)
+        return float(disks / (np.pi * (scene["R_o"] ** 2 - scene["R_i"] ** 2)))
+    except (KeyError, TypeError):
+        return float("nan")
 
 
 def _angle_diff(a, b):

@@ -30,6 +30,7 @@ from .reader import DumpReader, FramePairs
 from .rundir import read_manifest
 from .timeseries import DRIFT_Z, TimeSeries, stationarity
 from .uncertainty import Replicates
+from .validate import check_manifest, run_directory
 from .weights import ring_weights
 
 log = logging.getLogger(__name__)
@@ -125,21 +126,55 @@ class RingProfiles:
 
     @classmethod
     def read(cls, path) -> "RingProfiles":
-        """Profiles written by :meth:`write` (CSV or Parquet, with its JSON sidecar)."""
+        """Profiles written by :meth:`write` (CSV or Parquet, with its JSON sidecar),
+        checked: a damaged table or sidecar is a one-line error naming the file."""
         path = Path(path)
         side = path.with_name(path.name + ".json")
-        if not path.exists() or not side.exists():
-            raise UserError(f"{path}: profiles or their sidecar {side.name} not found; "
-                            "write them with 'granavg average'")
-        table = pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
-        meta = json.loads(side.read_text())
-        rings = Rings(np.asarray(meta["rings"]["edges_m"]), meta["rings"]["h_m"])
+        for f in (path, side):
+            if not f.exists():
+                raise UserError(f"{f}: not found; write profiles with 'granavg average' (the "
+                                "table and its .json sidecar)")
+            if not f.is_file():
+                raise UserError(f"{f}: is a directory; give a profiles table")
+        try:
+            table = pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
+        except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError,
+                ValueError, OSError) as exc:
+            raise UserError(f"{path}: not a readable profiles table ({str(exc).splitlines()[0]})"
+                            "; average again with 'granavg average'") from None
+        try:
+            meta = json.loads(side.read_text())
+        except json.JSONDecodeError as exc:
+            raise UserError(f"{side}:{exc.lineno}: damaged JSON ({exc.msg}); average again "
+                            "with 'granavg average'") from None
+        except UnicodeDecodeError:
+            raise UserError(f"{side}: not a text file; average again with 'granavg "
+                            "average'") from None
+        try:
+            edges = np.asarray(meta["rings"]["edges_m"], float)
+            rings = Rings(edges, float(meta["rings"]["h_m"]))
+        except (KeyError, TypeError, ValueError):
+            raise UserError(f"{side}: no ring geometry (rings.edges_m, rings.h_m); average "
+                            "again with 'granavg average'") from None
+        missing = [c for c in ("r", "n_frames", "flags") if c not in table.columns]
+        if missing or len(table) != rings.n:
+            what = f"column {missing[0]} is missing" if missing else \
+                f"{len(table)} rows for {rings.n} rings"
+            raise UserError(f"{path}: {what} (the table is cut or not granavg's); average "
+                            "again with 'granavg average'")
         names = [c for c in table.columns if f"{c}_sem" in table.columns]
+        bad = [n for n in names if not pd.api.types.is_numeric_dtype(table[n])]
+        if bad:
+            raise UserError(f"{path}: column {bad[0]} holds non-numbers; the table is damaged")
         reps = path.with_name(path.name + REPLICATES)
         replicates = None
         if reps.exists():
-            with np.load(reps) as z:
-                replicates = Replicates(str(z["kind"]), {k: z[k] for k in z.files if k != "kind"})
+            try:
+                with np.load(reps) as z:
+                    replicates = Replicates(str(z["kind"]),
+                                            {k: z[k] for k in z.files if k != "kind"})
+            except (OSError, ValueError, KeyError) as exc:
+                raise UserError(f"{reps}: damaged replicates ({exc}); average again") from None
         series = path.with_name(path.name + TIMESERIES)
         return cls(rings, {n: table[n].to_numpy() for n in names},
                    {n: table[f"{n}_sem"].to_numpy() for n in names},
@@ -268,6 +303,12 @@ class RingAverage:
             "jackknife_blocks": replicates.n if replicates else 0,
             "lower_bound": {n: [int(k) for k in np.flatnonzero(lb & np.isfinite(vals[n]))]
                             for n, lb in lower.items() if np.any(lb & np.isfinite(vals[n]))}}
+        dropped = dict(getattr(self.frames, "dropped", None) or {})
+        if any(dropped.values()):
+            meta["dropped"] = dropped
+            log.warning("%d contact rows with overlap <= 0 (not touching: LAMMPS' pair/local "
+                        "lists neighbours within its cutoff) were dropped",
+                        dropped.get("contacts_not_touching", 0))
         series = None
         if self.series is not None and self.series.rows:
             series = self.series.frame()
@@ -347,10 +388,10 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
                  quantities=None, atoms=None, contacts=None, steps=None) -> RingAverage:
     """The :class:`RingAverage` of :func:`average_run`, its frames read lazily (only
     those with time steps in ``steps = (first, last)`` if given)."""
-    run_dir = Path(run_dir) if run_dir is not None else None
-    manifest = read_manifest(run_dir) if run_dir is not None else None
-    if manifest is None:
+    if run_dir is None:
         raise UserError("give the run directory: its manifest holds h, rho_p and the rings")
+    run_dir = run_directory(run_dir)
+    manifest = check_manifest(read_manifest(run_dir), run_dir / "manifest.json")
     scene, derived = manifest["scene"], manifest["derived"]
     ext = "dump.gz" if scene.get("gzip", True) else "dump"
     atoms = Path(atoms) if atoms else run_dir / f"atoms.{ext}"

@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
+import signal
 import sys
+import threading
+from contextlib import contextmanager
+from pathlib import Path
 
 from . import __version__
 from .errors import UserError
@@ -84,6 +89,9 @@ def _parser() -> argparse.ArgumentParser:
     ana.add_argument("profiles", nargs=2, help="two profiles of 'granavg average' (e.g. 20 "
                      "and 60 rings)")
     ana.add_argument("--out", required=True, help="directory for the report (must be new)")
+    ana.add_argument("--density-series", nargs="+", metavar="PROFILES", default=[],
+                     help="coarse profiles of the same scene at other area fractions: "
+                     "Fig. 5's master curve is judged on their collapse")
 
     demo = sub.add_parser("demo", help="simulate the demo scene, average over 20 and 60 "
                           "rings, analyse and write the report")
@@ -133,25 +141,31 @@ def _names(text):
 
 
 def _average(args) -> int:
-    from pathlib import Path
 
+    from . import validate
     from .analysis import warn_if_inertial
-    from .average import average_run
+    from .average import REPLICATES, TIMESERIES, average_run
     from .ensemble import average_runs
 
-    out = Path(args.out)
-    if out.exists():
-        raise UserError(f"{out} exists; choose another --out (results are never overwritten)")
+    out = validate.free_output(Path(args.out), ("", ".json", REPLICATES, TIMESERIES))
+    validate.positive("--block-time", args.block_time)
+    validate.finite("--t-min", args.t_min)
+    validate.ring_options(args.bins, args.edges)
+    for run in args.run_dir:
+        validate.run_directory(run)
+    validate.existing_file("--atoms", args.atoms)
+    validate.existing_file("--contacts", args.contacts)
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers {args.workers}: must be >= 1 (leave it out to average "
+                        "in this process)")
     options = dict(bins=args.bins, edges=args.edges, t_min=args.t_min,
                    block_time=args.block_time, quantities=_names(args.quantities),
                    atoms=args.atoms, contacts=args.contacts)
     if len(args.run_dir) > 1 and (args.atoms or args.contacts):
         raise UserError("--atoms and --contacts name the dumps of one run; give one run "
                         "directory with them")
-    if args.workers or args.scheduler:
+    if args.workers is not None or args.scheduler:
         from .parallel import average_run_dask
-        if args.workers is not None and args.workers < 1:
-            raise UserError("--workers must be >= 1")
         profiles = average_runs(args.run_dir, average_run_dask, workers=args.workers or 2,
                                 scheduler=args.scheduler, **options)
     else:
@@ -164,21 +178,55 @@ def _average(args) -> int:
     return 0
 
 
+#: Profile columns the analysis needs.
+ANALYSED = ("nu", "rho", "v_phi", "omega", "F_rr", "sigma_rr", "dsigma_rr", "eps_rr")
+
+
 def _analyze(args) -> int:
-    from pathlib import Path
 
     from .average import RingProfiles
     from .pipeline import report_profiles
 
     out = Path(args.out)
-    if out.exists() and any(out.iterdir()):
-        raise UserError(f"{out} is not empty; choose a new --out")
-    report_profiles(*(RingProfiles.read(p) for p in args.profiles), out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise UserError(f"--out {out}: exists and is not an empty directory; choose a new "
+                        "--out (reports are never overwritten)")
+    inputs = [RingProfiles.read(p) for p in args.profiles]
+    series = [RingProfiles.read(p) for p in args.density_series]
+    for p, name in zip([*inputs, *series], [*args.profiles, *args.density_series]):
+        if not (p.meta or {}).get("run_manifest"):
+            raise UserError(f"{name}.json: carries no run manifest; make the profiles with "
+                            "'granavg average'")
+        missing = [q for q in ANALYSED if q not in p.values]
+        if missing:
+            raise UserError(f"{name}: the profiles lack {missing[0]}; average with all "
+                            "quantities (the contact dump is needed)")
+    with staged_directory(out) as tmp:
+        report_profiles(*inputs, tmp, density_series=series)
+    logging.getLogger("granavg").info("report: %s", out / "report.html")
     return 0
 
 
+@contextmanager
+def staged_directory(out):
+    """A temporary directory beside ``out``, renamed to ``out`` only when the block
+    completes; removed otherwise (a refused or interrupted report leaves nothing)."""
+    import shutil
+    import tempfile
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        yield tmp
+        if out.exists():
+            out.rmdir()                  # empty (checked before)
+        os.replace(tmp, out)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
 def _demo(args) -> int:
-    from pathlib import Path
 
     from .pipeline import report_run
     from .scene import preset
@@ -193,9 +241,19 @@ def _demo(args) -> int:
     return 0
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, turned into an exception like Ctrl-C's."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
 def main(argv=None) -> int:
     """Entry point of the ``granavg`` command."""
     args = _parser().parse_args(argv)
+    previous = signal.signal(signal.SIGTERM, _on_sigterm) \
+        if threading.current_thread() is threading.main_thread() else None
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="granavg: %(message)s")
     for noisy in ("distributed", "tornado", "bokeh"):     # dask's own chatter
@@ -206,6 +264,14 @@ def main(argv=None) -> int:
     except UserError as exc:
         print(f"granavg: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    except KeyboardInterrupt as exc:
+        what = "stopped (the run is kept; --resume continues it)" if \
+            args.command in ("simulate", "demo") else "nothing written"
+        print(f"granavg: interrupted; {what}", file=sys.stderr)
+        return 143 if isinstance(exc, Terminated) else 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -95,13 +95,18 @@ def fig4(p20, p60, summary, axes=None):
 
 
 def fig5(p20, p60, summary, axes=None):
-    """2 pi E / k_n and pi G / k_n against tr F, with the linear bulk fit (Fig. 5)."""
+    """2 pi E / k_n and pi G / k_n against tr F, with the linear bulk fit (Fig. 5); with
+    a density series, the bulk rings of every run on the same axes."""
     ax = _axes(axes, 2)
     for k, p in enumerate((p20, p60)):
         trF, B, G = summary["series"][f"stiffness_{p.rings.n}"]
         for a, y in ((ax[0], B), (ax[1], G)):
             a.plot(trF, y, ls="none", marker=MARKERS[k], color=OKABE_ITO[k],
                    mfc=OKABE_ITO[k] if k == 0 else "none", label=f"{p.rings.n} rings")
+    for k, (label, trF, B, G) in enumerate(summary["series"].get("density_series", [])):
+        for a, y in ((ax[0], B), (ax[1], G)):
+            a.plot(trF, y, ls="none", marker=MARKERS[(k + 2) % len(MARKERS)],
+                   color=OKABE_ITO[(k + 2) % len(OKABE_ITO)], label=f"{label} (bulk)")
     slope, intercept = summary["series"]["bulk_fit"]
     x = np.linspace(*ax[0].get_xlim(), 50)
     ax[0].plot(x, slope * x + intercept, color="k", ls=":", label=f"bulk fit: {slope:.1f} tr F "

@@ -14,8 +14,11 @@ from .report import write_report, write_summary
 log = logging.getLogger(__name__)
 
 
-def report_profiles(coarse: RingProfiles, fine: RingProfiles, out, title="granavg report") -> dict:
-    """Analyse two ring profiles of one run and write figures, summary.json, report.html."""
+def report_profiles(coarse: RingProfiles, fine: RingProfiles, out, title="granavg report",
+                    density_series=()) -> dict:
+    """Analyse two ring profiles of one run (or ensemble) and write figures, summary.json,
+    report.html; ``density_series``: coarse profiles of the scene at other area
+    fractions, for Fig. 5's master curve."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     manifest = (coarse.meta or {}).get("run_manifest")
@@ -23,7 +26,7 @@ def report_profiles(coarse: RingProfiles, fine: RingProfiles, out, title="granav
         raise UserError("the profiles carry no run manifest; make them with 'granavg average'")
     if coarse.rings.n > fine.rings.n:
         coarse, fine = fine, coarse
-    summary = analyze(coarse, fine, manifest)
+    summary = analyze(coarse, fine, manifest, density_series)
     figures = save_all(coarse, fine, summary, out / "figures")
     run = _run_dir_of(coarse)
     if run is not None:
@@ -32,7 +35,7 @@ def report_profiles(coarse: RingProfiles, fine: RingProfiles, out, title="granav
         log.info("Fig. 1 not drawn: the profiles' run directory (with its dumps) is not at hand")
     write_summary(summary, out / "summary.json")
     write_report(summary, figures, out / "report.html", title)
-    log.info("report: %s", out / "report.html")
+    log.debug("report written: %s", out / "report.html")
     return summary
 
 

@@ -102,34 +102,90 @@ class _Scanner:
         self.line = 1
         self.eof = False
         self._layout = None
+        self.delivered = 0              # decompressed bytes read so far
+        self.previous = None            # (timestep, line) of the last frame header
+        self.complete = None            # timestep of the last complete frame
+        self.seen = 0
 
     def frames(self):
-        opener = igzip.open if self.path.suffix == ".gz" else open  # ISA-L: 3x zlib
+        if self.path.is_dir():
+            raise UserError(f"{self.path}: is a directory; give the dump file")
+        self.gzip = self.path.suffix == ".gz"
+        opener = igzip.open if self.gzip else open  # ISA-L: 3x zlib
         with opener(self.path, "rb") as self.fh:
             while self._skip_blank():
                 frame = self._frame()
                 if frame is None:
-                    return
+                    break
+                self.seen += 1
                 if frame is not _SKIPPED:
+                    self.complete = frame.timestep
                     yield frame
                 elif self.reader.steps and self.last_step > self.reader.steps[1]:
                     return
+        if self.seen == 0 and self.reader.steps is None:
+            raise UserError(f"{self.path}: holds no complete frame (the file is empty or "
+                            "damaged); give a dump written by LAMMPS' dump command")
 
     # -- buffer -------------------------------------------------------------------------
     def _fill(self) -> bool:
-        """Read another chunk; False at end of file (or at a damaged gzip tail)."""
+        """Read another chunk; False at end of file. A damaged gzip stream is an error
+        before any data; after some, what can be decompressed up to the damage is kept
+        (read again in small pieces) and the damage reported."""
         if self.eof:
             return False
         try:
             more = self.fh.read(CHUNK)
-        except (EOFError, OSError, zlib.error, isal_zlib.error):  # damaged gzip tail
-            more = b""
+        except (EOFError, OSError, zlib.error, isal_zlib.error) as exc:
+            if self.delivered == 0 and not self.gzip_salvage_possible():
+                raise UserError(f"{self.path}: not a readable gzip file ({exc}); give an "
+                                "intact .gz dump, or a plain one without the .gz name") from None
+            more = self._salvage(exc)
+            self.eof = True
         if not more:
             self.eof = True
             return False
+        self.delivered += len(more)
         self.buf = self.buf[self.pos:] + more
         self.pos = 0
         return True
+
+    def gzip_salvage_possible(self) -> bool:
+        """Whether the damaged stream yields any data when read in small pieces."""
+        return bool(self._pieces(limit=1))
+
+    def _pieces(self, limit=None) -> bytes:
+        """Decompressed bytes after ``delivered``, up to the damage: the raw file fed
+        to a streaming decompressor in 64 kB pieces, member after member, so everything
+        before a cut or a corrupt byte comes out (at most ``limit`` bytes if given)."""
+        out, total, skip = [], 0, self.delivered
+        d = zlib.decompressobj(wbits=31)
+        with open(self.path, "rb") as fh:
+            while (raw := fh.read(1 << 16)):
+                try:
+                    data = d.decompress(raw)
+                    while d.eof and d.unused_data:          # the next gzip member
+                        rest = d.unused_data
+                        d = zlib.decompressobj(wbits=31)
+                        data += d.decompress(rest)
+                except zlib.error:
+                    break
+                if skip:
+                    cut = min(skip, len(data))
+                    data, skip = data[cut:], skip - cut
+                out.append(data)
+                total += len(data)
+                if limit is not None and total >= limit:
+                    break
+        return b"".join(out)
+
+    def _salvage(self, exc) -> bytes:
+        more = self._pieces()
+        log.warning("%s: the gzip stream is damaged after %d bytes of data (%s); the "
+                    "complete frames before the damage are used", self.path,
+                    self.delivered + len(more), exc)
+        self.damaged = True
+        return more
 
     def _skip_blank(self) -> bool:
         while True:
@@ -178,6 +234,8 @@ class _Scanner:
                     head["time"] = float(value)
                 elif item.startswith("NUMBER OF"):
                     head["n"] = int(value)
+                    if head["n"] < 0:
+                        raise ValueError
                 elif item.startswith("BOX BOUNDS"):
                     lines = [value, self._readline(), self._readline()]
                     if None in lines:
@@ -190,6 +248,13 @@ class _Scanner:
         if "timestep" not in head or "n" not in head:
             raise UserError(f"{self.path}:{start_line}: frame without TIMESTEP or NUMBER OF "
                             "header; the file is damaged")
+        if self.previous is not None and head["timestep"] <= self.previous[0]:
+            raise UserError(
+                f"{self.path}:{start_line}: timestep {head['timestep']} does not follow "
+                f"timestep {self.previous[0]} (line {self.previous[1]}); time steps must "
+                "increase - a frame was written twice, or a resumed run appended frames "
+                "without its dumps being cut back; remove the repeated frames")
+        self.previous = (head["timestep"], start_line)
         return self._rows(head, names)
 
     def _rows(self, head, names):
@@ -258,7 +323,62 @@ class _Scanner:
                         f"{len(names)} numbers, timestep {step}); the file is damaged")
 
     def _truncated(self, step, line):
-        log.warning("%s:%d: last frame (timestep %s) is truncated; skipped", self.path, line, step)
+        log.warning("%s:%d: last frame (timestep %s) is truncated; skipped; the last complete "
+                    "frame used is timestep %s", self.path, line, step, self.complete)
+
+
+#: Largest accepted deviation of a contact normal from unit length.
+NORMAL_TOLERANCE = 1e-6
+
+
+def check_atoms(path, frame: DumpFrame) -> dict:
+    """The frame's atom columns, after refusing duplicate ids and radii that are not
+    positive (one line naming file, line and timestep)."""
+    cols = frame.as_dict()
+    if "id" in cols:
+        ids = cols["id"]
+        uniq, first, counts = np.unique(ids, return_index=True, return_counts=True)
+        if len(uniq) < len(ids):
+            dup = uniq[counts > 1][0]
+            rows = np.flatnonzero(ids == dup)
+            raise UserError(f"{path}:{frame.line + rows[1]}: atom id {int(dup)} appears twice "
+                            f"in timestep {frame.timestep} (also line {frame.line + rows[0]}); "
+                            "the dump is damaged")
+    if "radius" in cols:
+        bad = np.flatnonzero(~(cols["radius"] > 0))
+        if len(bad):
+            raise UserError(f"{path}:{frame.line + bad[0]}: radius {cols['radius'][bad[0]]:g} "
+                            f"is not positive (timestep {frame.timestep}); disks need a radius "
+                            "> 0 (m)")
+    return cols
+
+
+def check_contacts(path, frame: DumpFrame) -> dict:
+    """The frame's contact columns, after refusing rows that make no sense: a disk in
+    contact with itself, an unknown wall code, a normal that is not a unit vector."""
+    cols = frame.as_dict()
+
+    def fail(row, what):
+        raise UserError(f"{path}:{frame.line + row}: {what} (timestep {frame.timestep}); "
+                        "the contact dump is damaged or not in granavg's format")
+    if "wall" in cols:
+        bad = np.flatnonzero(~np.isin(cols["wall"], (0, 1, 2)))
+        if len(bad):
+            fail(bad[0], f"wall code {cols['wall'][bad[0]]:g} is not 0, 1 or 2")
+    if "id1" in cols and "id2" in cols:
+        same = (cols["id1"] == cols["id2"])
+        if "wall" in cols:
+            same &= cols["wall"] == 0
+        if same.any():
+            fail(np.flatnonzero(same)[0], f"atom {int(cols['id1'][same][0])} is in contact "
+                 "with itself")
+    if "nx" in cols and "ny" in cols:
+        off = np.abs(np.hypot(cols["nx"], cols["ny"]) - 1.0)
+        if np.any(off > NORMAL_TOLERANCE):
+            k = int(np.argmax(off))
+            fail(k, f"the contact normal ({cols['nx'][k]:g}, {cols['ny'][k]:g}) is not a unit "
+                 "vector")
+    return cols
 
 
 @dataclass
@@ -285,6 +405,8 @@ class FramePairs:
 
     def __init__(self, atoms: DumpReader, contacts: DumpReader | None = None, dt=None):
         self.atoms, self.contacts, self.dt = atoms, contacts, dt
+        #: contact rows dropped because they do not touch (overlap <= 0), for the sidecar
+        self.dropped = {"contacts_not_touching": 0}
 
     def __iter__(self):
         a_iter = iter(self.atoms)
@@ -302,8 +424,26 @@ class FramePairs:
                         f"time steps do not match: frame {k + 1} is timestep {fa.timestep} in "
                         f"{self.atoms.path} (line {fa.line}) but {fc.timestep} in "
                         f"{self.contacts.path} (line {fc.line}); use dumps of the same run")
-            yield Frame(fa.timestep, self._time(fa), fa.as_dict(),
-                        fc.as_dict() if fc is not None else None)
+            atoms = check_atoms(self.atoms.path, fa)
+            yield Frame(fa.timestep, self._time(fa), atoms,
+                        self._contacts(fc, atoms) if fc is not None else None)
+
+    def _contacts(self, fc, atoms) -> dict:
+        rows = check_contacts(self.contacts.path, fc)
+        if "id" in atoms and "id1" in rows:
+            known = np.isin(rows["id1"], atoms["id"])
+            if "id2" in rows and "wall" in rows:
+                known &= np.isin(rows["id2"], atoms["id"]) | (rows["wall"] != 0)
+            if not known.all():
+                k = int(np.argmin(known))
+                raise UserError(f"{self.contacts.path}:{fc.line + k}: the contact names an atom "
+                                f"id that is not in {self.atoms.path} at timestep "
+                                f"{fc.timestep}; use the atom and contact dumps of one run")
+        keep = rows["overlap"] > 0 if "overlap" in rows else None
+        if keep is not None and not keep.all():
+            self.dropped["contacts_not_touching"] += int(np.sum(~keep))
+            rows = {k: v[keep] for k, v in rows.items()}
+        return rows
 
     def _time(self, frame):
         if frame.time is not None:

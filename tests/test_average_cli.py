@@ -125,7 +125,7 @@ def test_mismatched_time_steps_are_listed(small_run, plain_dumps, tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--edges", "0.08", "0.05"], "increasing"),
-    (["--bins", "0"], "at least one ring"),
+    (["--bins", "0"], "give between 1 and"),
     (["--quantities", "nu,vorticity"], "unknown quantity"),
     (["--t-min", "1000"], "no frame at t >= t_min"),
 ])

@@ -145,3 +145,32 @@ def test_noisy_data_make_claims_inconclusive_not_reproduced():
     got, summary = verdicts(noise=0.5)
     assert got[CLAIMS["rotation"]] == "inconclusive"
     assert summary["numbers"]["eigen_rotation"]["layer1_per_s_err"] > 0.005
+
+
+def shifted(n, dnu, **kw):
+    """Profiles of the same law at a density shifted by dnu (replicates included)."""
+    p = profiles(n, **kw)
+    scale = (0.82 + dnu) / 0.82
+    for d in (p.values, *(([p.replicates.values]) if p.replicates else [])):
+        for k in d:
+            if k.startswith(("F_", "sigma_", "eps_")) or k in ("nu", "rho"):
+                d[k] = d[k] * (scale if not k.startswith("eps_") else 1.0)
+    p.meta = {**p.meta, "run_manifest": {"scene": {**SCENE, "n_small": int(2538 * scale)}}}
+    return p
+
+
+def test_runs_at_several_densities_on_one_master_curve():
+    """Linear springs at three densities: fabric and stress scale together, so the bulk
+    stiffness falls on one line through all runs."""
+    series = [shifted(20, d) for d in (-0.03, 0.02)]
+    summary = analyze(profiles(20), profiles(60), {"scene": SCENE}, series)
+    claim = next(c for c in summary["claims"] if "master curve" in c["claim"])
+    assert claim["verdict"] == "reproduced", claim["evidence"]
+    assert summary["numbers"]["master_curve"]["runs"] == 3
+
+
+def test_a_run_off_the_master_curve_breaks_the_collapse():
+    series = [shifted(20, -0.03), shifted(20, 0.02, hertz=True)]
+    summary = analyze(profiles(20), profiles(60), {"scene": SCENE}, series)
+    claim = next(c for c in summary["claims"] if "master curve" in c["claim"])
+    assert claim["verdict"] == "not reproduced", claim["evidence"]

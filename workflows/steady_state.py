@@ -31,6 +31,8 @@ CANDIDATES = {
     "higher friction: mu 2": ["mu=2", "mu_wall=2"],
     "rolling resistance: mu_roll 0.1": ["mu_roll=0.1"],
     "rolling resistance: mu_roll 0.3": ["mu_roll=0.3"],
+    "higher disk friction: mu 2, mu_wall 0.8": ["mu=2"],
+    "denser (last resort): area fraction 0.830, mu 0.8": ["n_small=2590", "n_large=415"],
 }
 TARGETS = {"C_bulk": 3.0, "rattler_fraction": 0.15, "dyn_over_static_bulk": 0.01,
            "v0": (0.645, 0.10), "s": (0.0127, 0.15)}
