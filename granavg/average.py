@@ -13,6 +13,7 @@ import json
 import logging
 import math
 import os
+import signal
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -213,8 +214,14 @@ class RingProfiles:
                     np.savez(fh, kind=self.replicates.kind, **self.replicates.values)
             if self.timeseries is not None:
                 self.timeseries.to_csv(next(extra), index=False, float_format="%.8g")
-            for t, final in zip(tmp, targets):
-                os.replace(t, final)
+            # the table last: when it exists, its companions do; no signal in between
+            blocked = {signal.SIGINT, signal.SIGTERM}
+            old = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
+            try:
+                for t, final in reversed(list(zip(tmp, targets))):
+                    os.replace(t, final)
+            finally:
+                signal.pthread_sigmask(signal.SIG_SETMASK, old)
         finally:
             for t in tmp:
                 t.unlink(missing_ok=True)

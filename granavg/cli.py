@@ -154,7 +154,8 @@ def _average(args) -> int:
     for run in args.run_dir:
         validate.run_directory(run)
     validate.existing_file("--atoms", args.atoms)
-    validate.existing_file("--contacts", args.contacts)
+    if args.contacts and Path(args.contacts).is_dir():       # read only if needed
+        validate.existing_file("--contacts", args.contacts)
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers {args.workers}: must be >= 1 (leave it out to average "
                         "in this process)")

@@ -394,7 +394,9 @@ def test_a_signal_stops_averaging_with_one_line_and_no_output(long_run, tmp_path
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen([sys.executable, "-m", "granavg", "average", str(long_run),
                              "--bins", "20", "--t-min", "0", "--out", str(out),
-                             "--no-progress"], stderr=subprocess.PIPE, text=True, env=env)
+                             "--no-progress"], stderr=subprocess.PIPE, text=True, env=env,
+                            # as from a terminal (a background job inherits SIGINT ignored)
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     cpu = 0.0
     while cpu < 3.0 and proc.poll() is None:                # imports done, frames being read
         time.sleep(0.1)

@@ -67,7 +67,8 @@ def score(runs) -> dict:
     t_min = p20.meta["frames"]["t_min_s"]
     ts = [p.timeseries[p.timeseries.t_s >= t_min] for p in p20s]
     window = pd.concat(ts)
-    drift = {q: [p.meta["stationarity"].get(q, {}).get("drifts") for p in p20s]
+    drift = {q: [(lambda r: bool(r.get("drifts") or r.get("undetermined")))(
+                 p.meta["stationarity"].get(q, {})) for p in p20s]
              for q in ("C_bulk", "P_bulk_Pa", "nu_bulk")}
     first = pd.concat([p.timeseries[p.timeseries.t_s < 20] for p in p20s])
     sb = summary["numbers"]["shear_band"]
@@ -107,7 +108,7 @@ def meets(row) -> dict:
 
 def markdown(df: pd.DataFrame) -> str:
     head = ["candidate", "runs", "C_bulk (t<20 s -> window)", "rattlers", "P_bulk (Pa)",
-            "P drifts (runs)", "ordered share", "dyn/static bulk", "v0/(Omega R_i)", "s (mm)",
+            "P not shown steady (runs)", "ordered share", "dyn/static bulk", "v0/(Omega R_i)", "s (mm)",
             "targets met"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, r in df.iterrows():
