@@ -42,6 +42,11 @@ def test_in_situ_equals_averaging_the_dumps_of_the_same_run(runs):
         # the dumps hold 12 significant digits; in situ has LAMMPS' doubles
         assert np.nanmax(np.abs(insitu.values[q] - v)) < 1e-8 * scale, q
         assert np.nanmax(np.abs(insitu.sem[q] - dumps.sem[q])) < 1e-6 * scale, q
+    # the same state frame by frame (time series), from LAMMPS' memory and from the dumps
+    a, b = insitu.timeseries, dumps.timeseries
+    assert list(a.step) == list(b.step) and len(a) > 60
+    for col in ("C", "C_bulk", "rattler_fraction", "P_bulk_Pa", "psi6_bulk", "ke_J"):
+        assert np.allclose(a[col], b[col], rtol=1e-6, atol=1e-12), col
 
 
 def test_two_ranks_write_no_dumps_and_the_same_manifest(runs):

@@ -37,6 +37,9 @@ def test_dask_chunks_equal_the_serial_average_bit_for_bit(small_run):
         assert np.array_equal(serial.values[q], parallel.values[q], equal_nan=True), q
         assert np.array_equal(serial.sem[q], parallel.sem[q], equal_nan=True), q
     assert np.array_equal(serial.flags, parallel.flags)
+    # the frames' time series too (dask chunks cover the averaged window)
+    window = serial.timeseries[serial.timeseries.t_s >= 1.0].reset_index(drop=True)
+    assert parallel.timeseries.equals(window)
 
 
 def test_cli_average_on_local_workers(small_run, tmp_path):
