@@ -18,11 +18,12 @@ import tracemalloc
 import warnings
 from pathlib import Path
 
-from granavg.average import RingAverage, Rings, average_run, frame_sums
-from granavg.kernels import CHANNELS
-from granavg.profiles import QUANTITIES
-from granavg.reader import DumpReader, Frame, FramePairs
-from granavg.rundir import read_manifest
+from granavg.engine.average import RingAverage, Rings, frame_sums
+from granavg.io.runs import average_run
+from granavg.engine.kernels import CHANNELS
+from granavg.engine.profiles import QUANTITIES
+from granavg.io.reader import DumpReader, Frame, FramePairs
+from granavg.io.rundir import read_manifest
 
 
 def best_of(fn, repeat=3):

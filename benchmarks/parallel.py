@@ -16,8 +16,8 @@ import time
 
 import numpy as np
 
-from granavg.average import average_run
-from granavg.parallel import average_run_dask, local_cluster
+from granavg.io.runs import average_run
+from granavg.io.parallel import average_run_dask, local_cluster
 
 
 def identical(a, b) -> bool:

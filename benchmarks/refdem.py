@@ -21,10 +21,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from granavg.lammps_session import executable, lammps_env
-from granavg.refdem_run import reference_engine
-from granavg.scene import preset
-from granavg.simulate import simulate
+from granavg.sim.lammps_session import executable, lammps_env
+from granavg.sim.refdem_run import reference_engine
+from granavg.sim.scene import preset
+from granavg.sim.simulate import simulate
 
 SMALL_CELL = ["R_i=0.04", "R_o=0.0826", "n_small=250", "n_large=40", "Omega=0.5",
               "t_dump_start=0", "contacts=0"]

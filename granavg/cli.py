@@ -11,8 +11,8 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 
-from . import __version__
-from .errors import UserError
+from granavg import __version__
+from granavg.errors import UserError
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -103,8 +103,8 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _simulate(args) -> int:
-    from .scene import preset
-    from .simulate import resume, simulate
+    from granavg.sim.scene import preset
+    from granavg.sim.simulate import resume, simulate
 
     if args.np < 1 or args.omp < 1:
         raise UserError("--np and --omp must be >= 1")
@@ -116,7 +116,7 @@ def _simulate(args) -> int:
                             "--start, --engine, --average and --quantities")
         out = resume(args.out, np_ranks=args.np, omp_threads=args.omp, progress=progress)
     elif args.seeds is not None:
-        from .ensemble import simulate_ensemble
+        from granavg.sim.ensemble import simulate_ensemble
         if args.np != 1 or args.omp != 1 or args.start or args.engine != "lammps" or args.average:
             raise UserError("--seeds runs each realisation as one single-threaded LAMMPS "
                             "task; drop --np, --omp, --start, --engine and --average")
@@ -142,10 +142,11 @@ def _names(text):
 
 def _average(args) -> int:
 
-    from . import validate
-    from .analysis import warn_if_inertial
-    from .average import REPLICATES, TIMESERIES, average_run
-    from .ensemble import average_runs
+    from granavg.io import validate
+    from granavg.analysis.claims import warn_if_inertial
+    from granavg.io.profiles_io import REPLICATES, TIMESERIES, write_profiles
+    from granavg.io.runs import average_run
+    from granavg.io.runs import average_runs
 
     out = validate.free_output(Path(args.out), ("", ".json", REPLICATES, TIMESERIES))
     validate.positive("--block-time", args.block_time)
@@ -166,13 +167,13 @@ def _average(args) -> int:
         raise UserError("--atoms and --contacts name the dumps of one run; give one run "
                         "directory with them")
     if args.workers is not None or args.scheduler:
-        from .parallel import average_run_dask
+        from granavg.io.parallel import average_run_dask
         profiles = average_runs(args.run_dir, average_run_dask, workers=args.workers or 2,
                                 scheduler=args.scheduler, **options)
     else:
         profiles = average_runs(args.run_dir, average_run,
                                 progress=False if args.no_progress else None, **options)
-    profiles.write(out, parquet=args.parquet)
+    write_profiles(profiles, out, parquet=args.parquet)
     warn_if_inertial(profiles)
     logging.getLogger("granavg").info("%d rings x %d frames -> %s (+ %s.json)",
                                       profiles.rings.n, profiles.n_frames, out, out.name)
@@ -185,15 +186,15 @@ ANALYSED = ("nu", "rho", "v_phi", "omega", "F_rr", "sigma_rr", "dsigma_rr", "eps
 
 def _analyze(args) -> int:
 
-    from .average import RingProfiles
-    from .pipeline import report_profiles
+    from granavg.io.profiles_io import read_profiles
+    from granavg.analysis.pipeline import report_profiles
 
     out = Path(args.out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise UserError(f"--out {out}: exists and is not an empty directory; choose a new "
                         "--out (reports are never overwritten)")
-    inputs = [RingProfiles.read(p) for p in args.profiles]
-    series = [RingProfiles.read(p) for p in args.density_series]
+    inputs = [read_profiles(p) for p in args.profiles]
+    series = [read_profiles(p) for p in args.density_series]
     for p, name in zip([*inputs, *series], [*args.profiles, *args.density_series]):
         if not (p.meta or {}).get("run_manifest"):
             raise UserError(f"{name}.json: carries no run manifest; make the profiles with "
@@ -229,9 +230,9 @@ def staged_directory(out):
 
 def _demo(args) -> int:
 
-    from .pipeline import report_run
-    from .scene import preset
-    from .simulate import simulate
+    from granavg.analysis.pipeline import report_run
+    from granavg.sim.scene import preset
+    from granavg.sim.simulate import simulate
 
     out = Path(args.out)
     if out.exists() and any(out.iterdir()):

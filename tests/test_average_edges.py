@@ -7,9 +7,9 @@ import math
 
 import numpy as np
 
-from granavg.average import average_run
-from granavg.reader import DumpReader
-from granavg.rundir import read_manifest
+from granavg.io.runs import average_run
+from granavg.io.reader import DumpReader
+from granavg.io.rundir import read_manifest
 
 
 def last_frame_time(run):

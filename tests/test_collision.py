@@ -1,6 +1,6 @@
 """Two-body collisions in real LAMMPS against the analytic linear spring-dashpot.
 
-The pair style gets its coefficients from granavg.contact_law.to_lammps, so this checks
+The pair style gets its coefficients from granavg.sim.contact_law.to_lammps, so this checks
 the conversion and LAMMPS' contact law together: restitution exp(-gamma_n t_c/2) and
 contact duration pi/omega_d, for two disks and for a disk against a frozen wall disk
 (which must act as an infinite mass: m_eff = m_disk).
@@ -9,9 +9,9 @@ contact duration pi/omega_d, for two disks and for a disk against a frozen wall 
 import numpy as np
 import pytest
 
-from granavg.contact_law import (ContactLaw, contact_duration, disk_mass, effective_mass,
-                                 restitution, to_lammps)
-from granavg.collision import D, lammps_trajectory
+from granavg.sim.contact_law import (ContactLaw, contact_duration, disk_mass, effective_mass,
+                                     restitution, to_lammps)
+from granavg.sim.collision import D, lammps_trajectory
 
 M = disk_mass(D, 1060, 0.006)
 

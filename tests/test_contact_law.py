@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from granavg.contact_law import (ContactLaw, contact_duration, damping_for_restitution,
-                                 disk_mass, effective_mass, max_stable_timestep,
-                                 restitution, to_lammps)
+from granavg.sim.contact_law import (ContactLaw, contact_duration, damping_for_restitution,
+                                     disk_mass, effective_mass, max_stable_timestep,
+                                     restitution, to_lammps)
 from granavg.errors import UserError
-from granavg.scene import PAPER
+from granavg.sim.scene import PAPER
 
 
 @pytest.mark.parametrize("e_n", [0.1, 0.5, 0.9, 0.99])

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from granavg.contacts import COLUMNS, RAW_COLUMNS, contact_table
+from granavg.io.contacts import COLUMNS, RAW_COLUMNS, contact_table
 
 R = np.array([0.0, 0.004, 0.005, 0.003, 0.003])      # radius of types 1-4
 

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from granavg.continuum import (decay_range, deformation_rate_and_spin,
-                               deformation_rate_and_spin_fit, equations_of_motion,
-                               fit_shear_band, momentum_flux_total, orientation, power_law,
-                               stiffness)
+from granavg.analysis.continuum import (decay_range, deformation_rate_and_spin,
+                                        deformation_rate_and_spin_fit, equations_of_motion,
+                                        fit_shear_band, momentum_flux_total, orientation,
+                                        power_law, stiffness)
 from granavg.errors import UserError
 
 R_I, R_O, OMEGA = 0.1032, 0.2524, 0.1
@@ -133,7 +133,7 @@ def test_orientation_of_a_rotated_tensor(theta):
 def test_crystal_stiffness_is_linear_in_the_fabric():
     """For the compressed hexagonal crystal, tr sigma / tr eps / k_n = tr F / (2 pi h)."""
     from tests.test_engine_analytic import H, average, hex_crystal
-    from granavg.average import Rings
+    from granavg.engine.average import Rings
 
     p = average([hex_crystal(k=10.0)], Rings.count(6, 0.03, 0.09, H))
     comps = ("rr", "rphi", "phir", "phiphi")

@@ -16,8 +16,8 @@ import time
 import numpy as np
 import pytest
 
-from granavg.average import RingProfiles
 from granavg.cli import main
+from granavg.io.profiles_io import read_profiles
 
 from .conftest import run_cli
 
@@ -167,13 +167,13 @@ def test_a_cut_gzip_keeps_every_complete_frame(capsys, small_run, dumps, tmp_pat
     code, _ = cli(capsys, *average(small_run, tmp_path / "p.csv", "--atoms", cut,
                                    "--quantities", "nu,v"))
     assert code == 0
-    got = RingProfiles.read(tmp_path / "p.csv")
+    got = read_profiles(tmp_path / "p.csv")
     kept = got.timeseries.step.to_numpy()
     assert len(kept) >= 0.6 * len(frames) - 1                # all but the damaged tail
     whole = write(tmp_path, "kept.dump", [ln for f in frames[:len(kept)] for ln in f])
     code, _ = cli(capsys, *average(small_run, tmp_path / "q.csv", "--atoms", whole,
                                    "--quantities", "nu,v"))
-    ref = RingProfiles.read(tmp_path / "q.csv")
+    ref = read_profiles(tmp_path / "q.csv")
     assert np.array_equal(got.values["v_phi"], ref.values["v_phi"], equal_nan=True)
 
 
@@ -220,7 +220,7 @@ def test_rows_that_do_not_touch_are_dropped_and_counted(capsys, small_run, dumps
                                 "--contacts", bad))[0] == 0
     assert cli(capsys, *average(small_run, tmp_path / "q.csv", "--atoms", atoms,
                                 "--contacts", dumps["dir"] / "contacts.dump"))[0] == 0
-    p, q = (RingProfiles.read(tmp_path / f) for f in ("p.csv", "q.csv"))
+    p, q = (read_profiles(tmp_path / f) for f in ("p.csv", "q.csv"))
     for name in ("coordination", "F_rr", "sigma_rphi", "eps_rr"):
         assert np.array_equal(p.values[name], q.values[name], equal_nan=True)
     n_avg = p.n_frames

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from granavg.accumulate import RingAccumulator
-from granavg.average import RingAverage, Rings, frame_sums
-from granavg.kernels import CHANNELS
-from granavg.profiles import QUANTITIES
-from granavg.reader import Frame
-from granavg.weights import ring_weights
+from granavg.engine.accumulate import RingAccumulator
+from granavg.engine.average import RingAverage, Rings, frame_sums
+from granavg.engine.kernels import CHANNELS
+from granavg.engine.profiles import QUANTITIES
+from granavg.io.reader import Frame
+from granavg.engine.weights import ring_weights
 
 H, RHO_P = 0.006, 1060.0
 ALL = list(QUANTITIES)

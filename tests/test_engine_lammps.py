@@ -5,15 +5,15 @@ import json
 import numpy as np
 import pytest
 
-from granavg.average import RingAverage, Rings
-from granavg.lammps_session import lammps_session
-from granavg.profiles import QUANTITIES
-from granavg.reader import DumpReader, FramePairs
-from granavg.contacts import COLUMNS, contact_table
-from granavg.reader import Frame
-from granavg.scene import PAPER
-from granavg.contacts import radius_of_type
-from granavg.simulate import DECK, _cmdargs, _deck_variables
+from granavg.engine.average import RingAverage, Rings
+from granavg.sim.lammps_session import lammps_session
+from granavg.engine.profiles import QUANTITIES
+from granavg.io.reader import DumpReader, FramePairs
+from granavg.io.contacts import COLUMNS, contact_table
+from granavg.io.reader import Frame
+from granavg.sim.scene import PAPER
+from granavg.io.contacts import radius_of_type
+from granavg.sim.simulate import DECK, _cmdargs, _deck_variables
 
 from .conftest import SMALL_CELL
 
@@ -35,7 +35,7 @@ def covering_rings(frame, h, n=15):
 
 def direct_sums(frame, h):
     """sum_p sum_c f (x) l and sum_p V^p sum_c n (x) n in each disk's polar basis,
-    written independently of granavg.kernels (complex numbers rotate into the basis)."""
+    written independently of granavg.engine.kernels (complex numbers rotate into the basis)."""
     a, c = frame.atoms, frame.contacts
     row = {int(i): k for k, i in enumerate(a["id"])}
     z = a["x"] + 1j * a["y"]

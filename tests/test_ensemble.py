@@ -6,10 +6,11 @@ import json
 import numpy as np
 import pytest
 
-from granavg.analysis import analyze
-from granavg.average import RingProfiles, average_run
-from granavg.ensemble import combine_runs
+from granavg.analysis.claims import analyze
+from granavg.io.runs import average_run
+from granavg.engine.ensemble import combine_runs
 from granavg.errors import UserError
+from granavg.io.profiles_io import read_profiles
 from tests.conftest import SMALL_CELL, run_cli
 
 SHORT = [s if not s.startswith("t_end") else "t_end=3" for s in SMALL_CELL]
@@ -42,7 +43,7 @@ def test_average_of_runs_is_their_mean_with_the_between_run_error(ensemble, tmp_
     proc = run_cli("average", *runs, "--bins", 8, "--t-min", 1.5, "--out", tmp_path / "e.csv",
                    "--no-progress")
     assert proc.returncode == 0, proc.stderr
-    ens = RingProfiles.read(tmp_path / "e.csv")
+    ens = read_profiles(tmp_path / "e.csv")
     single = [average_run(r, progress=False, **opts) for r in runs]
     for name in ("nu", "v_phi", "sigma_rr", "eps_rphi"):
         x = np.stack([p.values[name] for p in single])
@@ -56,7 +57,7 @@ def test_average_of_runs_is_their_mean_with_the_between_run_error(ensemble, tmp_
 
 def test_the_analysis_of_an_ensemble_uses_between_run_errors(ensemble, tmp_path):
     runs = sorted(p for p in ensemble.iterdir() if p.is_dir())
-    p8, p16 = (RingProfiles.read(_avg(runs, n, tmp_path)) for n in (8, 16))
+    p8, p16 = (read_profiles(_avg(runs, n, tmp_path)) for n in (8, 16))
     summary = analyze(p8, p16, p8.meta["run_manifest"])
     assert summary["errors"] == {**summary["errors"], "kind": "runs", "replicates": 3}
     assert np.isfinite(summary["numbers"]["shear_band"]["s_m_err"])

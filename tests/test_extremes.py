@@ -5,9 +5,9 @@ import json
 
 import pytest
 
-from granavg.collision import elastic_head_on
-from granavg.reader import DumpReader
-from granavg.scene import MIN_STEPS_PER_CONTACT
+from granavg.sim.collision import elastic_head_on
+from granavg.io.reader import DumpReader
+from granavg.sim.scene import MIN_STEPS_PER_CONTACT
 
 from .conftest import run_cli, small_cell_args
 

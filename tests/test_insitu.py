@@ -11,7 +11,8 @@ import json
 import numpy as np
 import pytest
 
-from granavg.average import RingProfiles, average_run
+from granavg.io.runs import average_run
+from granavg.io.profiles_io import read_profiles
 
 from .conftest import SMALL_CELL, run_cli, small_cell_args
 
@@ -33,7 +34,7 @@ def runs(small_run, tmp_path_factory):
 
 
 def test_in_situ_equals_averaging_the_dumps_of_the_same_run(runs):
-    insitu = RingProfiles.read(runs["serial"] / "profiles_8.csv")
+    insitu = read_profiles(runs["serial"] / "profiles_8.csv")
     dumps = average_run(runs["serial"], bins=8, t_min=1.5, block_time=0.35, progress=False)
     assert insitu.n_frames == dumps.n_frames > 60
     assert set(insitu.values) == set(dumps.values)
@@ -69,8 +70,8 @@ def test_a_run_for_density_and_velocity_takes_no_contacts_and_gets_the_same_answ
     m = json.loads((runs["nu_v"] / "manifest.json").read_text())
     assert m["scene"]["contacts"] is False and "overlap" not in m
     assert m["average"]["quantities"] == ["nu", "v"]
-    slim = RingProfiles.read(runs["nu_v"] / "profiles_8.csv")
-    full = RingProfiles.read(runs["serial"] / "profiles_8.csv")
+    slim = read_profiles(runs["nu_v"] / "profiles_8.csv")
+    full = read_profiles(runs["serial"] / "profiles_8.csv")
     assert set(slim.values) == {"nu", "v_r", "v_phi"}
     for q, v in slim.values.items():
         np.testing.assert_array_equal(v, full.values[q], err_msg=q)
@@ -85,7 +86,7 @@ def test_two_ranks_give_the_same_profiles_within_standard_errors(runs):
     """Same start: equal until round-off (a different order of force sums across ranks)
     grows chaotically; then two realisations, compared in the flowing band as in
     tests/test_refdem_couette.py."""
-    a, b = (RingProfiles.read(runs[k] / "profiles_8.csv") for k in ("serial", "mpi2"))
+    a, b = (read_profiles(runs[k] / "profiles_8.csv") for k in ("serial", "mpi2"))
     m = json.loads((runs["serial"] / "manifest.json").read_text())["scene"]
     band = a.values["v_phi"] > 0.1 * m["Omega"] * m["R_i"]
     assert band.sum() >= 2

@@ -4,7 +4,7 @@ import os
 import subprocess
 import sys
 
-from granavg.lammps_session import executable, lammps_env
+from granavg.sim.lammps_session import executable, lammps_env
 
 
 def test_import_granavg_makes_lammps_loadable_without_environment():

@@ -5,7 +5,7 @@ import warnings
 
 import numpy as np
 
-from granavg.reader import DumpReader
+from granavg.io.reader import DumpReader
 
 
 def test_mdanalysis_and_granavg_read_identical_atom_frames(small_run, tmp_path):

@@ -6,10 +6,10 @@ import json
 import numpy as np
 import pandas as pd
 
-from granavg.average import average_run
-from granavg.parallel import average_run_dask, chunk_windows
-from granavg.reader import DumpReader
-from granavg.rundir import read_manifest
+from granavg.io.runs import average_run
+from granavg.io.parallel import average_run_dask, chunk_windows
+from granavg.io.reader import DumpReader
+from granavg.io.rundir import read_manifest
 
 from .conftest import run_cli
 

@@ -1,6 +1,6 @@
 """The reference DEM against LAMMPS, step by step, on two-body collisions.
 
-Both engines get the same coefficients (granavg.contact_law.to_lammps), the same masses
+Both engines get the same coefficients (granavg.sim.contact_law.to_lammps), the same masses
 and radii (read back from LAMMPS) and the same start; positions, velocities, spins and
 contact forces must agree to round-off over the whole contact. Each case is also held to
 the analytic linear spring-dashpot first, so a disagreement says which engine is wrong.
@@ -11,11 +11,11 @@ import math
 import numpy as np
 import pytest
 
-from granavg.contact_law import ContactLaw, effective_mass, restitution, to_lammps
-from granavg.lammps_session import lammps_session
-from granavg.refdem import Disks, ReferenceDEM
+from granavg.sim.contact_law import ContactLaw, effective_mass, restitution, to_lammps
+from granavg.sim.lammps_session import lammps_session
+from granavg.sim.refdem import Disks, ReferenceDEM
 
-from granavg.collision import D, RHO_AREA, lammps_trajectory, reference_trajectory
+from granavg.sim.collision import D, RHO_AREA, lammps_trajectory, reference_trajectory
 
 
 CASES = {  # name: (law, start of disk 1 and 2: x, y, vx, vy, omega; frozen partner)

@@ -15,8 +15,8 @@ import math
 import numpy as np
 import pytest
 
-from granavg.average import average_run
-from granavg.reader import DumpReader
+from granavg.io.runs import average_run
+from granavg.io.reader import DumpReader
 
 from .conftest import SMALL_CELL, run_cli, small_cell_args
 

@@ -7,9 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from granavg.analysis import analyze
-from granavg.average import RingProfiles
-from granavg.figures import FIGURES, fig2, fig4
+from granavg.analysis.claims import analyze
+from granavg.analysis.figures import FIGURES, fig2, fig4
+from granavg.io.profiles_io import read_profiles
 
 from .conftest import run_cli
 
@@ -40,7 +40,7 @@ def test_every_figure_is_a_valid_image_in_png_and_pdf(report):
 
 
 def test_the_axes_hold_the_plotted_profiles(profiles):
-    p8, p16 = (RingProfiles.read(p) for p in profiles)
+    p8, p16 = (read_profiles(p) for p in profiles)
     summary = analyze(p8, p16, p8.meta["run_manifest"])
     ax = fig2(p8, p16, summary)
     nu_lines = [ln for ln in ax[0].get_lines() if "nu (8 rings)" in ln.get_label()]
@@ -93,7 +93,7 @@ def test_a_single_ring_is_refused(small_run, tmp_path):
 
 @pytest.mark.parametrize("name", [n for n in FIGURES if n.startswith("fig")])
 def test_every_panel_plots_both_ring_counts(profiles, name):
-    p8, p16 = (RingProfiles.read(p) for p in profiles)
+    p8, p16 = (read_profiles(p) for p in profiles)
     summary = analyze(p8, p16, p8.meta["run_manifest"])
     axes = FIGURES[name](p8, p16, summary)
     for ax in axes:
@@ -106,7 +106,7 @@ def test_every_panel_plots_both_ring_counts(profiles, name):
 
 
 def test_the_time_series_figure_shows_every_frame_and_the_window(profiles):
-    p8, p16 = (RingProfiles.read(p) for p in profiles)
+    p8, p16 = (read_profiles(p) for p in profiles)
     summary = analyze(p8, p16, p8.meta["run_manifest"])
     axes = FIGURES["timeseries"](p8, p16, summary)
     n = len(p8.timeseries)
@@ -122,8 +122,8 @@ def test_the_time_series_figure_shows_every_frame_and_the_window(profiles):
 def test_fig1_draws_every_disk_and_every_contact_in_thirds(small_run, tmp_path):
     """Fig. 1 from the run's dumps: one patch per disk, coloured by its stripe at the
     first frame; one segment per disk-disk contact, a third of them in each colour."""
-    from granavg.average import run_averager
-    from granavg.figures import fig1
+    from granavg.io.runs import run_averager
+    from granavg.analysis.figures import fig1
 
     frames = list(run_averager(small_run, quantities=["nu", "sigma"]).frames)
     first, last = frames[0], frames[-1]

@@ -5,9 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from granavg.contacts import COLUMNS
-from granavg.reader import DumpReader
-from granavg.scene import Scene
+from granavg.io.contacts import COLUMNS
+from granavg.io.reader import DumpReader
+from granavg.sim.scene import Scene
 
 from .conftest import run_cli, small_cell_args
 

@@ -5,7 +5,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from granavg.timeseries import DRIFT_Z, frame_state, stationarity, steady_from
+from granavg.engine.timeseries import DRIFT_Z, frame_state, stationarity, steady_from
+from granavg.io.profiles_io import read_profiles, write_profiles
 
 R_I, R_O, H, RHO = 0.1, 0.2, 0.006, 1000.0
 
@@ -104,11 +105,11 @@ def test_random_disks_have_no_hexatic_order():
 
 
 def test_a_real_run_writes_its_time_series(small_run, tmp_path):
-    from granavg.average import RingProfiles, average_run
+    from granavg.io.runs import average_run
 
     p = average_run(small_run, bins=6, t_min=1.5, progress=False)
-    p.write(tmp_path / "p.csv")
-    back = RingProfiles.read(tmp_path / "p.csv")
+    write_profiles(p, tmp_path / "p.csv")
+    back = read_profiles(tmp_path / "p.csv")
     ts = back.timeseries
     assert ts.t_s.iloc[0] < 1.5 <= ts.t_s.iloc[-1]    # all frames, the window marked later
     assert np.all(np.diff(ts.step) > 0) and np.all(ts.C > 2)

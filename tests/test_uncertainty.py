@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from granavg.kernels import CHANNELS, INDEX
-from granavg.profiles import standard_errors
-from granavg.uncertainty import (MIN_BLOCKS, Replicates, blocking_errors, jackknife_sums,
-                                 merge_levels, spread_error)
+from granavg.engine.kernels import CHANNELS, INDEX
+from granavg.engine.profiles import standard_errors
+from granavg.engine.uncertainty import (MIN_BLOCKS, Replicates, blocking_errors,
+                                        jackknife_sums, merge_levels, spread_error)
 
 
 def ar1(n, phi, rng):

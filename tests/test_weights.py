@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from granavg.weights import area_inside_circle, ring_weights
+from granavg.engine.weights import area_inside_circle, ring_weights
 
 
 def test_special_cases_of_the_area_inside_a_circle():

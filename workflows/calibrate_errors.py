@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granavg.average import run_averager
-from granavg.profiles import block_values
-from granavg.uncertainty import spread_error
+from granavg.io.runs import run_averager
+from granavg.engine.profiles import block_values
+from granavg.engine.uncertainty import spread_error
 
 QUANTITIES = ["nu", "v_phi", "omega", "coordination", "F_rr", "F_rphi", "F_phiphi",
               "sigma_rr", "sigma_rphi", "sigma_phiphi", "dsigma_rr", "dsigma_phiphi",

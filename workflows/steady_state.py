@@ -44,8 +44,8 @@ def slug(name: str) -> str:
 
 
 def run_candidate(out: Path, overrides, seeds: int, t_end: float) -> list:
-    from granavg.ensemble import simulate_ensemble
-    from granavg.scene import preset
+    from granavg.sim.ensemble import simulate_ensemble
+    from granavg.sim.scene import preset
 
     scene = preset("paper").with_overrides([*overrides, f"t_end={t_end}", "dump_dt=5",
                                             f"restart_dt={t_end}"])
@@ -54,9 +54,9 @@ def run_candidate(out: Path, overrides, seeds: int, t_end: float) -> list:
 
 def score(runs) -> dict:
     """The targets measured on the runs (window: two rotations to the end)."""
-    from granavg.analysis import analyze, bulk, dynamic_over_static
-    from granavg.average import average_run
-    from granavg.ensemble import combine_runs
+    from granavg.analysis.claims import analyze, bulk, dynamic_over_static
+    from granavg.io.runs import average_run
+    from granavg.engine.ensemble import combine_runs
 
     p20s, p60s = ([average_run(r, bins=n, progress=False) for r in runs] for n in (20, 60))
     for run, p in zip(runs, p20s):
@@ -128,7 +128,7 @@ def plot(out: Path, runs_of: dict):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from granavg.figures import OKABE_ITO
+    from granavg.analysis.figures import OKABE_ITO
 
     fig, ax = plt.subplots(1, 3, figsize=(13, 3.6), constrained_layout=True)
     for k, (name, runs) in enumerate(runs_of.items()):

@@ -50,7 +50,7 @@ HEADLINES = ["v0", "s", "nu_bulk", "trF_bulk", "p_over_kn_bulk", "stiffness_slop
              "eom_residual"]
 
 
-#: the paper's regime must be kept too (granavg.analysis.QUASI_STATIC_LIMIT)
+#: the paper's regime must be kept too (granavg.analysis.claims.QUASI_STATIC_LIMIT)
 QUASI_STATIC_LIMIT = 0.1
 log = logging.getLogger("sweep")
 
@@ -62,9 +62,9 @@ def cpu_seconds() -> float:
 
 def simulate_and_report(out: str, overrides: list) -> dict:
     """One dask task: simulate the paper preset with overrides, average, analyse."""
-    from granavg.pipeline import report_run
-    from granavg.scene import preset
-    from granavg.simulate import simulate
+    from granavg.analysis.pipeline import report_run
+    from granavg.sim.scene import preset
+    from granavg.sim.simulate import simulate
 
     out = Path(out)
     c0, t0 = cpu_seconds(), time.perf_counter()
@@ -79,9 +79,10 @@ def simulate_and_report(out: str, overrides: list) -> dict:
 def average_and_report(ref_run: str, out: str, t_end, every, bins=(20, 60)) -> dict:
     """Averaging settings on the reference run's dumps (no new simulation): the first
     t_end seconds (all with None), every k-th frame, averaged over (coarse, fine) rings."""
-    from granavg.average import run_averager
-    from granavg.pipeline import report_profiles
-    from granavg.rundir import read_manifest
+    from granavg.io.runs import run_averager
+    from granavg.analysis.pipeline import report_profiles
+    from granavg.io.profiles_io import write_profiles
+    from granavg.io.rundir import read_manifest
 
     m = read_manifest(ref_run)["derived"]
     last = int(round(t_end / m["dt_s"])) if t_end else m["n_shear_steps"]
@@ -91,7 +92,7 @@ def average_and_report(ref_run: str, out: str, t_end, every, bins=(20, 60)) -> d
     report = Path(out) / "report"
     for n, p in zip(bins, profiles):     # what a run of this length would record
         p.meta["run_manifest"]["derived"]["t_end_s"] = last * m["dt_s"]
-        p.write(report / f"profiles{n}.csv")
+        write_profiles(p, report / f"profiles{n}.csv")
     report_profiles(*profiles, report)
     return {"sim_cpu_s": 0.0, "sim_wall_s": 0.0, "avg_cpu_s": cpu_seconds() - c0,
             "avg_wall_s": time.perf_counter() - t0}
@@ -110,12 +111,12 @@ def attribute_simulation_cost(rows: dict) -> None:
 
 def metrics(report_dir: Path) -> dict:
     """Headline numbers and their statistical errors from a report directory."""
-    from granavg.average import RingProfiles
+    from granavg.io.profiles_io import read_profiles
 
     s = json.loads((report_dir / "summary.json").read_text())
     n = s["numbers"]
     coarse = min(report_dir.glob("profiles*.csv"), key=lambda f: int(f.stem[8:]))
-    p = RingProfiles.read(coarse)
+    p = read_profiles(coarse)
     kn = s["run"]["scene"]["k_n"]
     w = bulk_weights(p.rings.edges)
 
@@ -234,7 +235,7 @@ def run_missing(out: Path, have: set, args) -> dict:
     without losing what it measured)."""
     from dask.distributed import Client, as_completed
 
-    from granavg.parallel import local_cluster
+    from granavg.io.parallel import local_cluster
 
     todo_sim = [n for n in SIMULATED if n not in have]
     todo_avg = [n for n in AVERAGED if n not in have]

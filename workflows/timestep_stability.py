@@ -15,7 +15,7 @@ import sys
 
 import pandas as pd
 
-from granavg.collision import elastic_head_on
+from granavg.sim.collision import elastic_head_on
 
 STEPS_PER_CONTACT = [1.0, 1.5, 1.6, 2.0, 3.0, 5.0, 10.0, 20.0, 50.0, 100.0]
 PHASES = [0.1, 0.3, 0.5, 0.7, 0.9]

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from granavg.reader import DumpReader
-from granavg.scene import preset
-from granavg.simulate import simulate
+from granavg.io.reader import DumpReader
+from granavg.sim.scene import preset
+from granavg.sim.simulate import simulate
 
 T_END, T_MIN, RINGS = 160.0, 125.0, 20
 VARIANTS = {

@@ -1,0 +1,563 @@
+"""Headline numbers and the paper's claims from coarse and fine ring profiles (Figs. 2-9).
+
+:func:`analyze` returns a plain dict (written as ``summary.json``, stable keys) with the
+run's parameters, every headline number with its standard error beside the paper's
+value, and each of the paper's claims with a verdict and the numbers that decide it.
+Arrays for the figures are in ``series`` (not written to JSON).
+
+Errors of derived numbers (fits, exponents, maxima, layer means) come from replicates of
+the profiles (:mod:`granavg.engine.uncertainty`): the number is recomputed on every replicate,
+delete-one-block jackknife profiles of one run or the profiles of each realisation of an
+ensemble, so the correlation of neighbouring rings is carried along. The fits' own
+errors, which treat rings as independent, are not used.
+
+A claim's verdict is ``reproduced`` when the data show it beyond twice its error,
+``not reproduced`` when they show the opposite beyond twice its error, and
+``inconclusive`` otherwise. Identity checks (the linear-spring stiffness) are listed
+apart: they test the averaging, not the physics.
+
+Regions: the *band* is the decay range of the shear-band fit; the *bulk* is the middle
+half of the rings (away from both walls).
+"""
+
+from __future__ import annotations
+
+import logging
+from types import SimpleNamespace
+
+import numpy as np
+
+from granavg.analysis import continuum as c
+from granavg.errors import UserError
+
+log = logging.getLogger(__name__)
+
+PAPER = {"v0_over_omega_Ri": 0.645, "s_m": 0.0127, "exp_sigma_rr": 0.0,
+         "exp_sigma_phiphi": 0.0, "exp_sigma_rphi": -2.0, "exp_sigma_phir": -2.0}
+COMPONENTS = ("rr", "rphi", "phir", "phiphi")
+#: Twice the standard error: what "beyond the error" means in a verdict.
+Z = 2.0
+#: The paper's "almost consistent" (Eq. 10): exponents within this of 0 and -2.
+EXPONENT_TOLERANCE = 0.3
+#: Angle (deg) between major axes above which tensors count as not co-linear.
+COLINEAR_DEG = 5.0
+#: The paper's bound on the fabric anisotropy (Fig. 3).
+ANISOTROPY_LIMIT = 0.2
+#: Decades of decay the paper reports ("two orders of magnitude"); "about" two.
+DECADES = 1.5
+#: Bulk EoM residual, relative to the stress scale, below which the equations close.
+EOM_LIMIT = 0.1
+#: Relative deviation from the linear-spring identity accepted by the identity check.
+IDENTITY_TOLERANCE = 0.05
+
+
+def tensor(p, name):
+    """The four components of a tensor profile, as a tuple of arrays."""
+    return tuple(p.values[f"{name}_{k}"] for k in COMPONENTS)
+
+
+#: Dynamic over static stress above which the flow is no longer quasi-static (the paper
+#: describes the quasi-static regime only); granavg warns.
+QUASI_STATIC_LIMIT = 0.1
+
+
+def dynamic_over_static(p) -> np.ndarray:
+    """|dynamic stress| / |static stress| per ring (Frobenius norms), shape (n_rings,)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(sum(np.asarray(t) ** 2 for t in tensor(p, "dsigma"))) / np.sqrt(
+            sum(np.asarray(t) ** 2 for t in tensor(p, "sigma")))
+
+
+def warn_if_inertial(p) -> float | None:
+    """Log a warning when the dynamic stress is no longer small against the static
+    stress in some ring; returns the largest ratio (None without both stresses)."""
+    if "sigma_rr" not in p.values or "dsigma_rr" not in p.values:
+        return None
+    ratio = float(np.nanmax(dynamic_over_static(p)))
+    if ratio > QUASI_STATIC_LIMIT:
+        log.warning("dynamic stress reaches %.2f of the static stress (above %.2f): the flow "
+                    "is inertial, outside the quasi-static regime the paper describes; lower "
+                    "Omega or stiffen k_n", ratio, QUASI_STATIC_LIMIT)
+    return ratio
+
+
+def bulk(n):
+    """Slice of the middle half of n rings."""
+    return slice(n // 4, n - n // 4)
+
+
+def replicate_views(p20, p60):
+    """Pairs of (coarse, fine) profile views, one per replicate; [] without replicates.
+
+    Both profiles must have replicates of the same kind and number (the same run's
+    blocks, or the same realisations).
+    """
+    r20, r60 = p20.replicates, p60.replicates
+    if r20 is None or r60 is None or r20.kind != r60.kind or r20.n != r60.n or r20.n < 2:
+        return []
+
+    def view(p, rep, i):
+        return SimpleNamespace(rings=p.rings, sem=p.sem, meta=p.meta,
+                               values={k: v[i] for k, v in rep.values.items()})
+    return [(view(p20, r20, i), view(p60, r60, i)) for i in range(r20.n)]
+
+
+class Estimator:
+    """Numbers computed by one function of (coarse, fine) profiles, with replicate errors."""
+
+    def __init__(self, p20, p60):
+        self.p20, self.p60 = p20, p60
+        self.views = replicate_views(p20, p60)
+        self.replicates = p20.replicates if self.views else None
+
+    def __call__(self, fn):
+        """``fn(coarse, fine) -> dict of float``; returns the dict with ``<key>_err`` added
+        (NaN without replicates)."""
+        value = {k: float(v) for k, v in fn(self.p20, self.p60).items()}
+        reps = []
+        for a, b in self.views:
+            try:
+                reps.append(fn(a, b))
+            except (UserError, np.linalg.LinAlgError, ValueError):
+                reps.append({})
+        for k in list(value):
+            xs = [r.get(k, np.nan) for r in reps]
+            value[f"{k}_err"] = self.replicates.error(xs) if self.views else float("nan")
+        return value
+
+
+def verdict(value, err, limit, above=True):
+    """``reproduced`` if value lies beyond ``limit`` on the claimed side by more than Z
+    errors, ``not reproduced`` if it lies on the other side by more than Z errors,
+    ``inconclusive`` otherwise (also when the error is unknown)."""
+    if not np.isfinite(value):
+        return "inconclusive"
+    margin = (value - limit) if above else (limit - value)
+    if not np.isfinite(err):
+        return "inconclusive"
+    if margin > Z * err:
+        return "reproduced"
+    if margin < -Z * err:
+        return "not reproduced"
+    return "inconclusive"
+
+
+def _both(*verdicts):
+    """All reproduced -> reproduced; any not reproduced -> not reproduced; else
+    inconclusive."""
+    if all(v == "reproduced" for v in verdicts):
+        return "reproduced"
+    if any(v == "not reproduced" for v in verdicts):
+        return "not reproduced"
+    return "inconclusive"
+
+
+def _claim(text, result, evidence, kind="claim"):
+    return {"claim": text, "kind": kind, "verdict": result,
+            "reproduced": result in ("reproduced", "holds"), "evidence": evidence}
+
+
+def analyze(p20, p60, manifest, density_series=()) -> dict:
+    """Analyse coarse and fine ring profiles of one run or one ensemble.
+
+    Parameters
+    ----------
+    p20, p60 : RingProfiles
+        The same data averaged over coarse and fine rings (e.g. 20 and 60), with
+        replicates for the errors of derived numbers.
+    manifest : dict
+        The run's manifest (scene, contact law).
+    density_series : sequence of RingProfiles, optional
+        Coarse profiles of the same scene at other area fractions: Fig. 5's master curve
+        is judged on the collapse of all of them with ``p20``.
+    """
+    for p in (p20, p60):
+        if p.rings.n < 4:
+            raise UserError(f"{p.rings.n} ring(s): the analysis needs at least 4 rings")
+        missing = [q for q in ("nu", "rho", "v_phi", "omega", "F_rr", "sigma_rr", "dsigma_rr",
+                               "eps_rr") if q not in p.values]
+        if missing:
+            raise UserError(f"the profiles lack {missing[0]}; average with all quantities "
+                            "(the contact dump is needed)")
+    scene = manifest["scene"]
+    geo = Geometry(scene)
+    est = Estimator(p20, p60)
+    num, series, claims = {}, {}, []
+
+    # Fig. 2: the shear band (fine rings), its sensitivity to the fitted range
+    band = c.fit_shear_band(p60.rings.centre, p60.values["v_phi"], p60.sem["v_phi"], geo.R_i)
+    num["shear_band"] = est(lambda a, b: _band_numbers(b, geo, band.n_rings))
+    num["shear_band"].update({
+        "decay_range_end_m": band.r_max, "noise_m_per_s": band.noise,
+        "rings_fitted": band.n_rings, "ring_count": p60.rings.n,
+        "s_m_fit_minus_2_rings": _s_with(p60, geo, band.n_rings - 2),
+        "s_m_fit_plus_2_rings": _s_with(p60, geo, band.n_rings + 2),
+        "paper_v0_over_omega_Ri": PAPER["v0_over_omega_Ri"], "paper_s_m": PAPER["s_m"]})
+    sb = num["shear_band"]
+    claims.append(_claim(
+        "exponential decay over about two decades",
+        verdict(sb["decades"], sb["decades_err"], DECADES),
+        f"{sb['decades']:.2f} +- {sb['decades_err']:.2f} decades from the first ring to the "
+        f"noise (reproduced above {DECADES})"))
+
+    # Fig. 2: density, dilation and layering (outside the first layer)
+    num["density"] = est(lambda a, b: _density_numbers(a, b, geo))
+    d = num["density"]
+    claims.append(_claim(
+        "dilation in the shear zone and at the outer wall",
+        _both(verdict(d["dilation_inner"], d["dilation_inner_err"], 0.0),
+              verdict(d["dilation_outer"], d["dilation_outer_err"], 0.0)),
+        f"nu_bulk - nu between 1 and 3 mean diameters from the wall (the first layer, where "
+        f"excluded volume alone lowers nu, left out): inner {d['dilation_inner']:.4f} +- "
+        f"{d['dilation_inner_err']:.4f}, outer {d['dilation_outer']:.4f} +- "
+        f"{d['dilation_outer_err']:.4f} ({p60.rings.n} rings)"))
+    claims.append(_claim(
+        "layering at the walls, none in the bulk",
+        _both(verdict(d["layering_excess"], d["layering_excess_err"], 0.0),
+              verdict(d["layering_walls"], 0.0, 2 * d["layering_bulk"])),
+        f"rms of nu about a straight line between 1 and 3 mean diameters from a wall: "
+        f"{d['layering_walls']:.4f}, in a bulk window as wide: {d['layering_bulk']:.4f}; "
+        f"excess {d['layering_excess']:.4f} +- {d['layering_excess_err']:.4f} (reproduced if "
+        f"the excess is significant and the walls' rms is over twice the bulk's)"))
+
+    # Fig. 3: fabric anisotropy, in the norm |dev F| = (F_1 - F_2)/2
+    num["fabric"] = est(lambda a, b: _fabric_numbers(a))
+    fab = num["fabric"]
+    claims.append(_claim(
+        "anisotropy |dev F|/tr F below 20%",
+        verdict(fab["anisotropy_max"], fab["anisotropy_max_err"], ANISOTROPY_LIMIT, above=False),
+        f"largest over {p20.rings.n} rings: {fab['anisotropy_max']:.3f} +- "
+        f"{fab['anisotropy_max_err']:.3f} with |dev F| = (F_1 - F_2)/2, half the eigenvalue "
+        f"difference (the paper does not define its norm; as Frobenius norm "
+        f"{fab['anisotropy_max'] * np.sqrt(2):.3f}, as full difference "
+        f"{2 * fab['anisotropy_max']:.3f})"))
+
+    # Fig. 4, Eq. 10: stress exponents in the bulk (unweighted; errors from replicates)
+    num["stress_exponents"] = est(lambda a, b: _exponents(a))
+    ex = num["stress_exponents"]
+    parts = []
+    for k in COMPONENTS:
+        e, err = ex[f"sigma_{k}"], ex[f"sigma_{k}_err"]
+        off = abs(e - PAPER[f"exp_sigma_{k}"])
+        if not np.isfinite(err) or err > EXPONENT_TOLERANCE:
+            parts.append("inconclusive")
+        else:
+            parts.append("reproduced" if off <= EXPONENT_TOLERANCE + Z * err else "not reproduced")
+    claims.append(_claim(
+        "sigma_rr, sigma_phiphi ~ r^0 and sigma_rphi, sigma_phir ~ r^-2 (Eq. 10)", _both(*parts),
+        ", ".join(f"{k}: {ex[f'sigma_{k}']:.2f} +- {ex[f'sigma_{k}_err']:.2f}" for k in COMPONENTS)
+        + f" (each within {EXPONENT_TOLERANCE} + {Z:g} errors of 0 or -2)"))
+    num["quasi_static"] = est(lambda a, b: {
+        "dynamic_over_static_max": float(np.nanmax(dynamic_over_static(a)))})
+    q = num["quasi_static"]
+    claims.append(_claim(
+        "quasi-static: dynamic stress much smaller than static",
+        verdict(q["dynamic_over_static_max"], q["dynamic_over_static_max_err"],
+                QUASI_STATIC_LIMIT, above=False),
+        f"largest |d sigma| / |sigma| = {q['dynamic_over_static_max']:.2e} +- "
+        f"{q['dynamic_over_static_max_err']:.1e} (reproduced below {QUASI_STATIC_LIMIT})"))
+
+    # Fig. 5: stiffness against tr F; for linear springs an identity, checked as such
+    num["stiffness"] = est(lambda a, b: _stiffness_numbers(a, b, geo))
+    st = num["stiffness"]
+    for p in (p20, p60):
+        B, G = c.stiffness(tensor(p, "sigma"), tensor(p, "eps"), geo.k_n)
+        series[f"stiffness_{p.rings.n}"] = (c.trace(tensor(p, "F")), B, G)
+    series["bulk_fit"] = (st["bulk_slope_per_m"], st["bulk_intercept_per_m"])
+    dev = st["identity_deviation"]
+    claims.append(_claim(
+        "bulk stiffness = tr F / (2 pi h), the linear-spring identity",
+        "holds" if abs(dev) <= IDENTITY_TOLERANCE + Z * st["identity_deviation_err"]
+        else "violated",
+        f"slope {st['bulk_slope_per_m']:.2f} +- {st['bulk_slope_per_m_err']:.2f} 1/m against "
+        f"1/(2 pi h) = {geo.identity_slope:.2f} 1/m: deviation {100 * dev:.1f} +- "
+        f"{100 * st['identity_deviation_err']:.1f}% (damping, tangential forces and fabric "
+        "anisotropy make it; an identity of the averaging, not a finding of the paper; the "
+        "paper's collapse of several simulations is Fig. 5 of a density series)",
+        kind="identity check"))
+
+    if density_series:
+        collapse = master_curve([p20, *density_series], geo)
+        series["density_series"] = collapse.pop("points")
+        num["master_curve"] = collapse
+        claims.append(_claim(
+            "bulk stiffness of different simulations on one master curve (Fig. 5)",
+            collapse["verdict"], collapse["evidence"]))
+
+    # Fig. 6: orientations, not co-linear in the band
+    for p in (p20, p60):
+        series[f"orientation_{p.rings.n}"] = {
+            q: np.degrees(c.orientation(tensor(p, q))) for q in ("F", "sigma", "eps")}
+    num["orientation"] = est(lambda a, b: _orientation_numbers(b, band.n_rings))
+    o = num["orientation"]
+    pairs = [k for k in o if k.startswith("band_mean_angle") and not k.endswith("_err")]
+    significant = [k for k in pairs if abs(o[k]) > COLINEAR_DEG and abs(o[k]) > Z * o[f"{k}_err"]]
+    colinear = all(abs(o[k]) + Z * o[f"{k}_err"] < COLINEAR_DEG for k in pairs)
+    claims.append(_claim(
+        "fabric, stress and strain not co-linear",
+        "reproduced" if significant else ("not reproduced" if colinear else "inconclusive"),
+        "mean angle between major axes over the band (" + str(max(band.n_rings, 2)) +
+        f" of {p60.rings.n} rings): " + ", ".join(
+            f"{k.replace('band_mean_angle_', '')} {o[k]:.1f} +- {o[k + '_err']:.1f} deg"
+            for k in pairs) + f" (reproduced if one exceeds {COLINEAR_DEG:g} deg and "
+        f"{Z:g} errors)"))
+
+    # Fig. 7: equations of motion, static alone and the total sigma - dsigma
+    for p in (p20, p60):
+        series[f"eom_{p.rings.n}"] = _eom(p)
+    num["equations_of_motion"] = est(lambda a, b: _eom_numbers(a))
+    eo = num["equations_of_motion"]
+    claims.append(_claim(
+        "equations of motion close in the bulk",
+        verdict(eo["bulk_median_residual"], eo["bulk_median_residual_err"], EOM_LIMIT,
+                above=False),
+        f"median |residual of div(sigma - dsigma)| / mean |sigma_rr| in the bulk = "
+        f"{eo['bulk_median_residual']:.3f} +- {eo['bulk_median_residual_err']:.3f} "
+        f"({p20.rings.n} rings; reproduced below {EOM_LIMIT})"))
+
+    # Figs. 8-9: deformation rate, spin, eigen-rotation
+    for p in (p20, p60):
+        D, W = c.deformation_rate_and_spin(p.rings.centre, p.values["v_phi"])
+        Df, Wf = c.deformation_rate_and_spin_fit(p.rings.centre, band, geo.R_i)
+        series[f"rates_{p.rings.n}"] = (D, W, Df, Wf, p.values["omega"],
+                                        c.eigen_rotation(p.values["omega"], W))
+    num["eigen_rotation"] = est(lambda a, b: _layers(b, geo))
+    er = num["eigen_rotation"]
+    l1, l2 = er["layer1_per_s"], er["layer2_per_s"]
+    e1, e2 = er["layer1_per_s_err"], er["layer2_per_s_err"]
+    sig1, sig2 = abs(l1) > Z * e1, abs(l2) > Z * e2
+    if sig1 and sig2:
+        rot = "reproduced" if np.sign(l1) != np.sign(l2) else "not reproduced"
+    else:
+        rot = "inconclusive"
+    claims.append(_claim(
+        "eigen-rotation alternates over the two innermost layers", rot,
+        f"omega* = {l1:.3g} +- {e1:.2g}, {l2:.3g} +- {e2:.2g} 1/s (layers of d_mean = "
+        f"{geo.d_mean * 1e3:.2f} mm, {p60.rings.n} rings; reproduced if both differ from 0 "
+        f"by {Z:g} errors and have opposite signs)"))
+
+    errors = {"kind": est.replicates.kind if est.replicates else None,
+              "replicates": est.replicates.n if est.replicates else 0,
+              "profiles": (p20.meta or {}).get("errors", {}).get("method"),
+              "lower_bound_rings": {str(p.rings.n): sorted(
+                  {k for ks in (p.meta or {}).get("errors", {}).get("lower_bound", {}).values()
+                   for k in ks}) for p in (p20, p60)}}
+    if not est.views:
+        log.warning("the profiles carry no replicates: derived numbers have no errors and "
+                    "every claim is inconclusive; average them again with this granavg")
+    summary = {"units": "SI (m, s, kg, N, Pa)",
+               "run": {k: manifest.get(k) for k in ("preset", "scene", "contact_law", "derived",
+                                                   "lammps_version", "granavg_version")},
+               "frames": p20.meta.get("frames") if p20.meta else None,
+               "runs": (p20.meta or {}).get("runs"),
+               "stationarity": _stationarity(p20),
+               "errors": errors, "numbers": _plain(num), "claims": claims}
+    summary["series"] = series
+    return summary
+
+
+class Geometry:
+    """The scene's numbers the analysis needs (SI units)."""
+
+    def __init__(self, scene):
+        self.R_i, self.R_o, self.Omega = scene["R_i"], scene["R_o"], scene["Omega"]
+        self.k_n, self.h = scene["k_n"], scene["h"]
+        self.d_mean = (scene["n_small"] * scene["d_s"] + scene["n_large"] * scene["d_l"]) / (
+            scene["n_small"] + scene["n_large"])
+        self.identity_slope = 1.0 / (2.0 * np.pi * self.h)
+
+
+def _band_numbers(p, geo, n_rings):
+    band = c.fit_shear_band(p.rings.centre, p.values["v_phi"], p.sem["v_phi"], geo.R_i,
+                            n_rings=n_rings)
+    return {"v0_over_omega_Ri": band.v0 / (geo.Omega * geo.R_i), "s_m": band.s,
+            "s_over_d_mean": band.s / geo.d_mean,
+            "decades": float(np.log10(p.values["v_phi"][0] / band.noise))}
+
+
+def _s_with(p, geo, n):
+    try:
+        return c.fit_shear_band(p.rings.centre, p.values["v_phi"], p.sem["v_phi"], geo.R_i,
+                                n_rings=n).s
+    except UserError:
+        return float("nan")
+
+
+def _window(r, lo, hi):
+    return (r >= lo) & (r <= hi)
+
+
+def _rms_about_line(r, y):
+    ok = np.isfinite(y)
+    if ok.sum() < 3:
+        return float("nan")
+    coef = np.polyfit(r[ok], y[ok], 1)
+    return float(np.sqrt(np.mean((y[ok] - np.polyval(coef, r[ok])) ** 2)))
+
+
+def _density_numbers(a, b, geo):
+    """nu at the walls and in the bulk; dilation and layering outside the first layer
+    (1 to 3 mean diameters from each wall, where excluded volume no longer sets nu)."""
+    nu = a.values["nu"]
+    nu_bulk = float(np.nanmean(nu[bulk(len(nu))]))
+    r, nu60 = b.rings.centre, b.values["nu"]
+    d = geo.d_mean
+    inner = _window(r, geo.R_i + d, geo.R_i + 3 * d)
+    outer = _window(r, geo.R_o - 3 * d, geo.R_o - d)
+    mid = 0.5 * (geo.R_i + geo.R_o)
+    middle = _window(r, mid - d, mid + d)
+    bulk60 = float(np.nanmean(nu60[bulk(len(nu60))]))
+    walls = np.nanmean([_rms_about_line(r[w], nu60[w]) for w in (inner, outer)])
+    mid_rms = _rms_about_line(r[middle], nu60[middle])
+    return {"nu_inner": nu[0], "nu_bulk": nu_bulk, "nu_outer": nu[-1],
+            "dilation_inner": bulk60 - float(np.nanmean(nu60[inner])),
+            "dilation_outer": bulk60 - float(np.nanmean(nu60[outer])),
+            "layering_walls": walls, "layering_bulk": mid_rms,
+            "layering_excess": walls - mid_rms}
+
+
+def _fabric_numbers(p):
+    F = tensor(p, "F")
+    aniso = c.deviator_norm(F) / c.trace(F)
+    return {"trF_min": np.nanmin(c.trace(F)), "trF_max": np.nanmax(c.trace(F)),
+            "anisotropy_max": np.nanmax(aniso)}
+
+
+def _exponents(p):
+    b = bulk(p.rings.n)
+    out = {}
+    for k in COMPONENTS:
+        out[f"sigma_{k}"] = c.power_law(p.rings.centre[b], p.values[f"sigma_{k}"][b])[0]
+    return out
+
+
+def _stiffness_numbers(a, b, geo):
+    trF, bulk_mod, shear_mod = [], [], []
+    for p in (a, b):
+        B, G = c.stiffness(tensor(p, "sigma"), tensor(p, "eps"), geo.k_n)
+        bb = bulk(p.rings.n)
+        trF.append(c.trace(tensor(p, "F"))[bb])
+        bulk_mod.append(B[bb])
+        shear_mod.append(G[bb])
+    trF, bulk_mod, shear_mod = (np.concatenate(x) for x in (trF, bulk_mod, shear_mod))
+    good = np.isfinite(trF) & np.isfinite(bulk_mod)
+    if good.sum() < 3:
+        raise UserError("fewer than three bulk rings with a stiffness")
+    slope, intercept = np.polyfit(trF[good], bulk_mod[good], 1)
+    ratio = bulk_mod[good] / trF[good]          # the identity: B = tr F / (2 pi h)
+    return {"bulk_slope_per_m": slope, "bulk_intercept_per_m": intercept,
+            "bulk_pearson_r": float(np.corrcoef(trF[good], bulk_mod[good])[0, 1]),
+            "identity_deviation": float(np.mean(ratio)) / geo.identity_slope - 1.0,
+            "shear_relative_scatter": float(np.nanstd(shear_mod) / np.nanmean(shear_mod))}
+
+
+#: Largest relative offset of one run's bulk stiffness from the pooled master curve
+#: that still counts as collapsed.
+COLLAPSE_TOLERANCE = 0.05
+
+
+def master_curve(profiles, geo) -> dict:
+    """One straight line 2 pi E / k_n = a tr F + b through the bulk rings of runs at
+    several area fractions; each run's mean relative offset from it, with its error
+    from that run's replicates. Collapse is reproduced when every offset is within
+    COLLAPSE_TOLERANCE + 2 errors, not reproduced when one lies beyond it by 2 errors."""
+    pts = []
+    for p in profiles:
+        B, G = c.stiffness(tensor(p, "sigma"), tensor(p, "eps"), geo.k_n)
+        b = bulk(p.rings.n)
+        pts.append((c.trace(tensor(p, "F"))[b], B[b], G[b], p))
+    x = np.concatenate([t for t, _, _, _ in pts])
+    y = np.concatenate([B for _, B, _, _ in pts])
+    ok = np.isfinite(x) & np.isfinite(y)
+    a, b0 = np.polyfit(x[ok], y[ok], 1)
+    offsets, errors, fractions, labels = [], [], [], []
+    for trF, B, _, p in pts:
+        offsets.append(float(np.nanmean(B / (a * trF + b0) - 1)))
+        reps = p.replicates
+        if reps is not None and reps.n >= 2:
+            bb = bulk(p.rings.n)
+            vals = []
+            for i in range(reps.n):
+                v = {k: reps.values[k][i] for k in reps.values}
+                Bi = c.stiffness(tuple(v[f"sigma_{k}"] for k in COMPONENTS),
+                                 tuple(v[f"eps_{k}"] for k in COMPONENTS), geo.k_n)[0][bb]
+                Fi = v["F_rr"][bb] + v["F_phiphi"][bb]
+                vals.append(np.nanmean(Bi / (a * Fi + b0) - 1))
+            errors.append(reps.error(vals))
+        else:
+            errors.append(float("nan"))
+        scene = (p.meta.get("run_manifest") or {}).get("scene", {})
+        fractions.append(_area_fraction(scene))
+        labels.append(f"area fraction {fractions[-1]:.4f}")
+    verdicts = [verdict(COLLAPSE_TOLERANCE - abs(o), e, 0.0) for o, e in zip(offsets, errors)]
+    result = _both(*verdicts)
+    return {"slope_per_m": a, "intercept_per_m": b0, "runs": len(pts),
+            "area_fractions": fractions, "offsets": offsets, "offset_errors": errors,
+            "verdict": result,
+            "evidence": "pooled fit " + f"{a:.2f} tr F {b0:+.2f} 1/m; each run's mean offset "
+            "from it: " + ", ".join(f"{f:.4f}: {100 * o:+.1f} +- {100 * e:.1f}%"
+                                    for f, o, e in zip(fractions, offsets, errors)) +
+            f" (collapsed within {100 * COLLAPSE_TOLERANCE:.0f}% + 2 errors)",
+            "points": [(lab, t, B, G) for lab, (t, B, G, _) in zip(labels, pts)]}
+
+
+def _area_fraction(scene) -> float:
+    try:
+        disks = np.pi / 4 * (scene["n_small"] * scene["d_s"] ** 2 + scene["n_large"] *
+                             scene["d_l"] ** 2)
+        return float(disks / (np.pi * (scene["R_o"] ** 2 - scene["R_i"] ** 2)))
+    except (KeyError, TypeError):
+        return float("nan")
+
+
+def _angle_diff(a, b):
+    return (np.asarray(a) - np.asarray(b) + 90.0) % 180.0 - 90.0
+
+
+def _orientation_numbers(p, n_band):
+    ori = {q: np.degrees(c.orientation(tensor(p, q))) for q in ("F", "sigma", "eps")}
+    band = slice(0, max(n_band, 2))
+    return {f"band_mean_angle_{x}_{y}": float(np.nanmean(_angle_diff(ori[x][band], ori[y][band])))
+            for x, y in (("F", "sigma"), ("F", "eps"), ("sigma", "eps"))}
+
+
+def _eom(p):
+    """(static residuals, total residuals, stress scale) of one profile (Fig. 7)."""
+    sigma = tensor(p, "sigma")
+    st = c.equations_of_motion(p.rings.centre, sigma)
+    tot = c.equations_of_motion(p.rings.centre, c.momentum_flux_total(sigma, tensor(p, "dsigma")))
+    scale = float(np.nanmean(np.abs(p.values["sigma_rr"][bulk(p.rings.n)])))
+    return st, tot, scale
+
+
+def _eom_numbers(p):
+    st, tot, scale = _eom(p)
+    b = bulk(p.rings.n)
+    return {"stress_scale_Pa": scale,
+            "bulk_median_residual": float(np.nanmedian(np.abs(np.concatenate(
+                [tot[0][b], tot[1][b]])))) / scale,
+            "wall_residual_max": float(np.nanmax(np.abs(np.concatenate(
+                [tot[0][[0, -1]], tot[1][[0, -1]]])))) / scale}
+
+
+def _layers(p, geo):
+    W = c.deformation_rate_and_spin(p.rings.centre, p.values["v_phi"])[1]
+    ws = c.eigen_rotation(p.values["omega"], W)
+    layer = np.floor((p.rings.centre - geo.R_i) / geo.d_mean).astype(int)
+    return {f"layer{k + 1}_per_s": float(np.nanmean(ws[layer == k])) for k in (0, 1)}
+
+
+def _stationarity(p):
+    """The window's steadiness judged per quantity: of the run, or of each realisation."""
+    meta = p.meta or {}
+    if meta.get("runs"):
+        return {r["run"]: r.get("stationarity") for r in meta["runs"]}
+    return {"run": meta.get("stationarity")}
+
+
+def _plain(obj):
+    if isinstance(obj, dict):
+        return {k: _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    return obj

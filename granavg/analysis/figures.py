@@ -1,0 +1,304 @@
+"""The paper's Figs. 2-9 from two ring profiles and their analysis (SI units).
+
+Each ``figN`` takes the 20- and 60-ring profiles, the :func:`granavg.analysis.claims.analyze`
+summary and optionally the axes to draw on (``axes=None`` makes a figure), and returns
+the axes. Closed symbols: coarse rings; open symbols: fine rings; lines: fits.
+Colours are Okabe-Ito (colour-blind safe) and each series also has its own marker.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from granavg.analysis.claims import COMPONENTS, tensor  # noqa: E402
+from granavg.analysis.continuum import deviator_norm, trace  # noqa: E402
+
+OKABE_ITO = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000"]
+MARKERS = ["o", "s", "^", "D", "v", "P"]
+
+
+def _axes(axes, n, size=(4.2, 3.2)):
+    if axes is not None:
+        return np.atleast_1d(axes)
+    _, ax = plt.subplots(1, n, figsize=(size[0] * n, size[1]), constrained_layout=True)
+    return np.atleast_1d(ax)
+
+
+def _points(ax, p, y, k, label, closed):
+    ax.plot(p.rings.centre, y, ls="none", marker=MARKERS[k % len(MARKERS)], ms=4 if closed else 5,
+            color=OKABE_ITO[k % len(OKABE_ITO)], mfc=OKABE_ITO[k % len(OKABE_ITO)] if closed else "none",
+            label=f"{label} ({p.rings.n} rings)")
+
+
+def _both(ax, p20, p60, fn, k, label):
+    _points(ax, p20, fn(p20), k, label, True)
+    _points(ax, p60, fn(p60), k, label, False)
+
+
+def fig2(p20, p60, summary, axes=None):
+    """Density and v_phi / (Omega r) against r, with the exponential fit (Fig. 2)."""
+    ax = _axes(axes, 2)
+    run = summary["run"]["scene"]
+    R_i, Omega = run["R_i"], run["Omega"]
+    _both(ax[0], p20, p60, lambda p: p.values["nu"], 0, "nu")
+    ax[0].set(xlabel="r (m)", ylabel="volume fraction nu (-)", title="density")
+    _both(ax[1], p20, p60, lambda p: p.values["v_phi"] / (Omega * p.rings.centre), 1, "v_phi/(Omega r)")
+    sb = summary["numbers"]["shear_band"]
+    r = np.linspace(R_i, sb["decay_range_end_m"], 100)
+    ax[1].plot(r, sb["v0_over_omega_Ri"] * Omega * R_i * np.exp(-(r - R_i) / sb["s_m"]) / (Omega * r),
+               color="k", ls=":", label=f"fit: v0/(Omega R_i)={sb['v0_over_omega_Ri']:.3f}, "
+               f"s={sb['s_m'] * 1e3:.1f} mm")
+    ax[1].set(yscale="log", xlabel="r (m)", ylabel="v_phi / (Omega r) (-)", title="velocity")
+    for a in ax:
+        a.legend(fontsize=7)
+    return ax
+
+
+def fig3(p20, p60, summary, axes=None):
+    """tr F and the anisotropy |dev F| / tr F against r (Fig. 3)."""
+    ax = _axes(axes, 2)
+    _both(ax[0], p20, p60, lambda p: trace(tensor(p, "F")), 0, "tr F")
+    ax[0].set(xlabel="r (m)", ylabel="tr F (-)", title="isotropic fabric")
+    _both(ax[1], p20, p60, lambda p: deviator_norm(tensor(p, "F")) / trace(tensor(p, "F")), 2,
+          "|dev F| / tr F")
+    ax[1].set(xlabel="r (m)", ylabel="|dev F| / tr F (-)", title="anisotropy")
+    for a in ax:
+        a.legend(fontsize=7)
+    return ax
+
+
+def fig4(p20, p60, summary, axes=None):
+    """Static stress, dynamic stress and the fluctuation part against r (Fig. 4)."""
+    ax = _axes(axes, 3)
+    ex = summary["numbers"]["stress_exponents"]
+    for k, comp in enumerate(COMPONENTS):
+        _both(ax[0], p20, p60, lambda p, c=comp: p.values[f"sigma_{c}"], k, f"sigma_{comp}")
+        r = p20.rings.centre
+        y0 = p20.values[f"sigma_{comp}"]
+        mid = len(r) // 2
+        ax[0].plot(r, y0[mid] * (r / r[mid]) ** ex[f"sigma_{comp}"], color=OKABE_ITO[k], lw=1)
+        _both(ax[1], p20, p60, lambda p, c=comp: p.values[f"dsigma_{c}"], k, f"dsigma_{comp}")
+        _both(ax[2], p20, p60, lambda p, c=comp: p.values[f"dsigma_fluct_{c}"], k,
+              f"fluct_{comp}")
+    ax[0].set(xlabel="r (m)", ylabel="static stress (Pa)", title="static (lines: r^n fits)")
+    ax[1].set(xlabel="r (m)", ylabel="dynamic stress (Pa)", title="dynamic")
+    ax[2].set(xlabel="r (m)", ylabel="fluctuation stress (Pa)", title="velocity fluctuations")
+    for a in ax:
+        a.legend(fontsize=6, ncol=2)
+    return ax
+
+
+def fig5(p20, p60, summary, axes=None):
+    """2 pi E / k_n and pi G / k_n against tr F, with the linear bulk fit (Fig. 5); with
+    a density series, the bulk rings of every run on the same axes."""
+    ax = _axes(axes, 2)
+    for k, p in enumerate((p20, p60)):
+        trF, B, G = summary["series"][f"stiffness_{p.rings.n}"]
+        for a, y in ((ax[0], B), (ax[1], G)):
+            a.plot(trF, y, ls="none", marker=MARKERS[k], color=OKABE_ITO[k],
+                   mfc=OKABE_ITO[k] if k == 0 else "none", label=f"{p.rings.n} rings")
+    for k, (label, trF, B, G) in enumerate(summary["series"].get("density_series", [])):
+        for a, y in ((ax[0], B), (ax[1], G)):
+            a.plot(trF, y, ls="none", marker=MARKERS[(k + 2) % len(MARKERS)],
+                   color=OKABE_ITO[(k + 2) % len(OKABE_ITO)], label=f"{label} (bulk)")
+    slope, intercept = summary["series"]["bulk_fit"]
+    x = np.linspace(*ax[0].get_xlim(), 50)
+    ax[0].plot(x, slope * x + intercept, color="k", ls=":", label=f"bulk fit: {slope:.1f} tr F "
+               f"{intercept:+.1f}")
+    ax[0].set(xlabel="tr F (-)", ylabel="2 pi E / k_n = tr sigma / tr eps / k_n (1/m)",
+              title="bulk stiffness")
+    ax[1].set(xlabel="tr F (-)", ylabel="pi G / k_n = |dev sigma| / |dev eps| / k_n (1/m)",
+              title="shear stiffness")
+    for a in ax:
+        a.legend(fontsize=7)
+    return ax
+
+
+def fig6(p20, p60, summary, axes=None):
+    """Orientation of the major axes of F, sigma and eps to e_r against r (Fig. 6)."""
+    ax = _axes(axes, 1, size=(5.0, 3.4))
+    for p in (p20, p60):
+        closed = p is p20
+        for k, (name, deg) in enumerate(summary["series"][f"orientation_{p.rings.n}"].items()):
+            ax[0].plot(p.rings.centre, deg, marker=MARKERS[k], color=OKABE_ITO[k],
+                       mfc=OKABE_ITO[k] if closed else "none", ls="-" if closed else "none",
+                       lw=0.8, ms=4, label=f"phi_{name} ({p.rings.n} rings)")
+    ax[0].set(xlabel="r (m)", ylabel="orientation of the major axis (deg)",
+              title="tensor orientations")
+    ax[0].legend(fontsize=7)
+    return ax
+
+
+def fig7(p20, p60, summary, axes=None):
+    """Residuals of the equations of motion (Eqs. 11-12), r div T, for the static stress
+    alone and for the total T = sigma - dsigma whose divergence vanishes in steady flow
+    (Fig. 7)."""
+    ax = _axes(axes, 2)
+    for k, p in enumerate((p20, p60)):
+        st, tot, scale = summary["series"][f"eom_{p.rings.n}"]
+        for j, title in enumerate(("radial, Eq. 11", "tangential, Eq. 12")):
+            ax[j].plot(p.rings.centre, st[j] / scale, marker=MARKERS[k], ls="none",
+                       color=OKABE_ITO[0], mfc=OKABE_ITO[0] if k == 0 else "none",
+                       label=f"static ({p.rings.n} rings)")
+            ax[j].plot(p.rings.centre, tot[j] / scale, marker=MARKERS[k + 2], ls="none",
+                       color=OKABE_ITO[1], mfc=OKABE_ITO[1] if k == 0 else "none",
+                       label=f"total, sigma - dsigma ({p.rings.n} rings)")
+            ax[j].set(xlabel="r (m)", ylabel=f"residual / {scale:.3g} Pa (-)", title=title)
+    for a in ax:
+        a.axhline(0, color="k", lw=0.5)
+        a.legend(fontsize=6)
+    return ax
+
+
+def fig8(p20, p60, summary, axes=None):
+    """-D_rphi and -W_rphi against r, with the fit's Eq. 15 and the particles' -omega."""
+    ax = _axes(axes, 2)
+    for k, p in enumerate((p20, p60)):
+        D, W, Df, Wf, omega, _ = summary["series"][f"rates_{p.rings.n}"]
+        r = p.rings.centre
+        ax[0].plot(r, -D, ls="none", marker=MARKERS[k], color=OKABE_ITO[0],
+                   mfc=OKABE_ITO[0] if k == 0 else "none", label=f"-D ({p.rings.n} rings)")
+        ax[1].plot(r, -W, ls="none", marker=MARKERS[k], color=OKABE_ITO[1],
+                   mfc=OKABE_ITO[1] if k == 0 else "none", label=f"-W ({p.rings.n} rings)")
+        if k == 1:
+            ax[0].plot(r, -Df, color="k", ls=":", label="-D of the fit (Eq. 15)")
+            ax[1].plot(r, -Wf, color="k", ls=":", label="-W of the fit")
+            ax[1].plot(r, -omega, color=OKABE_ITO[2], lw=1.2, label="-omega of the particles")
+    ax[0].set(xlabel="r (m)", ylabel="-D_rphi (1/s)", title="deformation rate", yscale="symlog",
+              )
+    ax[1].set(xlabel="r (m)", ylabel="-W_rphi, -omega (1/s)", title="spin", yscale="symlog")
+    for a in ax:
+        a.set_yscale("symlog", linthresh=1e-3)
+        a.legend(fontsize=7)
+    return ax
+
+
+def fig9(p20, p60, summary, axes=None):
+    """-omega* = -(omega - W_rphi) near the inner wall (Fig. 9)."""
+    ax = _axes(axes, 1, size=(5.0, 3.4))
+    R_i = summary["run"]["scene"]["R_i"]
+    sb = summary["numbers"]["shear_band"]
+    for k, p in enumerate((p20, p60)):
+        ws = summary["series"][f"rates_{p.rings.n}"][5]
+        near = p.rings.centre <= max(sb["decay_range_end_m"], R_i + 0.03)
+        ax[0].plot(p.rings.centre[near], -ws[near], marker=MARKERS[k], color=OKABE_ITO[k],
+                   mfc=OKABE_ITO[k] if k == 0 else "none", lw=0.8,
+                   label=f"-omega* ({p.rings.n} rings)")
+    ax[0].axhline(0, color="k", lw=0.5)
+    ax[0].set(xlabel="r (m)", ylabel="-omega* = -(omega - W_rphi) (1/s)",
+              title="eigen-rotation near the inner wall")
+    ax[0].legend(fontsize=7)
+    return ax
+
+
+#: Panels of the time-series figure: (columns, y label, log scale).
+_SERIES_PANELS = [
+    (("C", "C_bulk"), "coordination (contacts per disk)", False),
+    (("P_bulk_Pa",), "bulk static pressure -tr(sigma)/2 (Pa)", True),
+    (("rattler_fraction",), "rattler fraction, < 2 contacts (-)", False),
+    (("overlap_mean_over_d", "overlap_max_over_d"), "overlap / d_s (-)", True),
+    (("ke_J",), "kinetic energy (J)", True),
+    (("psi6_bulk", "psi6_bulk_ordered"), "bulk hexatic order |psi_6|, share > 0.8 (-)", False),
+]
+
+
+def fig_timeseries(p20, p60, summary, axes=None):
+    """The packing's state against time, the averaging window shaded (t >= t_min);
+    one line per realisation for an ensemble."""
+    ts = p20.timeseries if p20.timeseries is not None else p60.timeseries
+    if axes is None:
+        _, axes = plt.subplots(2, 3, figsize=(12.6, 6.0), constrained_layout=True)
+    ax = np.atleast_1d(axes).ravel()
+    if ts is None:
+        ax[0].text(0.5, 0.5, "no time series (profiles from an older granavg)",
+                   ha="center", transform=ax[0].transAxes)
+        return ax
+    t_min = (p20.meta.get("frames") or {}).get("t_min_s", 0.0)
+    runs = list(ts.groupby("run")) if "run" in ts else [(None, ts)]
+    for a, (cols, label, log) in zip(ax, _SERIES_PANELS):
+        for k, col in enumerate(c for c in cols if c in ts):
+            for j, (run, part) in enumerate(runs):
+                a.plot(part.t_s, part[col], color=OKABE_ITO[k], lw=0.8, alpha=1 if j == 0 else 0.5,
+                       label=col if j == 0 else None)
+        a.axvspan(t_min, ts.t_s.max(), color="0.9", zorder=0, label="averaged")
+        a.set(xlabel="t (s)", ylabel=label, yscale="log" if log else "linear")
+        a.legend(fontsize=6)
+    return ax
+
+
+FIGURES = {"timeseries": fig_timeseries, "fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
+           "fig7": fig7, "fig8": fig8, "fig9": fig9}
+
+
+def save_all(p20, p60, summary, out_dir) -> dict:
+    """Draw every figure and save it as PNG and PDF in ``out_dir``; returns name -> PNG path."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    for name, fn in FIGURES.items():
+        ax = fn(p20, p60, summary)
+        fig = ax[0].figure
+        for ext in ("png", "pdf"):
+            fig.savefig(out / f"{name}.{ext}", dpi=130)
+        plt.close(fig)
+        paths[name] = out / f"{name}.png"
+    return paths
+
+
+def fig1(first, later, contacts, R_i, R_o, *, stripes=10, axes=None):
+    """The packing after shearing, disks coloured by the horizontal stripe their centre
+    was in at the first frame (the shear zone shows as bent stripes), and the contact
+    network with forces in thirds: large red, medium green, small blue (Fig. 1). Drawn
+    to scale (m).
+
+    Parameters
+    ----------
+    first, later : dict of ndarray
+        Atom columns ``id x y radius`` of the first frame and of the frame to draw.
+    contacts : dict of ndarray
+        Contact columns ``id1 id2 wall fnx fny`` of the frame to draw.
+    R_i, R_o : float
+        Ring radii (m), drawn as circles.
+    """
+    from matplotlib.collections import LineCollection, PatchCollection
+    from matplotlib.patches import Circle
+
+    ax = _axes(axes, 2, size=(5.2, 5.2))
+    order = np.argsort(first["id"])
+    pos = np.searchsorted(first["id"][order], later["id"])
+    y0 = first["y"][order][np.clip(pos, 0, len(order) - 1)]
+    band = np.floor((y0 + R_o) / (2 * R_o) * stripes).astype(int) % 2
+    colours = np.where(band == 0, OKABE_ITO[0], OKABE_ITO[4])
+    disks = PatchCollection([Circle((x, y), a) for x, y, a in
+                             zip(later["x"], later["y"], later["radius"])],
+                            facecolors=colours, edgecolors="none")
+    ax[0].add_collection(disks)
+    rows = {int(i): k for k, i in enumerate(later["id"])}
+    pair = np.asarray(contacts["wall"]) == 0
+    i1 = np.array([rows[int(i)] for i in np.asarray(contacts["id1"])[pair]], dtype=int)
+    i2 = np.array([rows[int(i)] for i in np.asarray(contacts["id2"])[pair]], dtype=int)
+    f = np.hypot(np.asarray(contacts["fnx"])[pair], np.asarray(contacts["fny"])[pair])
+    cuts = np.quantile(f, [1 / 3, 2 / 3]) if len(f) else (0, 0)
+    third = np.digitize(f, cuts)                      # 0 small, 1 medium, 2 large
+    colour_of = np.array(["#0072B2", "#009E73", "#D55E00"])          # blue, green, red
+    segments = np.stack([np.column_stack([later["x"][i1], later["y"][i1]]),
+                         np.column_stack([later["x"][i2], later["y"][i2]])], axis=1)
+    for k in (0, 1, 2):                                # large forces drawn on top
+        sel = third == k
+        ax[1].add_collection(LineCollection(segments[sel], colors=colour_of[k],
+                                            linewidths=0.4 + 0.6 * k,
+                                            label=("small", "medium", "large")[k] +
+                                            " normal forces"))
+    for a, title in zip(ax, ("disks by initial stripe", "contact forces in thirds")):
+        for R in (R_i, R_o):
+            a.add_patch(Circle((0, 0), R, fill=False, color="k", lw=0.8))
+        a.set(xlim=(-1.02 * R_o, 1.02 * R_o), ylim=(-1.02 * R_o, 1.02 * R_o), aspect="equal",
+              xlabel="x (m)", ylabel="y (m)", title=title)
+    ax[1].legend(fontsize=6, loc="upper right")
+    return ax

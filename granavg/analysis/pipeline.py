@@ -1,0 +1,100 @@
+"""End to end: profiles -> analysis -> figures -> report, and the demo (SI units)."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from granavg.analysis.claims import analyze
+from granavg.engine.average import RingProfiles
+from granavg.io.runs import average_run
+from granavg.errors import UserError
+from granavg.analysis.figures import save_all
+from granavg.analysis.report import write_report, write_summary
+from granavg.io.profiles_io import write_profiles
+
+log = logging.getLogger(__name__)
+
+
+def report_profiles(coarse: RingProfiles, fine: RingProfiles, out, title="granavg report",
+                    density_series=()) -> dict:
+    """Analyse two ring profiles of one run (or ensemble) and write figures, summary.json,
+    report.html; ``density_series``: coarse profiles of the scene at other area
+    fractions, for Fig. 5's master curve."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    manifest = (coarse.meta or {}).get("run_manifest")
+    if manifest is None:
+        raise UserError("the profiles carry no run manifest; make them with 'granavg average'")
+    if coarse.rings.n > fine.rings.n:
+        coarse, fine = fine, coarse
+    summary = analyze(coarse, fine, manifest, density_series)
+    figures = save_all(coarse, fine, summary, out / "figures")
+    run = _run_dir_of(coarse)
+    if run is not None:
+        figures = {"fig1": fig1_of_run(run, out / "figures"), **figures}
+    else:
+        log.info("Fig. 1 not drawn: the profiles' run directory (with its dumps) is not at hand")
+    write_summary(summary, out / "summary.json")
+    write_report(summary, figures, out / "report.html", title)
+    log.debug("report written: %s", out / "report.html")
+    return summary
+
+
+def _run_dir_of(profiles):
+    """The run directory behind profiles (the first realisation of an ensemble), if its
+    manifest and atom and contact dumps are still there; else None."""
+    meta = profiles.meta or {}
+    if meta.get("runs"):
+        run = Path(meta["runs"][0]["run"])
+    elif (meta.get("files") or {}).get("atoms"):
+        run = Path(meta["files"]["atoms"]).parent
+    else:
+        return None
+    have = (run / "manifest.json").exists() and any(run.glob("atoms.dump*")) and \
+        any(run.glob("contacts.dump*"))
+    return run if have else None
+
+
+def fig1_of_run(run_dir, out, t=None, progress=None) -> Path:
+    """Fig. 1 of a run: its first dumped frame and the frame nearest ``t`` (default half
+    an inner-ring rotation after it), written as ``out/fig1.png`` and ``.pdf``."""
+    import math
+
+    import matplotlib.pyplot as plt
+
+    from granavg.io.runs import run_averager
+    from granavg.analysis.figures import fig1
+
+    avg = run_averager(run_dir, quantities=["nu", "sigma"])
+    scene = avg.meta["run_manifest"]["scene"]
+    first = chosen = None
+    for frame in avg.frames:
+        if first is None:
+            first = frame
+            target = first.time + math.pi / scene["Omega"] if t is None else float(t)
+        if chosen is None or abs(frame.time - target) < abs(chosen.time - target):
+            chosen = frame
+        elif frame.time > target:
+            break
+    if first is None:
+        raise UserError(f"{run_dir}: no frame to draw")
+    ax = fig1(first.atoms, chosen.atoms, chosen.contacts, scene["R_i"], scene["R_o"])
+    ax[0].figure.suptitle(f"t = {chosen.time:.1f} s (stripes as at t = {first.time:.1f} s)")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    for ext in ("png", "pdf"):
+        ax[0].figure.savefig(out / f"fig1.{ext}", dpi=130)
+    plt.close(ax[0].figure)
+    return out / "fig1.png"
+
+
+def report_run(run_dir, out, bins=(20, 60), t_min=None, progress=None, title="granavg report"):
+    """Average a run over two ring counts, then :func:`report_profiles`."""
+    out = Path(out)
+    profiles = []
+    for n in bins:
+        p = average_run(run_dir, bins=n, t_min=t_min, progress=progress)
+        write_profiles(p, out / f"profiles{n}.csv")
+        profiles.append(p)
+    return report_profiles(*profiles, out, title)

@@ -1,0 +1,161 @@
+"""The self-contained report: ``report.html`` (figures embedded) and ``summary.json``."""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+from pathlib import Path
+
+from granavg.analysis.claims import PAPER
+
+_NUMBERS = [  # (section, key, label, unit, paper key)
+    ("shear_band", "v0_over_omega_Ri", "v0 / (Omega R_i)", "-", "v0_over_omega_Ri"),
+    ("shear_band", "s_m", "decay length s", "m", "s_m"),
+    ("shear_band", "s_over_d_mean", "s / mean diameter", "-", None),
+    ("shear_band", "s_m_fit_minus_2_rings", "s, fitting 2 rings fewer", "m", None),
+    ("shear_band", "s_m_fit_plus_2_rings", "s, fitting 2 rings more", "m", None),
+    ("shear_band", "decades", "decay before the noise", "decades", None),
+    ("density", "nu_inner", "nu, inner ring", "-", None),
+    ("density", "nu_bulk", "nu, bulk", "-", None),
+    ("density", "nu_outer", "nu, outer ring", "-", None),
+    ("density", "dilation_inner", "nu_bulk - nu, 1-3 d from the inner wall", "-", None),
+    ("density", "dilation_outer", "nu_bulk - nu, 1-3 d from the outer wall", "-", None),
+    ("density", "layering_walls", "rms wiggle of nu 1-3 d from the walls", "-", None),
+    ("density", "layering_bulk", "rms wiggle of nu in the bulk", "-", None),
+    ("fabric", "anisotropy_max", "largest |dev F| / tr F, |dev F| = (F_1 - F_2)/2", "-", None),
+    ("stress_exponents", "sigma_rr", "exponent of sigma_rr", "-", "exp_sigma_rr"),
+    ("stress_exponents", "sigma_phiphi", "exponent of sigma_phiphi", "-", "exp_sigma_phiphi"),
+    ("stress_exponents", "sigma_rphi", "exponent of sigma_rphi", "-", "exp_sigma_rphi"),
+    ("stress_exponents", "sigma_phir", "exponent of sigma_phir", "-", "exp_sigma_phir"),
+    ("quasi_static", "dynamic_over_static_max", "largest |dynamic| / |static| stress", "-", None),
+    ("stiffness", "bulk_slope_per_m", "d(2 pi E / k_n) / d(tr F)", "1/m", None),
+    ("stiffness", "bulk_pearson_r", "bulk modulus vs tr F, Pearson r", "-", None),
+    ("stiffness", "identity_deviation", "bulk stiffness / (tr F / 2 pi h) - 1", "-", None),
+    ("stiffness", "shear_relative_scatter", "scatter of pi G / k_n (std/mean)", "-", None),
+    ("orientation", "band_mean_angle_F_sigma", "mean angle F to sigma, band", "deg", None),
+    ("orientation", "band_mean_angle_F_eps", "mean angle F to eps, band", "deg", None),
+    ("orientation", "band_mean_angle_sigma_eps", "mean angle sigma to eps, band", "deg", None),
+    ("equations_of_motion", "bulk_median_residual", "median EoM residual / stress scale, bulk", "-", None),
+    ("equations_of_motion", "wall_residual_max", "largest EoM residual / stress scale, walls", "-", None),
+    ("eigen_rotation", "layer1_per_s", "omega*, first layer", "1/s", None),
+    ("eigen_rotation", "layer2_per_s", "omega*, second layer", "1/s", None),
+]
+
+
+def write_summary(summary: dict, path) -> Path:
+    """``summary.json``: every number under stable keys (no plotting series)."""
+    path = Path(path)
+    path.write_text(json.dumps({k: v for k, v in summary.items() if k != "series"}, indent=2,
+                               default=float) + "\n")
+    return path
+
+
+def headline_rows(summary):
+    """(label, value +- error, unit, paper value) of every headline number."""
+    rows = []
+    for section, key, label, unit, paper in _NUMBERS:
+        block = summary["numbers"][section]
+        err = block.get(f"{key}_err")
+        value = f"{block[key]:.4g}" + (f" &plusmn; {err:.2g}" if err is not None and
+                                       math.isfinite(err) else "")
+        rows.append((label, value, unit, "" if paper is None else f"{PAPER[paper]:g}"))
+    return rows
+
+
+def error_source(summary) -> str:
+    """One sentence saying where the errors come from and where they are lower bounds."""
+    err = summary.get("errors") or {}
+    if err.get("kind") == "runs":
+        text = (f"standard errors between {err['replicates']} independent realisations "
+                "(ensemble), for profiles and derived numbers alike")
+    elif err.get("kind") == "jackknife":
+        text = ("profile errors from a blocking analysis of the frames' time correlation; "
+                f"derived numbers from a delete-one-block jackknife over {err['replicates']} "
+                "blocks")
+    else:
+        text = "no replicates: derived numbers carry no error"
+    bound = {n: ks for n, ks in (err.get("lower_bound_rings") or {}).items() if ks}
+    if bound and err.get("kind") != "runs":
+        text += ("; the blocking analysis reached no plateau in some rings (" + ", ".join(
+            f"{len(ks)} of the {n}-ring profile" for n, ks in bound.items()) +
+            "), where the errors are only lower bounds (flag sem_lower_bound)")
+    return text + "."
+
+
+def stationarity_table(summary, e) -> list:
+    """HTML rows judging the averaging window's steadiness (granavg.engine.timeseries)."""
+    judged = {run: j for run, j in (summary.get("stationarity") or {}).items() if j}
+    if not judged:
+        return ["<h2>Steady state</h2><p>No time series: steadiness not judged.</p>"]
+    out = ["<h2>Steady state</h2><p>Each quantity over the averaging window: means of its "
+           "two halves and the change of a fitted line, against errors from its "
+           "fluctuations (blocking analysis). <i>drifts</i>: beyond 3 errors; "
+           "<i>undetermined</i>: beyond 3 errors that are only lower bounds.</p><table><tr>"
+           "<th>run</th><th>quantity</th><th>first half</th><th>second half</th>"
+           "<th>departure (errors)</th><th>verdict</th><th>steady from (s)</th></tr>"]
+    for run, quantities in judged.items():
+        for q, r in quantities.items():
+            verdict = "drifts" if r["drifts"] else ("undetermined" if r.get("undetermined")
+                                                    else "steady")
+            cls = {"drifts": "no", "steady": "yes"}.get(verdict, "")
+            start = r.get("steady_from_s")
+            out.append(f"<tr><td>{e(str(run))}</td><td>{e(q)}</td><td>{r['first_half']:.4g} "
+                       f"&plusmn; {r['first_half_err']:.2g}</td><td>{r['second_half']:.4g} "
+                       f"&plusmn; {r['second_half_err']:.2g}</td><td>{r['z']:.1f}</td>"
+                       f"<td class='{cls}'>{verdict}</td><td>"
+                       f"{'none' if start is None else f'{start:.0f}'}</td></tr>")
+    out.append("</table>")
+    return out
+
+
+def write_report(summary: dict, figures: dict, path, title="granavg report") -> Path:
+    """A self-contained ``report.html``: parameters, numbers, claims and Figs. 2-9."""
+    run = summary["run"]
+    scene, law, derived = run["scene"], run["contact_law"], run["derived"]
+    e = html.escape
+    params = [("preset", run.get("preset")), ("disks", f"{scene['n_small']} + {scene['n_large']}"),
+              ("R_i, R_o (m)", f"{scene['R_i']}, {scene['R_o']}"), ("Omega (rad/s)", scene["Omega"]),
+              ("k_n (N/m)", law["k_n_N_per_m"]), ("e_n", scene["e_n"]),
+              ("mu, mu_wall", f"{law['mu']}, {law['mu_wall']}"),
+              ("t_c, dt (s)", f"{derived['t_c_s']:.4g}, {derived['dt_s']:.4g}"),
+              ("sheared (s)", f"{derived['t_end_s']:.4g}"),
+              ("frames averaged", (summary.get("frames") or {}).get("n")),
+              ("t_min (s)", (summary.get("frames") or {}).get("t_min_s")),
+              ("LAMMPS, granavg", f"{run.get('lammps_version')}, {run.get('granavg_version')}")]
+    parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{e(title)}</title>",
+             "<style>body{font-family:sans-serif;max-width:70em;margin:auto;padding:1em}"
+             "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #999;"
+             "padding:.25em .6em;text-align:left}.yes{color:#006400}.no{color:#b00000}"
+             "img{max-width:100%}</style></head><body>",
+             f"<h1>{e(title)}</h1><p>Luding et al. (2001), 2D Couette cell. All quantities in "
+             "SI units.</p><h2>Run</h2><table>"]
+    parts += [f"<tr><th>{e(str(k))}</th><td>{e(str(v))}</td></tr>" for k, v in params]
+    parts.append("</table><h2>Headline numbers</h2><table><tr><th>quantity</th><th>value</th>"
+                 "<th>unit</th><th>paper</th></tr>")
+    parts += [f"<tr><td>{e(a)}</td><td>{b}</td><td>{e(c)}</td><td>{e(d)}</td></tr>"
+              for a, b, c, d in headline_rows(summary)]
+    parts.append(f"</table><p>Errors: {e(error_source(summary))}</p>")
+    parts.append("<h2>The paper's claims</h2><p>A verdict is <i>reproduced</i> when the "
+                 "data show the claim beyond twice its error, <i>not reproduced</i> when "
+                 "they show the opposite beyond twice its error, <i>inconclusive</i> "
+                 "otherwise. Identity checks test the averaging, not the paper's physics."
+                 "</p><table><tr><th>claim</th><th>kind</th><th>verdict</th>"
+                 "<th>decided by</th></tr>")
+    for cl in summary["claims"]:
+        cls = {"reproduced": "yes", "holds": "yes", "not reproduced": "no",
+               "violated": "no"}.get(cl["verdict"], "")
+        parts.append(f"<tr><td>{e(cl['claim'])}</td><td>{e(cl['kind'])}</td>"
+                     f"<td class='{cls}'>{e(cl['verdict'])}</td><td>{e(cl['evidence'])}</td></tr>")
+    parts.append("</table>")
+    parts += stationarity_table(summary, e)
+    parts.append("<h2>Figures</h2>")
+    for name, png in figures.items():
+        data = base64.b64encode(Path(png).read_bytes()).decode()
+        parts.append(f"<h3>{e(name.replace('fig', 'Fig. '))}</h3>"
+                     f"<img alt='{e(name)}' src='data:image/png;base64,{data}'>")
+    parts.append("</body></html>")
+    path = Path(path)
+    path.write_text("\n".join(parts))
+    return path

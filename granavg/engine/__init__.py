@@ -1,0 +1,11 @@
+"""The averaging engine: cell geometry and exact weights, per-frame channels, time
+accumulators, profiles (Eqs. 1-7), errors and the per-frame state. Pure numpy/numba over
+in-memory arrays: it reads no file, knows no manifest and no LAMMPS.
+
+Public API: :func:`average` over :class:`Rings`, :class:`Slabs` or :class:`Grid`.
+"""
+
+from granavg.engine.api import average
+from granavg.engine.geometry import Grid, Rings, Slabs
+
+__all__ = ["average", "Rings", "Slabs", "Grid"]

@@ -1,0 +1,72 @@
+"""The engine's public entry: average in-memory frames over any cells, no files needed.
+
+::
+
+    from granavg.engine import Rings, average
+    profiles = average(frames, Rings.count(20, 0.10, 0.25, h=0.006), rho_p=1060.0)
+
+``frames`` is any iterable of objects with ``timestep``, ``time`` (s), ``atoms`` (dict of
+arrays: ``x y radius`` and, as the quantities need, ``vx vy omegaz id mass``) and
+``contacts`` (dict of arrays ``id1 id2 wall fnx fny ftx fty nx ny overlap``, or None):
+what the dump reader, a running LAMMPS or a dask worker produce alike.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+from granavg.engine.average import RingAverage, RingProfiles, groups_for
+from granavg.errors import UserError
+
+
+def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
+            t_min: float = 0.0, block_time: float | None = None,
+            progress: bool | None = False) -> RingProfiles:
+    """Time-averaged profiles of ``frames`` over the cells of ``geometry`` (Eqs. 1-7).
+
+    Parameters
+    ----------
+    frames : iterable
+        Frames as described in the module docstring, in increasing time.
+    geometry : Rings, Slabs or Grid
+        The cells and their height h (m) (:mod:`granavg.engine.geometry`).
+    rho_p : float, optional
+        Material density (kg/m^3): masses rho_p pi h a^2. Not needed when the atoms carry
+        a ``mass`` column (kg), nor for quantities without mass (nu, v, omega, F, sigma,
+        eps, coordination).
+    quantities : sequence of str, optional
+        Keys of :data:`granavg.engine.profiles.QUANTITIES`; default all the frames allow.
+    t_min : float
+        Frames before t_min (s) are left out.
+    block_time : float, optional
+        Base block length (s) of the blocking analysis; default the spacing of the first
+        two frames (one frame per block).
+
+    Returns
+    -------
+    RingProfiles
+        Values, standard errors, flags and jackknife replicates per cell, SI units.
+    """
+    it = iter(frames)
+    head = list(itertools.islice(it, 2))
+    if not head:
+        raise UserError("no frame to average")
+    has_contacts = head[0].contacts is not None
+    has_mass = "mass" in head[0].atoms
+    groups = groups_for(quantities, has_contacts)
+    massive = [g for g in groups if g in ("rho", "dsigma", "dsigma_fluct")]
+    if rho_p is None and not has_mass:
+        if quantities is not None and massive:
+            raise UserError(f"{massive[0]} needs masses: give the material density (rho_p, "
+                            "--density) or a mass column")
+        groups = [g for g in groups if g not in massive]
+    if block_time is None:
+        block_time = head[1].time - head[0].time if len(head) == 2 else 1.0
+        if not block_time > 0:
+            raise UserError("frames must come in increasing time")
+    avg = RingAverage(itertools.chain(head, it), geometry, groups,
+                      rho_p if rho_p is not None else 0.0, t_min, block_time)
+    avg.meta = {"units": "SI (m, s, kg, N, Pa)", "quantities": groups,
+                "geometry": geometry.describe(),
+                "frames": {"t_min_s": t_min, "block_time_s": block_time}}
+    return avg.run(progress)

@@ -1,0 +1,65 @@
+"""Ensemble profiles: the profiles of independent realisations combined, with
+between-run errors and the runs as replicates (SI units)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+
+from granavg.engine.average import RingProfiles
+from granavg.engine.uncertainty import Replicates
+from granavg.errors import UserError
+
+
+def combine_runs(profiles: list, names: list) -> RingProfiles:
+    """Ensemble profiles from the profiles of independent realisations.
+
+    Each value is the mean over the runs with a finite value in that ring, its ``_sem``
+    the between-run standard error std/sqrt(n); ``n_runs`` counts the runs with a disk
+    in the ring. The replicates are the runs' own profiles, so derived numbers get
+    between-run errors too.
+
+    Parameters
+    ----------
+    profiles : list of RingProfiles
+        One per realisation, over the same rings and quantities.
+    names : list of str
+        The runs (for the sidecar).
+    """
+    first = profiles[0]
+    for p, name in zip(profiles[1:], names[1:]):
+        if p.rings.describe() != first.rings.describe():
+            raise UserError(f"{name}: its rings differ from {names[0]}'s; an ensemble needs "
+                            "runs of the same scene averaged over the same rings")
+        if set(p.values) != set(first.values):
+            raise UserError(f"{name}: its quantities differ from {names[0]}'s; average every "
+                            "run with the same --quantities")
+    stacked = {k: np.stack([p.values[k] for p in profiles]) for k in first.values}
+    reps = Replicates("runs", stacked)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)          # all-NaN rings stay NaN
+        values = {k: np.nanmean(v, axis=0) for k, v in stacked.items()}
+    sem = reps.profile_errors()
+    n_runs = np.sum(np.isfinite(stacked["nu"]) & (stacked["nu"] > 0), axis=0) \
+        if "nu" in stacked else np.full(first.rings.n, len(profiles))
+    flags = np.array([";".join(sorted({f for p in profiles for f in str(p.flags[k]).split(";")
+                                       if f and f != "sem_lower_bound"}))
+                      for k in range(first.rings.n)], dtype=object)
+    meta = dict(first.meta)
+    meta["runs"] = [{"run": name, "frames": p.meta.get("frames"), "seed":
+                     (p.meta.get("run_manifest") or {}).get("scene", {}).get("seed"),
+                     "stationarity": p.meta.get("stationarity")}
+                    for name, p in zip(names, profiles)]
+    meta.pop("stationarity", None)
+    series = [p.timeseries.assign(run=name) for name, p in zip(names, profiles)
+              if p.timeseries is not None]
+    meta["errors"] = {"method": f"between-run standard error over {len(profiles)} independent "
+                                "realisations (values are the mean over the runs)",
+                      "lower_bound": {}}
+    meta["frames"] = {**first.meta.get("frames", {}),
+                      "n": int(sum(p.n_frames for p in profiles))}
+    return RingProfiles(first.rings, values, sem, flags, int(sum(p.n_frames for p in profiles)),
+                        meta, reps, n_runs, pd.concat(series, ignore_index=True) if series
+                        else None)

@@ -1,0 +1,204 @@
+"""Averaging cells: rings (the Couette default), Cartesian slabs and a rectangular grid.
+
+Each geometry object (freud's ``Box`` in spirit) knows its cells' volumes, the exact
+area weights of disks in them (:mod:`granavg.engine.weights`), the basis in which
+vectors and tensors are expressed (polar about the centre for rings, Cartesian for slabs
+and grids), the names of the components in that basis and the coordinate columns of a
+profile table. Volumes are h x cell area (m^3): 2D disks of height ``h``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from granavg.engine.weights import grid_weights, ring_weights, strip_weights
+from granavg.errors import UserError
+
+#: Component suffixes in the polar basis, in the engine's channel order.
+POLAR = {"r": "r", "phi": "phi"}
+
+
+def _edges(values, what) -> np.ndarray:
+    e = np.asarray(values, dtype=float)
+    if e.ndim != 1 or len(e) < 2 or not np.all(np.isfinite(e)) or not np.all(np.diff(e) > 0):
+        raise UserError(f"{what} must be finite and increasing, at least two (got {list(e)})")
+    return e
+
+
+@dataclass(frozen=True)
+class Rings:
+    """Rings [r_lo, r_hi) about ``center`` (m) of height h: volumes pi h (r_hi^2 - r_lo^2).
+
+    Vectors and tensors are in each particle's polar basis (e_r, e_phi) about the centre.
+    """
+
+    edges: np.ndarray
+    h: float
+    center: tuple = (0.0, 0.0)
+
+    kind = "rings"
+    axes = ("r", "phi")
+
+    @classmethod
+    def count(cls, n: int, r_inner: float, r_outer: float, h: float,
+              center=(0.0, 0.0)) -> "Rings":
+        """``n`` equal-width rings between r_inner and r_outer (m)."""
+        if n < 1:
+            raise UserError(f"--bins {n}: need at least one ring")
+        return cls(np.linspace(r_inner, r_outer, n + 1), h, tuple(center))
+
+    def __post_init__(self):
+        e = _edges(self.edges, "ring edges")
+        if e[0] < 0:
+            raise UserError(f"ring edges must be >= 0 and increasing (got {list(e)})")
+        object.__setattr__(self, "edges", e)
+        object.__setattr__(self, "center", tuple(float(c) for c in self.center))
+
+    @property
+    def n(self) -> int:
+        return len(self.edges) - 1
+
+    @property
+    def volume(self) -> np.ndarray:
+        return np.pi * self.h * (self.edges[1:] ** 2 - self.edges[:-1] ** 2)
+
+    @property
+    def centre(self) -> np.ndarray:
+        """Mid radius of each ring, m."""
+        return 0.5 * (self.edges[1:] + self.edges[:-1])
+
+    def weights(self, x, y, a):
+        """(particle, ring, fraction of the disk's area in it); exact lens areas."""
+        return ring_weights(np.hypot(x - self.center[0], y - self.center[1]), a, self.edges)
+
+    def basis(self, x, y):
+        """e_r and e_phi at each disk centre, shape (P, 2) each."""
+        dx, dy = x - self.center[0], y - self.center[1]
+        r = np.hypot(dx, dy)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            er = np.column_stack([dx / r, dy / r])
+        return er, np.column_stack([-er[:, 1], er[:, 0]])
+
+    def coordinates(self) -> dict:
+        return {"r_lo": self.edges[:-1], "r_hi": self.edges[1:], "r": self.centre}
+
+    def describe(self) -> dict:
+        return {"kind": "rings", "edges_m": list(self.edges), "h_m": self.h,
+                "center_m": list(self.center)}
+
+
+@dataclass(frozen=True)
+class Slabs:
+    """Strips [u_k, u_k+1) across ``axis`` (``"x"`` or ``"y"``), each ``length`` m long
+    in the other direction; volumes h (u_k+1 - u_k) length. A disk's weight is the
+    fraction of its area between the strip's edges (the strips are taken to span the
+    whole packing along the other direction). Cartesian basis."""
+
+    edges: np.ndarray
+    h: float
+    axis: str = "x"
+    length: float = 1.0
+
+    kind = "slabs"
+    axes = ("x", "y")
+
+    def __post_init__(self):
+        object.__setattr__(self, "edges", _edges(self.edges, "slab edges"))
+        if self.axis not in ("x", "y"):
+            raise UserError(f"slabs across {self.axis!r}: give x or y")
+        if not (np.isfinite(self.length) and self.length > 0):
+            raise UserError(f"slab length {self.length}: must be a finite number > 0 (m)")
+
+    @property
+    def n(self) -> int:
+        return len(self.edges) - 1
+
+    @property
+    def volume(self) -> np.ndarray:
+        return self.h * np.diff(self.edges) * self.length
+
+    def weights(self, x, y, a):
+        return strip_weights(x if self.axis == "x" else y, a, self.edges)
+
+    def basis(self, x, y):
+        n = len(x)
+        return (np.tile([1.0, 0.0], (n, 1)), np.tile([0.0, 1.0], (n, 1)))
+
+    def coordinates(self) -> dict:
+        u = self.axis
+        return {f"{u}_lo": self.edges[:-1], f"{u}_hi": self.edges[1:],
+                u: 0.5 * (self.edges[1:] + self.edges[:-1])}
+
+    def describe(self) -> dict:
+        return {"kind": "slabs", "edges_m": list(self.edges), "h_m": self.h,
+                "axis": self.axis, "length_m": self.length}
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Rectangles [x_i, x_i+1) x [y_j, y_j+1); cell k = i n_y + j; volumes h dx dy.
+    Exact weights (disk-rectangle areas in closed form); Cartesian basis."""
+
+    xedges: np.ndarray
+    yedges: np.ndarray
+    h: float
+
+    kind = "grid"
+    axes = ("x", "y")
+
+    def __post_init__(self):
+        object.__setattr__(self, "xedges", _edges(self.xedges, "grid x edges"))
+        object.__setattr__(self, "yedges", _edges(self.yedges, "grid y edges"))
+
+    @property
+    def n(self) -> int:
+        return (len(self.xedges) - 1) * (len(self.yedges) - 1)
+
+    @property
+    def volume(self) -> np.ndarray:
+        return self.h * np.outer(np.diff(self.xedges), np.diff(self.yedges)).ravel()
+
+    def weights(self, x, y, a):
+        return grid_weights(x, y, a, self.xedges, self.yedges)
+
+    basis = Slabs.basis
+
+    def coordinates(self) -> dict:
+        nx, ny = len(self.xedges) - 1, len(self.yedges) - 1
+        i, j = np.divmod(np.arange(nx * ny), ny)
+        xe, ye = self.xedges, self.yedges
+        return {"x_lo": xe[i], "x_hi": xe[i + 1], "y_lo": ye[j], "y_hi": ye[j + 1],
+                "x": 0.5 * (xe[i] + xe[i + 1]), "y": 0.5 * (ye[j] + ye[j + 1])}
+
+    def describe(self) -> dict:
+        return {"kind": "grid", "xedges_m": list(self.xedges), "yedges_m": list(self.yedges),
+                "h_m": self.h}
+
+
+def rename(name: str, geometry) -> str:
+    """A profile value's name in the geometry's basis: ``v_r`` -> ``v_x``,
+    ``sigma_rphi`` -> ``sigma_xy`` for Cartesian cells; unchanged for rings."""
+    if geometry.axes == ("r", "phi"):
+        return name
+    for old, new in (("_rphi", "_xy"), ("_phir", "_yx"), ("_phiphi", "_yy"), ("_rr", "_xx"),
+                     ("_phi", "_y"), ("_r", "_x")):
+        if name.endswith(old):
+            return name[: -len(old)] + new
+    return name
+
+
+def from_description(d: dict):
+    """The geometry a sidecar describes (``describe()``'s dict; old sidecars: rings)."""
+    kind = d.get("kind", "rings")
+    if kind == "rings":
+        return Rings(np.asarray(d["edges_m"], float), float(d["h_m"]),
+                     tuple(d.get("center_m", (0.0, 0.0))))
+    if kind == "slabs":
+        return Slabs(np.asarray(d["edges_m"], float), float(d["h_m"]), d["axis"],
+                     float(d["length_m"]))
+    if kind == "grid":
+        return Grid(np.asarray(d["xedges_m"], float), np.asarray(d["yedges_m"], float),
+                    float(d["h_m"]))
+    raise UserError(f"unknown geometry kind {kind!r}")

@@ -1,0 +1,189 @@
+"""Per-frame sums of the ring averages (Eqs. 1-7): pure numpy kernels, SI units.
+
+For every ring k and channel c a frame contributes ``S[k, c] = sum_p w_pk Q_pc`` with
+``w_pk`` the disk's area fraction in the ring (:mod:`granavg.engine.weights`) and Q the
+per-particle channel below. Tensors are in each particle's own polar basis
+(e_r, e_phi) at its centre, components ordered rr, rphi, phir, phiphi, first index the
+force (or the deformation), second the branch vector; nothing is symmetrised.
+
+===========  ==========================================  =========================
+channel      Q_p                                           gives (after / V or ratio)
+===========  ==========================================  =========================
+vol          V^p = pi h a^2                                nu (Eq. 2)
+mass         m^p (rho_p V^p, or the dump's mass column)    rho
+mom_r/phi    V^p v_r, V^p v_phi                            v = <nu v>/<nu> (Eq. 3)
+spin         V^p omega                                     omega
+ncontact     V^p C^p                                       coordination C
+fab_ij       V^p sum_c n_i n_j                             F (Eq. 4)
+sig_ij       sum_c f_i l_j,  l = a n                       sigma (Eq. 5)
+kin_ij       m^p v_i v_j                                   dynamic stress (Eq. 6)
+def_ij       pi h sum_c Delta_i l_j,  Delta = -delta n     eps numerator (Eq. 7)
+===========  ==========================================  =========================
+
+Eq. 5 as printed carries a factor V^p; with it sigma would not be a stress (N m rather
+than Pa). The particle stress is (1/V^p) sum_c f (x) l, so V^p cancels: sigma =
+(1/V) sum_p w sum_c f (x) l, which is what the sum rule sum_k V_k sigma_k =
+sum_p sum_c f (x) l states. Delta^pc is the contact's normal deformation: the overlap
+delta shortens the branch vector, Delta = -delta n (tension-positive, like sigma). The
+tangential spring is not included: LAMMPS does not output it, and at the Coulomb limit
+it is not an elastic deformation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from granavg.errors import UserError
+
+TENSOR = ("rr", "rphi", "phir", "phiphi")
+CHANNELS = ("vol", "mass", "mom_r", "mom_phi", "spin", "ncontact",
+            *(f"fab_{c}" for c in TENSOR), *(f"sig_{c}" for c in TENSOR),
+            *(f"kin_{c}" for c in TENSOR), *(f"def_{c}" for c in TENSOR))
+INDEX = {name: k for k, name in enumerate(CHANNELS)}
+
+
+def polar_basis(x, y):
+    """Unit vectors e_r and e_phi at (x, y); each of shape (P, 2)."""
+    r = np.hypot(x, y)
+    er = np.column_stack([x / r, y / r])
+    return er, np.column_stack([-er[:, 1], er[:, 0]])
+
+
+def _outer(u_r, u_phi, v_r, v_phi):
+    """Components rr, rphi, phir, phiphi of u (x) v, shape (n, 4)."""
+    return np.column_stack([u_r * v_r, u_r * v_phi, u_phi * v_r, u_phi * v_phi])
+
+
+def particle_channels(atoms, contacts, h, rho_p, channels, basis=None):
+    """Per-particle channel values Q_p of one frame.
+
+    Parameters
+    ----------
+    atoms : dict of ndarray, shape (P,) each
+        ``x y radius`` and, as the channels need, ``vx vy omegaz id`` (SI units).
+    contacts : dict of ndarray or None
+        Contact-dump columns ``id1 id2 wall fnx fny ftx fty nx ny overlap``
+        (docs/outputs.md); a disk-disk contact counts for both disks.
+    h, rho_p : float
+        Disk height (m) and material density (kg/m^3).
+    channels : sequence of str
+        Which of :data:`CHANNELS` to fill; the others stay zero.
+    basis : (ndarray, ndarray), optional
+        Unit vectors (e_1, e_2) at each disk, shape (P, 2) each: the basis of vectors and
+        tensors (default the polar basis about the origin, e_r and e_phi). With a
+        ``mass`` column (kg) among the atoms, masses are taken from it instead of
+        rho_p V^p (e.g. spheres in a 2D simulation).
+
+    Returns
+    -------
+    ndarray, shape (P, len(CHANNELS))
+    """
+    x, y, a = atoms["x"], atoms["y"], atoms["radius"]
+    er, ephi = polar_basis(x, y) if basis is None else basis
+    vol = np.pi * h * a * a
+    mass = atoms["mass"] if "mass" in atoms else rho_p * vol
+    q = np.zeros((len(x), len(CHANNELS)))
+    want = set(channels)
+    q[:, INDEX["vol"]] = vol
+    q[:, INDEX["mass"]] = mass
+    if want & {"mom_r", "mom_phi", "kin_rr"}:
+        v = np.column_stack([atoms["vx"], atoms["vy"]])
+        v_r, v_phi = np.einsum("ij,ij->i", v, er), np.einsum("ij,ij->i", v, ephi)
+        q[:, INDEX["mom_r"]], q[:, INDEX["mom_phi"]] = vol * v_r, vol * v_phi
+        if "kin_rr" in want:
+            q[:, INDEX["kin_rr"]:INDEX["kin_rr"] + 4] = \
+                mass[:, None] * _outer(v_r, v_phi, v_r, v_phi)
+    if "spin" in want:
+        q[:, INDEX["spin"]] = vol * atoms["omegaz"]
+    if want & {"ncontact", "fab_rr", "sig_rr", "def_rr"}:
+        _contact_channels(q, atoms, contacts, er, ephi, vol, h, want)
+    return q
+
+
+def _contact_channels(q, atoms, contacts, er, ephi, vol, h, want):
+    """Add each contact to both of its disks (only the disk of a wall contact)."""
+    ids = atoms["id"]
+    pair = contacts["wall"] == 0
+    i1 = rows_of(ids, contacts["id1"])
+    i2 = np.full(len(i1), -1, dtype=np.int64)
+    i2[pair] = rows_of(ids, contacts["id2"][pair])
+    nc = np.zeros(len(vol))
+    fab, sig, dfm = (np.zeros((len(vol), 4)) for _ in range(3))
+    _accumulate_contacts(i1, i2, contacts["fnx"] + contacts["ftx"],
+                         contacts["fny"] + contacts["fty"], contacts["nx"], contacts["ny"],
+                         contacts["overlap"], er, ephi, atoms["radius"], np.pi * h,
+                         nc, fab, sig, dfm)
+    if "ncontact" in want:
+        q[:, INDEX["ncontact"]] = vol * nc
+    for name, values in (("fab_rr", vol[:, None] * fab), ("sig_rr", sig), ("def_rr", dfm)):
+        if name in want:
+            q[:, INDEX[name]:INDEX[name] + 4] = values
+
+
+@njit(cache=True, nogil=True)
+def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih,
+                         nc, fab, sig, dfm):
+    """Per-disk sums over its contacts (side 2 sees -f and -n; i2 < 0: wall contact):
+    count, sum n (x) n, sum f (x) l with l = a n, and pi h sum Delta (x) l with
+    Delta = -overlap n; tensors in the disk's polar basis (rr, rphi, phir, phiphi)."""
+    for c in range(i1.shape[0]):
+        for side in range(2):
+            p = i1[c] if side == 0 else i2[c]
+            if p < 0:
+                break
+            s = 1.0 if side == 0 else -1.0
+            n_r = s * (nx[c] * er[p, 0] + ny[c] * er[p, 1])
+            n_phi = s * (nx[c] * ephi[p, 0] + ny[c] * ephi[p, 1])
+            f_r = s * (fx[c] * er[p, 0] + fy[c] * er[p, 1])
+            f_phi = s * (fx[c] * ephi[p, 0] + fy[c] * ephi[p, 1])
+            d = -pih * overlap[c] * a[p]
+            nc[p] += 1.0
+            fab[p, 0] += n_r * n_r
+            fab[p, 1] += n_r * n_phi
+            fab[p, 2] += n_phi * n_r
+            fab[p, 3] += n_phi * n_phi
+            sig[p, 0] += a[p] * f_r * n_r
+            sig[p, 1] += a[p] * f_r * n_phi
+            sig[p, 2] += a[p] * f_phi * n_r
+            sig[p, 3] += a[p] * f_phi * n_phi
+            dfm[p, 0] += d * n_r * n_r
+            dfm[p, 1] += d * n_r * n_phi
+            dfm[p, 2] += d * n_phi * n_r
+            dfm[p, 3] += d * n_phi * n_phi
+
+
+def rows_of(ids, wanted):
+    """Row of each id in the atom ids; an unknown id is a user error."""
+    ids = ids.astype(np.int64)
+    wanted = wanted.astype(np.int64)
+    top = int(ids.max(initial=0))
+    if top < 8 * len(ids) + 1_000_000:               # a lookup table: O(P + N)
+        table = np.full(top + 2, -1, dtype=np.int64)
+        table[ids] = np.arange(len(ids))
+        rows = table[np.clip(wanted, 0, top + 1)]
+        bad = (rows < 0) | (wanted < 0) | (wanted > top)
+    else:                                           # sparse ids: sort and search
+        order = np.argsort(ids, kind="stable")
+        pos = np.minimum(np.searchsorted(ids[order], wanted), len(ids) - 1)
+        rows = order[pos]
+        bad = ids[rows] != wanted
+    if np.any(bad):
+        raise UserError(f"the contact dump names atom id {int(wanted[bad][0])}, which is not "
+                        "in the atom dump of the same time step; use dumps of the same run")
+    return rows
+
+
+def ring_sums(particle, ring, w, q, n_rings):
+    """S[k, c] = sum_p w_pk q[p, c]; shape (n_rings, n_channels)."""
+    out = np.zeros((n_rings, q.shape[1]))
+    _scatter(particle, ring, w, np.ascontiguousarray(q), out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _scatter(particle, ring, w, q, out):
+    for t in range(particle.shape[0]):
+        p, k, wt = particle[t], ring[t], w[t]
+        for c in range(q.shape[1]):
+            out[k, c] += wt * q[p, c]

@@ -1,0 +1,251 @@
+"""Exact volume weights w_V^p of disks in rings (Eq. 1): compiled kernels.
+
+The weight of disk p in the ring [r_lo, r_hi) is the fraction of its area inside the
+ring, from the closed-form area of a disk inside a circle centred on the cell's axis
+(the lens of two intersecting circles); not the centre-in-ring rule. A disk fully inside
+the rings' span has weights summing to 1; the part of a disk outside
+[edges[0], edges[-1]] is in no ring.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, vectorize
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _segment(theta):
+    """Area of a circular segment of half-angle theta over r^2: theta - sin cos.
+
+    A series for thin segments, where the difference would cancel catastrophically.
+    """
+    if theta < 1e-2:
+        t2 = theta * theta
+        return theta * t2 * (2.0 / 3.0 - t2 * (2.0 / 15.0 - t2 * (4.0 / 315.0)))
+    return theta - math.sin(theta) * math.cos(theta)
+
+
+def _area(d, a, R):
+    """Area (m^2) of a disk of radius ``a`` centred at distance ``d`` from the origin that
+    lies inside the circle of radius ``R`` about the origin; a numpy ufunc.
+
+    pi a^2 if the disk is inside, 0 if outside, pi R^2 if the circle is inside the disk,
+    else the lens: the two circular segments cut off by the common chord. The chord's
+    half-length comes from the factored product (-d+a+R)(d+a-R)(d-a+R)(d+a+R) and the
+    angles from atan2, so thin lenses (R >> a) keep full relative precision.
+    """
+    if d + a <= R:
+        return math.pi * a * a
+    if R <= a - d:
+        return math.pi * R * R
+    if d >= R + a or d <= abs(R - a):
+        return 0.0
+    k = (-d + a + R) * (d + a - R) * (d - a + R) * (d + a + R)
+    chord = 0.5 * math.sqrt(max(k, 0.0)) / d
+    x = (d * d + R * R - a * a) / (2.0 * d)
+    return (R * R * _segment(math.atan2(chord, x))
+            + a * a * _segment(math.atan2(chord, d - x)))
+
+
+_area_scalar = njit(cache=True, nogil=True)(_area)
+area_inside_circle = vectorize(["float64(float64, float64, float64)"], cache=True)(_area)
+area_inside_circle.__doc__ = _area.__doc__
+
+
+@njit(cache=True, nogil=True)
+def _triplets(r, a, edges):
+    n_rings = edges.shape[0] - 1
+    cap = r.shape[0] * 4
+    particle = np.empty(cap, np.int64)
+    ring = np.empty(cap, np.int64)
+    w = np.empty(cap)
+    t = 0
+    for p in range(r.shape[0]):
+        lo = np.searchsorted(edges, r[p] - a[p], side="right") - 1
+        hi = np.searchsorted(edges, r[p] + a[p], side="left") - 1
+        lo = min(max(lo, 0), n_rings - 1)
+        hi = min(max(hi, 0), n_rings - 1)
+        full = math.pi * a[p] * a[p]
+        inner = _area_scalar(r[p], a[p], edges[lo])
+        for k in range(lo, hi + 1):
+            outer = _area_scalar(r[p], a[p], edges[k + 1])
+            wk = (outer - inner) / full
+            inner = outer
+            if wk > 0:
+                if t == cap:                     # more rings per disk than expected
+                    cap *= 2
+                    particle = _grow(particle, cap)
+                    ring = _grow(ring, cap)
+                    w = _grow(w, cap)
+                particle[t], ring[t], w[t] = p, k, wk
+                t += 1
+    return particle[:t], ring[:t], w[:t]
+
+
+@njit(cache=True, nogil=True)
+def _grow(arr, cap):
+    out = np.empty(cap, arr.dtype)
+    out[:arr.shape[0]] = arr
+    return out
+
+
+def ring_weights(r, a, edges):
+    """Sparse weights of disks in rings.
+
+    Parameters
+    ----------
+    r : ndarray, shape (P,)
+        Distance of each disk's centre from the axis, m.
+    a : ndarray, shape (P,)
+        Disk radii, m.
+    edges : ndarray, shape (n_rings + 1,)
+        Increasing ring edges, m.
+
+    Returns
+    -------
+    particle, ring : ndarray of int, shape (T,)
+        Disk index and ring index of each non-zero weight.
+    w : ndarray, shape (T,)
+        Fraction of the disk's area in that ring (0 < w <= 1).
+    """
+    return _triplets(np.ascontiguousarray(r, float), np.ascontiguousarray(a, float),
+                     np.ascontiguousarray(edges, float))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _below(u, a):
+    """Area (m^2) of a disk of radius a (centre 0) with x < u: 0, a segment, or all of
+    it; the smaller side is always the segment formula, so thin parts keep precision."""
+    if u <= -a:
+        return 0.0
+    if u >= a:
+        return math.pi * a * a
+    if u < 0.0:
+        return a * a * _segment(math.acos(-u / a))
+    return math.pi * a * a - a * a * _segment(math.acos(u / a))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _antideriv(x, a):
+    """Integral of sqrt(a^2 - x^2) dx from 0 to x (|x| <= a)."""
+    return 0.5 * (x * math.sqrt(max(a * a - x * x, 0.0)) + a * a * math.asin(x / a))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _corner(X, Y, a):
+    """Area (m^2) of a disk of radius a (centre 0) with x < X and y < Y, in closed form:
+    the integral over x of the chord's part below Y."""
+    if X <= -a or Y <= -a:
+        return 0.0
+    if Y >= a:
+        return _below(X, a)
+    if X >= a:
+        return _below(Y, a)
+    x1 = min(X, a)
+    c = math.sqrt(a * a - Y * Y)
+    area = 0.0
+    if Y >= 0.0:                                  # full chords where |x| > c
+        lo = min(x1, -c)
+        area += 2.0 * (_antideriv(lo, a) - _antideriv(-a, a))
+        if x1 > c:
+            area += 2.0 * (_antideriv(x1, a) - _antideriv(c, a))
+    if x1 > -c:                                   # chords cut at Y where |x| < c
+        hi = min(x1, c)
+        area += Y * (hi + c) + _antideriv(hi, a) - _antideriv(-c, a)
+    return area
+
+
+def disk_below(u, a):
+    """Area of a disk of radius a with x < u (relative to its centre), m^2; vectorised."""
+    return np.vectorize(_below, otypes=[float])(u, a)
+
+
+def disk_corner(X, Y, a):
+    """Area of a disk of radius a with x < X and y < Y (relative to its centre), m^2."""
+    return np.vectorize(_corner, otypes=[float])(X, Y, a)
+
+
+@njit(cache=True, nogil=True)
+def _strip_triplets(u, a, edges):
+    n = edges.shape[0] - 1
+    cap = u.shape[0] * 4
+    particle = np.empty(cap, np.int64)
+    cell = np.empty(cap, np.int64)
+    w = np.empty(cap)
+    t = 0
+    for p in range(u.shape[0]):
+        lo = min(max(np.searchsorted(edges, u[p] - a[p], side="right") - 1, 0), n - 1)
+        hi = min(max(np.searchsorted(edges, u[p] + a[p], side="left") - 1, 0), n - 1)
+        full = math.pi * a[p] * a[p]
+        for k in range(lo, hi + 1):
+            wk = (_below(edges[k + 1] - u[p], a[p]) - _below(edges[k] - u[p], a[p])) / full
+            if wk > 0:
+                if t == cap:
+                    cap *= 2
+                    particle, cell, w = _grow(particle, cap), _grow(cell, cap), _grow(w, cap)
+                particle[t], cell[t], w[t] = p, k, wk
+                t += 1
+    return particle[:t], cell[:t], w[:t]
+
+
+@njit(cache=True, nogil=True)
+def _grid_triplets(x, y, a, xe, ye):
+    nx, ny = xe.shape[0] - 1, ye.shape[0] - 1
+    cap = x.shape[0] * 8
+    particle = np.empty(cap, np.int64)
+    cell = np.empty(cap, np.int64)
+    w = np.empty(cap)
+    t = 0
+    for p in range(x.shape[0]):
+        i0 = min(max(np.searchsorted(xe, x[p] - a[p], side="right") - 1, 0), nx - 1)
+        i1 = min(max(np.searchsorted(xe, x[p] + a[p], side="left") - 1, 0), nx - 1)
+        j0 = min(max(np.searchsorted(ye, y[p] - a[p], side="right") - 1, 0), ny - 1)
+        j1 = min(max(np.searchsorted(ye, y[p] + a[p], side="left") - 1, 0), ny - 1)
+        full = math.pi * a[p] * a[p]
+        for i in range(i0, i1 + 1):
+            xl, xh = xe[i] - x[p], xe[i + 1] - x[p]
+            for j in range(j0, j1 + 1):
+                yl, yh = ye[j] - y[p], ye[j + 1] - y[p]
+                area = (_corner(xh, yh, a[p]) - _corner(xl, yh, a[p])
+                        - _corner(xh, yl, a[p]) + _corner(xl, yl, a[p]))
+                wk = area / full
+                if wk > 0:
+                    if t == cap:
+                        cap *= 2
+                        particle, cell, w = _grow(particle, cap), _grow(cell, cap), _grow(w, cap)
+                    particle[t], cell[t], w[t] = p, i * ny + j, wk
+                    t += 1
+    return particle[:t], cell[:t], w[:t]
+
+
+def strip_weights(u, a, edges):
+    """Sparse weights of disks in strips [e_k, e_k+1) of one Cartesian coordinate.
+
+    Parameters
+    ----------
+    u : ndarray, shape (P,)
+        The disks' centre coordinate across the strips, m.
+    a : ndarray, shape (P,)
+        Radii, m.
+    edges : ndarray, shape (n + 1,)
+        Increasing strip edges, m.
+
+    Returns
+    -------
+    particle, cell, w : ndarray, shape (T,)
+        Disk index, strip index and the fraction of the disk's area in it (exact:
+        differences of circular segments).
+    """
+    return _strip_triplets(np.ascontiguousarray(u, float), np.ascontiguousarray(a, float),
+                           np.ascontiguousarray(edges, float))
+
+
+def grid_weights(x, y, a, xedges, yedges):
+    """Sparse weights of disks in the rectangles of a grid (cell k = i ny + j for column
+    i of the x edges and row j of the y edges); the fraction of each disk's area in a
+    rectangle, exact (corner areas in closed form, by inclusion-exclusion)."""
+    return _grid_triplets(np.ascontiguousarray(x, float), np.ascontiguousarray(y, float),
+                          np.ascontiguousarray(a, float), np.ascontiguousarray(xedges, float),
+                          np.ascontiguousarray(yedges, float))

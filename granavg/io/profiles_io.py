@@ -1,0 +1,125 @@
+"""Profile tables on disk: the CSV (or Parquet) table, its JSON sidecar, the replicates
+and the per-frame time series, written together and read back with checks (SI units;
+docs/profiles.md)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from granavg.engine.average import RingProfiles
+from granavg.engine.geometry import from_description
+from granavg.engine.uncertainty import Replicates
+from granavg.errors import UserError
+
+#: Suffix of the replicate profiles written beside a profiles table.
+REPLICATES = ".replicates.npz"
+#: Suffix of the per-frame time series written beside a profiles table.
+TIMESERIES = ".timeseries.csv"
+
+
+def read_profiles(path) -> RingProfiles:
+    """Profiles written by :func:`write_profiles` (CSV or Parquet, with its JSON sidecar),
+    checked: a damaged table or sidecar is a one-line error naming the file."""
+    path = Path(path)
+    side = path.with_name(path.name + ".json")
+    for f in (path, side):
+        if not f.exists():
+            raise UserError(f"{f}: not found; write profiles with 'granavg average' (the "
+                            "table and its .json sidecar)")
+        if not f.is_file():
+            raise UserError(f"{f}: is a directory; give a profiles table")
+    try:
+        table = pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
+    except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError,
+            ValueError, OSError) as exc:
+        raise UserError(f"{path}: not a readable profiles table ({str(exc).splitlines()[0]})"
+                        "; average again with 'granavg average'") from None
+    try:
+        meta = json.loads(side.read_text())
+    except json.JSONDecodeError as exc:
+        raise UserError(f"{side}:{exc.lineno}: damaged JSON ({exc.msg}); average again "
+                        "with 'granavg average'") from None
+    except UnicodeDecodeError:
+        raise UserError(f"{side}: not a text file; average again with 'granavg "
+                        "average'") from None
+    try:
+        rings = from_description(meta.get("geometry") or meta["rings"])
+    except (KeyError, TypeError, ValueError, AttributeError):
+        raise UserError(f"{side}: no ring geometry (rings.edges_m, rings.h_m); average "
+                        "again with 'granavg average'") from None
+    missing = [c for c in (*rings.coordinates(), "n_frames", "flags") if c not in table.columns]
+    if missing or len(table) != rings.n:
+        what = f"column {missing[0]} is missing" if missing else \
+            f"{len(table)} rows for {rings.n} rings"
+        raise UserError(f"{path}: {what} (the table is cut or not granavg's); average "
+                        "again with 'granavg average'")
+    names = [c for c in table.columns if f"{c}_sem" in table.columns]
+    bad = [n for n in names if not pd.api.types.is_numeric_dtype(table[n])]
+    if bad:
+        raise UserError(f"{path}: column {bad[0]} holds non-numbers; the table is damaged")
+    reps = path.with_name(path.name + REPLICATES)
+    replicates = None
+    if reps.exists():
+        try:
+            with np.load(reps) as z:
+                replicates = Replicates(str(z["kind"]),
+                                        {k: z[k] for k in z.files if k != "kind"})
+        except (OSError, ValueError, KeyError) as exc:
+            raise UserError(f"{reps}: damaged replicates ({exc}); average again") from None
+    series = path.with_name(path.name + TIMESERIES)
+    return RingProfiles(rings, {n: table[n].to_numpy() for n in names},
+               {n: table[f"{n}_sem"].to_numpy() for n in names},
+               np.array([f if isinstance(f, str) else "" for f in table["flags"]], dtype=object),
+               int(table["n_frames"].iloc[0]), meta, replicates,
+               table["n_runs"].to_numpy() if "n_runs" in table.columns else None,
+               pd.read_csv(series) if series.exists() else None)
+
+
+def write_profiles(profiles: RingProfiles, path, parquet: bool = False) -> Path:
+    """Write the table (CSV, or Parquet), a JSON sidecar ``<path>.json`` and the
+    replicates ``<path>.replicates.npz``: each to a temporary name first, renamed
+    only when all are complete."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    table = profiles.to_frame()
+    if parquet:
+        try:
+            import pyarrow  # noqa: F401  (pandas' Parquet engine)
+        except ImportError:
+            raise UserError("--parquet needs pyarrow: pip install 'granavg[parquet]'") from None
+    targets = [path, path.with_name(path.name + ".json")]
+    if profiles.replicates is not None:
+        targets.append(path.with_name(path.name + REPLICATES))
+    if profiles.timeseries is not None:
+        targets.append(path.with_name(path.name + TIMESERIES))
+    tmp = [t.with_name(f".{t.name}.tmp{os.getpid()}") for t in targets]
+    try:
+        if parquet:
+            table.to_parquet(tmp[0], index=False)
+        else:
+            table.to_csv(tmp[0], index=False, float_format="%.10g")
+        tmp[1].write_text(json.dumps(profiles.meta, indent=2) + "\n")
+        extra = iter(tmp[2:])
+        if profiles.replicates is not None:
+            with open(next(extra), "wb") as fh:
+                np.savez(fh, kind=profiles.replicates.kind, **profiles.replicates.values)
+        if profiles.timeseries is not None:
+            profiles.timeseries.to_csv(next(extra), index=False, float_format="%.8g")
+        # the table last: when it exists, its companions do; no signal in between
+        blocked = {signal.SIGINT, signal.SIGTERM}
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
+        try:
+            for t, final in reversed(list(zip(tmp, targets))):
+                os.replace(t, final)
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    finally:
+        for t in tmp:
+            t.unlink(missing_ok=True)
+    return path

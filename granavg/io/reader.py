@@ -1,0 +1,454 @@
+"""Streaming readers of LAMMPS text dumps (per-atom ``dump custom``, per-contact ``dump local``).
+
+Frames are found by their ``ITEM:`` headers, never by a fixed line count (contact dumps
+change their row count every frame). The file is read in chunks of bytes, so memory
+stays flat whatever the number of frames; each frame's rows are parsed as one block by
+:mod:`granavg.io.parse`, converting only the columns asked for.
+
+Bad input: a truncated last frame is skipped with a warning naming it; a malformed row,
+a non-finite value, or a missing column is a :class:`~granavg.errors.UserError` naming
+the file and line (and, for a missing column, what needs it).
+"""
+
+from __future__ import annotations
+
+import logging
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from isal import igzip, isal_zlib
+
+from granavg.errors import UserError
+from granavg.io.parse import MALFORMED, NOT_FINITE, OK, parse_block
+
+log = logging.getLogger(__name__)
+
+CHUNK = 8 << 20
+_SKIPPED = object()     # a frame outside the requested steps
+
+
+@dataclass
+class DumpFrame:
+    """One frame of a dump (SI units for a ``units si`` run).
+
+    Attributes
+    ----------
+    timestep : int
+    time : float or None
+        Simulated time (s) from ``ITEM: TIME``, if present.
+    columns : list of str
+        Names of the columns in ``data`` (the requested ones, in the requested order).
+    data : ndarray, shape (n_rows, len(columns))
+    box : ndarray, shape (3, 2)
+    line : int
+        1-based line number of the frame's first row in its file.
+    """
+
+    timestep: int
+    time: float | None
+    columns: list
+    data: np.ndarray
+    box: np.ndarray = field(repr=False)
+    line: int = 0
+
+    def column(self, name: str) -> np.ndarray:
+        """The column called ``name``, shape (n_rows,)."""
+        return self.data[:, self.columns.index(name)]
+
+    def as_dict(self) -> dict:
+        """Columns by name (views into ``data``)."""
+        return {name: self.data[:, k] for k, name in enumerate(self.columns)}
+
+
+class DumpReader:
+    """Lazy reader of one LAMMPS text dump, plain or gzip; iterate to get frames.
+
+    Parameters
+    ----------
+    path : path-like
+    columns : sequence of str, optional
+        Columns to convert (others are skipped while parsing); all if None.
+    needed_by : dict, optional
+        For each column, what needs it: named in the error if it is missing.
+    steps : (int, int) or (int, int, int), optional
+        Only frames with first <= timestep <= last (and, with a third number ``every``,
+        timestep - first a multiple of it) are parsed and yielded; the others are skipped
+        by scanning for their end (how a dask worker reads its chunk, or a study thins
+        the frames).
+    """
+
+    def __init__(self, path, columns=None, needed_by=None, steps=None):
+        self.path = Path(path)
+        if not self.path.exists():
+            raise UserError(f"{self.path}: no such file")
+        self.columns = list(columns) if columns is not None else None
+        self.needed_by = dict(needed_by or {})
+        self.steps = steps
+
+    def __iter__(self):
+        yield from _Scanner(self).frames()
+
+
+class _Scanner:
+    """Walks one file: a byte buffer refilled in chunks, a running line count."""
+
+    def __init__(self, reader: DumpReader):
+        self.reader = reader
+        self.path = reader.path
+        self.buf = b""
+        self.pos = 0
+        self.line = 1
+        self.eof = False
+        self._layout = None
+        self.delivered = 0              # decompressed bytes read so far
+        self.previous = None            # (timestep, line) of the last frame header
+        self.complete = None            # timestep of the last complete frame
+        self.seen = 0
+
+    def frames(self):
+        if self.path.is_dir():
+            raise UserError(f"{self.path}: is a directory; give the dump file")
+        self.gzip = self.path.suffix == ".gz"
+        opener = igzip.open if self.gzip else open  # ISA-L: 3x zlib
+        with opener(self.path, "rb") as self.fh:
+            while self._skip_blank():
+                frame = self._frame()
+                if frame is None:
+                    break
+                self.seen += 1
+                if frame is not _SKIPPED:
+                    self.complete = frame.timestep
+                    yield frame
+                elif self.reader.steps and self.last_step > self.reader.steps[1]:
+                    return
+        if self.seen == 0 and self.reader.steps is None:
+            raise UserError(f"{self.path}: holds no complete frame (the file is empty or "
+                            "damaged); give a dump written by LAMMPS' dump command")
+
+    # -- buffer -------------------------------------------------------------------------
+    def _fill(self) -> bool:
+        """Read another chunk; False at end of file. A damaged gzip stream is an error
+        before any data; after some, what can be decompressed up to the damage is kept
+        (read again in small pieces) and the damage reported."""
+        if self.eof:
+            return False
+        try:
+            more = self.fh.read(CHUNK)
+        except (EOFError, OSError, zlib.error, isal_zlib.error) as exc:
+            if self.delivered == 0 and not self.gzip_salvage_possible():
+                raise UserError(f"{self.path}: not a readable gzip file ({exc}); give an "
+                                "intact .gz dump, or a plain one without the .gz name") from None
+            more = self._salvage(exc)
+            self.eof = True
+        if not more:
+            self.eof = True
+            return False
+        self.delivered += len(more)
+        self.buf = self.buf[self.pos:] + more
+        self.pos = 0
+        return True
+
+    def gzip_salvage_possible(self) -> bool:
+        """Whether the damaged stream yields any data when read in small pieces."""
+        return bool(self._pieces(limit=1))
+
+    def _pieces(self, limit=None) -> bytes:
+        """Decompressed bytes after ``delivered``, up to the damage: the raw file fed
+        to a streaming decompressor in 64 kB pieces, member after member, so everything
+        before a cut or a corrupt byte comes out (at most ``limit`` bytes if given)."""
+        out, total, skip = [], 0, self.delivered
+        d = zlib.decompressobj(wbits=31)
+        with open(self.path, "rb") as fh:
+            while (raw := fh.read(1 << 16)):
+                try:
+                    data = d.decompress(raw)
+                    while d.eof and d.unused_data:          # the next gzip member
+                        rest = d.unused_data
+                        d = zlib.decompressobj(wbits=31)
+                        data += d.decompress(rest)
+                except zlib.error:
+                    break
+                if skip:
+                    cut = min(skip, len(data))
+                    data, skip = data[cut:], skip - cut
+                out.append(data)
+                total += len(data)
+                if limit is not None and total >= limit:
+                    break
+        return b"".join(out)
+
+    def _salvage(self, exc) -> bytes:
+        more = self._pieces()
+        log.warning("%s: the gzip stream is damaged after %d bytes of data (%s); the "
+                    "complete frames before the damage are used", self.path,
+                    self.delivered + len(more), exc)
+        self.damaged = True
+        return more
+
+    def _skip_blank(self) -> bool:
+        while True:
+            while self.pos < len(self.buf) and self.buf[self.pos] in b" \t\r\n":
+                self.line += self.buf[self.pos] == 10
+                self.pos += 1
+            if self.pos < len(self.buf):
+                return True
+            if not self._fill():
+                return False
+
+    def _readline(self):
+        """Next line as str, or None at the end of the file."""
+        while (nl := self.buf.find(b"\n", self.pos)) < 0:
+            if not self._fill():
+                return None
+        text = self.buf[self.pos:nl].decode("ascii", "replace")
+        self.pos = nl + 1
+        self.line += 1
+        return text
+
+    # -- one frame ----------------------------------------------------------------------
+    def _frame(self):
+        head = {"time": None, "box": np.zeros((3, 2))}
+        start_line = self.line
+        while True:
+            text = self._readline()
+            if text is None:
+                self._truncated(head.get("timestep"), start_line)
+                return None
+            if not text.startswith("ITEM:"):
+                raise UserError(f"{self.path}:{self.line - 1}: expected an 'ITEM:' header, "
+                                f"found {text[:40]!r}; the file is damaged")
+            item = text[5:].strip()
+            if item.startswith(("ATOMS", "ENTRIES")):
+                names = item.split()[1:]
+                break
+            value = self._readline()
+            if value is None:
+                self._truncated(head.get("timestep"), start_line)
+                return None
+            try:
+                if item.startswith("TIMESTEP"):
+                    head["timestep"] = int(value)
+                elif item.startswith("TIME"):
+                    head["time"] = float(value)
+                elif item.startswith("NUMBER OF"):
+                    head["n"] = int(value)
+                    if head["n"] < 0:
+                        raise ValueError
+                elif item.startswith("BOX BOUNDS"):
+                    lines = [value, self._readline(), self._readline()]
+                    if None in lines:
+                        self._truncated(head.get("timestep"), start_line)
+                        return None
+                    head["box"] = np.array([ln.split()[:2] for ln in lines], dtype=float)
+            except ValueError:
+                raise UserError(f"{self.path}:{self.line - 1}: cannot read the {item!r} "
+                                f"header value {value!r}; the file is damaged") from None
+        if "timestep" not in head or "n" not in head:
+            raise UserError(f"{self.path}:{start_line}: frame without TIMESTEP or NUMBER OF "
+                            "header; the file is damaged")
+        if self.previous is not None and head["timestep"] <= self.previous[0]:
+            raise UserError(
+                f"{self.path}:{start_line}: timestep {head['timestep']} does not follow "
+                f"timestep {self.previous[0]} (line {self.previous[1]}); time steps must "
+                "increase - a frame was written twice, or a resumed run appended frames "
+                "without its dumps being cut back; remove the repeated frames")
+        self.previous = (head["timestep"], start_line)
+        return self._rows(head, names)
+
+    def _rows(self, head, names):
+        n, step = head["n"], head["timestep"]
+        want, target = self._targets(names)
+        end = self._block_end()
+        rows = self.buf.count(b"\n", self.pos, end)
+        self.last_step = step
+        window = self.reader.steps
+        if window is not None and rows >= n and not (
+                window[0] <= step <= window[1]
+                and (len(window) < 3 or (step - window[0]) % window[2] == 0)):
+            self.pos, self.line = end, self.line + rows
+            return _SKIPPED
+        if rows < n or (n and self.buf[end - 1] != 10):
+            if end >= len(self.buf) and self.eof:
+                self._truncated(step, self.line)
+                return None
+            raise UserError(f"{self.path}:{self.line + rows}: frame at timestep {step} has "
+                            f"{rows} rows, its header says {n}; the file is damaged")
+        arr = np.frombuffer(self.buf, dtype=np.uint8)
+        data, status, row, col = parse_block(arr, self.pos, n, len(names), target)
+        if status != OK:
+            self._bad_value(status, step, row, col, names)
+        if rows > n and self.buf[col:end].strip():
+            raise UserError(f"{self.path}:{self.line + n}: frame at timestep {step} has more "
+                            f"rows than its header's {n}; the file is damaged")
+        self.pos = end
+        first = self.line
+        self.line += rows
+        return DumpFrame(step, head["time"], want, data, head["box"], first)
+
+    def _block_end(self) -> int:
+        """Offset of the next ``ITEM:`` header (or of the end of the file)."""
+        while (end := self.buf.find(b"ITEM:", self.pos)) < 0:
+            if not self._fill():
+                return len(self.buf)
+        return end
+
+    def _targets(self, names):
+        if self._layout is not None and self._layout[0] == names:
+            return self._layout[1], self._layout[2]
+        want = self.reader.columns if self.reader.columns is not None else names
+        missing = [c for c in want if c not in names]
+        if missing:
+            col = missing[0]
+            need = self.reader.needed_by.get(col)
+            raise UserError(f"{self.path}: column '{col}' is missing (columns: {' '.join(names)})"
+                            + (f"; {need} needs it" if need else "")
+                            + "; write it in the dump or do not ask for what needs it")
+        target = np.full(len(names), -1, dtype=np.int64)
+        for k, c in enumerate(want):
+            target[names.index(c)] = k
+        self._layout = (names, list(want), target)
+        return list(want), target
+
+    def _bad_value(self, status, step, row, col, names):
+        line = self.line + row
+        if status == NOT_FINITE:
+            raise UserError(f"{self.path}:{line}: NaN or inf in column '{names[col]}' "
+                            f"(timestep {step}); the run blew up or the file is damaged")
+        what = "too many values" if col >= len(names) else f"bad or missing value in column " \
+               f"'{names[col]}'"
+        assert status == MALFORMED
+        raise UserError(f"{self.path}:{line}: malformed row ({what}; expected "
+                        f"{len(names)} numbers, timestep {step}); the file is damaged")
+
+    def _truncated(self, step, line):
+        log.warning("%s:%d: last frame (timestep %s) is truncated; skipped; the last complete "
+                    "frame used is timestep %s", self.path, line, step, self.complete)
+
+
+#: Largest accepted deviation of a contact normal from unit length.
+NORMAL_TOLERANCE = 1e-6
+
+
+def check_atoms(path, frame: DumpFrame) -> dict:
+    """The frame's atom columns, after refusing duplicate ids and radii that are not
+    positive (one line naming file, line and timestep)."""
+    cols = frame.as_dict()
+    if "id" in cols:
+        ids = cols["id"]
+        uniq, first, counts = np.unique(ids, return_index=True, return_counts=True)
+        if len(uniq) < len(ids):
+            dup = uniq[counts > 1][0]
+            rows = np.flatnonzero(ids == dup)
+            raise UserError(f"{path}:{frame.line + rows[1]}: atom id {int(dup)} appears twice "
+                            f"in timestep {frame.timestep} (also line {frame.line + rows[0]}); "
+                            "the dump is damaged")
+    if "radius" in cols:
+        bad = np.flatnonzero(~(cols["radius"] > 0))
+        if len(bad):
+            raise UserError(f"{path}:{frame.line + bad[0]}: radius {cols['radius'][bad[0]]:g} "
+                            f"is not positive (timestep {frame.timestep}); disks need a radius "
+                            "> 0 (m)")
+    return cols
+
+
+def check_contacts(path, frame: DumpFrame) -> dict:
+    """The frame's contact columns, after refusing rows that make no sense: a disk in
+    contact with itself, an unknown wall code, a normal that is not a unit vector."""
+    cols = frame.as_dict()
+
+    def fail(row, what):
+        raise UserError(f"{path}:{frame.line + row}: {what} (timestep {frame.timestep}); "
+                        "the contact dump is damaged or not in granavg's format")
+    if "wall" in cols:
+        bad = np.flatnonzero(~np.isin(cols["wall"], (0, 1, 2)))
+        if len(bad):
+            fail(bad[0], f"wall code {cols['wall'][bad[0]]:g} is not 0, 1 or 2")
+    if "id1" in cols and "id2" in cols:
+        same = (cols["id1"] == cols["id2"])
+        if "wall" in cols:
+            same &= cols["wall"] == 0
+        if same.any():
+            fail(np.flatnonzero(same)[0], f"atom {int(cols['id1'][same][0])} is in contact "
+                 "with itself")
+    if "nx" in cols and "ny" in cols:
+        off = np.abs(np.hypot(cols["nx"], cols["ny"]) - 1.0)
+        if np.any(off > NORMAL_TOLERANCE):
+            k = int(np.argmax(off))
+            fail(k, f"the contact normal ({cols['nx'][k]:g}, {cols['ny'][k]:g}) is not a unit "
+                 "vector")
+    return cols
+
+
+@dataclass
+class Frame:
+    """One time step of a run: per-atom and (optionally) per-contact columns, SI units."""
+
+    timestep: int
+    time: float
+    atoms: dict
+    contacts: dict | None
+
+
+class FramePairs:
+    """Frames of a per-atom dump paired by time step with those of a per-contact dump.
+
+    Parameters
+    ----------
+    atoms : DumpReader
+    contacts : DumpReader or None
+        Without it, frames carry ``contacts=None`` (density and velocity need none).
+    dt : float, optional
+        Time step (s), for dumps without ``ITEM: TIME``.
+    """
+
+    def __init__(self, atoms: DumpReader, contacts: DumpReader | None = None, dt=None):
+        self.atoms, self.contacts, self.dt = atoms, contacts, dt
+        #: contact rows dropped because they do not touch (overlap <= 0), for the sidecar
+        self.dropped = {"contacts_not_touching": 0}
+
+    def __iter__(self):
+        a_iter = iter(self.atoms)
+        c_iter = iter(self.contacts) if self.contacts is not None else None
+        for k, fa in enumerate(a_iter):
+            fc = None
+            if c_iter is not None:
+                fc = next(c_iter, None)
+                if fc is None:
+                    log.warning("%s ends at frame %d; the %d-th and later frames of %s are "
+                                "not used", self.contacts.path, k, k + 1, self.atoms.path)
+                    return
+                if fc.timestep != fa.timestep:
+                    raise UserError(
+                        f"time steps do not match: frame {k + 1} is timestep {fa.timestep} in "
+                        f"{self.atoms.path} (line {fa.line}) but {fc.timestep} in "
+                        f"{self.contacts.path} (line {fc.line}); use dumps of the same run")
+            atoms = check_atoms(self.atoms.path, fa)
+            yield Frame(fa.timestep, self._time(fa), atoms,
+                        self._contacts(fc, atoms) if fc is not None else None)
+
+    def _contacts(self, fc, atoms) -> dict:
+        rows = check_contacts(self.contacts.path, fc)
+        if "id" in atoms and "id1" in rows:
+            known = np.isin(rows["id1"], atoms["id"])
+            if "id2" in rows and "wall" in rows:
+                known &= np.isin(rows["id2"], atoms["id"]) | (rows["wall"] != 0)
+            if not known.all():
+                k = int(np.argmin(known))
+                raise UserError(f"{self.contacts.path}:{fc.line + k}: the contact names an atom "
+                                f"id that is not in {self.atoms.path} at timestep "
+                                f"{fc.timestep}; use the atom and contact dumps of one run")
+        keep = rows["overlap"] > 0 if "overlap" in rows else None
+        if keep is not None and not keep.all():
+            self.dropped["contacts_not_touching"] += int(np.sum(~keep))
+            rows = {k: v[keep] for k, v in rows.items()}
+        return rows
+
+    def _time(self, frame):
+        if frame.time is not None:
+            return frame.time
+        if self.dt is None:
+            raise UserError(f"{self.atoms.path}: frames have no ITEM: TIME and no time step "
+                            "is known; give the run directory (its manifest has dt)")
+        return frame.timestep * self.dt

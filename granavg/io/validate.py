@@ -1,0 +1,139 @@
+"""The way in: manifests, command-line values and output paths checked before any work.
+
+Every check raises :class:`~granavg.errors.UserError` with one line naming what is wrong,
+where, and what to do; nothing here reads a dump or writes a result.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import tempfile
+from pathlib import Path
+
+from granavg.errors import UserError
+
+log = logging.getLogger(__name__)
+
+#: Keys the averaging needs from a run's manifest: (section, key, kind); kind "pos" is a
+#: finite number > 0, "num" any finite number, "count" an integer >= 0.
+MANIFEST_KEYS = [
+    ("scene", "R_i", "pos"), ("scene", "R_o", "pos"), ("scene", "h", "pos"),
+    ("scene", "rho_p", "pos"), ("scene", "Omega", "pos"), ("scene", "d_s", "pos"),
+    ("scene", "d_l", "pos"), ("scene", "n_small", "count"), ("scene", "n_large", "count"),
+    ("scene", "k_n", "pos"),
+    ("derived", "dt_s", "pos"), ("derived", "t_end_s", "pos"),
+    ("derived", "dump_interval_s", "pos"),
+]
+#: Largest ring count accepted (a 60-ring profile is the paper's finest).
+MAX_BINS = 100_000
+
+
+def check_manifest(m, path) -> dict:
+    """The manifest ``m`` read from ``path``, refused with one line if a key the
+    averaging needs is missing or of the wrong kind; a warning if the run did not end
+    complete."""
+    if not isinstance(m, dict):
+        raise UserError(f"{path}: a manifest is a JSON object, this is a "
+                        f"{type(m).__name__}; use the manifest.json granavg simulate wrote")
+    for section, key, kind in MANIFEST_KEYS:
+        block = m.get(section)
+        if not isinstance(block, dict) or key not in block:
+            raise UserError(f"{path}: key {section}.{key} is missing; use the manifest.json "
+                            "granavg simulate wrote, or give the scene on the command line")
+        value = block[key]
+        if not _is_kind(value, kind):
+            want = {"pos": "a number > 0", "num": "a number", "count": "an integer >= 0"}[kind]
+            raise UserError(f"{path}: {section}.{key} = {value!r} is not {want} (SI units); "
+                            "fix the manifest")
+    if not m["scene"]["R_i"] < m["scene"]["R_o"]:
+        raise UserError(f"{path}: scene.R_i = {m['scene']['R_i']} is not below scene.R_o = "
+                        f"{m['scene']['R_o']}; fix the manifest")
+    status = m.get("status")
+    if status not in (None, "complete"):
+        log.warning("%s: the run's status is %r, not complete: its dumps may end early "
+                    "(resume it with granavg simulate --resume)", path, status)
+    return m
+
+
+def _is_kind(value, kind) -> bool:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    if kind == "count":
+        return float(value).is_integer() and value >= 0
+    if not math.isfinite(value):
+        return False
+    return value > 0 if kind == "pos" else True
+
+
+def positive(name, value):
+    """A finite number > 0, or a one-line refusal naming the option."""
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise UserError(f"{name} {value}: must be a finite number > 0")
+    return value
+
+
+def finite(name, value):
+    if value is not None and not math.isfinite(value):
+        raise UserError(f"{name} {value}: must be a finite number")
+    return value
+
+
+def ring_options(bins, edges):
+    """--bins within 1..MAX_BINS; --edges finite, at least two, increasing."""
+    if bins is not None and not 1 <= bins <= MAX_BINS:
+        raise UserError(f"--bins {bins}: give between 1 and {MAX_BINS} rings")
+    if edges is not None:
+        if len(edges) < 2 or not all(math.isfinite(e) for e in edges):
+            raise UserError(f"--edges {' '.join(map(str, edges))}: give at least two finite "
+                            "ring edges in m")
+        if any(b <= a for a, b in zip(edges, edges[1:])) or edges[0] < 0:
+            raise UserError(f"--edges {' '.join(map(str, edges))}: edges must be >= 0 and "
+                            "increasing")
+
+
+def free_output(path: Path, suffixes=("",)) -> Path:
+    """Refuse an output that exists (with any of ``suffixes`` appended), lies under a
+    file, or sits in a directory that cannot be written - before any work."""
+    path = Path(path)
+    for suffix in suffixes:
+        target = path.with_name(path.name + suffix)
+        if target.exists() or target.is_symlink():
+            raise UserError(f"{target} exists; choose another --out (results are never "
+                            "overwritten)")
+    parent = path.parent
+    probe = parent
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UserError(f"--out {path}: {probe} is a file, not a directory; choose another "
+                        "--out")
+    try:
+        with tempfile.TemporaryFile(dir=probe):
+            pass
+    except OSError as exc:
+        raise UserError(f"--out {path}: cannot write in {probe} ({exc.strerror}); choose "
+                        "another --out") from None
+    return path
+
+
+def existing_file(name, path):
+    """A path that is an existing regular file (not a directory)."""
+    if path is None:
+        return None
+    p = Path(path)
+    if not p.exists():
+        raise UserError(f"{name} {p}: no such file")
+    if not p.is_file():
+        raise UserError(f"{name} {p}: is a directory, not a dump file")
+    return p
+
+
+def run_directory(path) -> Path:
+    """A path that is a directory (a run of granavg simulate)."""
+    p = Path(path)
+    if not p.exists():
+        raise UserError(f"{p}: no such run directory")
+    if not p.is_dir():
+        raise UserError(f"{p}: is a file; give the run directory that holds manifest.json")
+    return p

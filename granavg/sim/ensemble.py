@@ -1,0 +1,114 @@
+"""Ensembles: independent realisations of one scene, run on dask, one run directory each.
+
+Realisation k shears its own random packing (seed ``scene.seed + SEED_STRIDE * k``; the
+deck uses ``seed`` and ``seed + 1`` for the two disk sizes, so the stride keeps every
+random stream distinct). The runs are independent tasks on a dask cluster (a local one
+of single-threaded processes by default, or ``scheduler``): there is no scheduler of
+granavg's own. ``OUT/ensemble.json`` lists the runs and their status.
+:func:`combine_runs` turns the profiles of the realisations into ensemble profiles with
+between-run errors (``granavg average RUN [RUN ...]``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import os
+from pathlib import Path
+
+
+from granavg.errors import UserError
+from granavg.io.rundir import claim_new
+from granavg.sim.scene import Scene
+
+log = logging.getLogger(__name__)
+
+SEED_STRIDE = 7919
+ENSEMBLE = "ensemble.json"
+
+
+def seeds_for(scene: Scene, k: int) -> list:
+    """The seeds of ``k`` realisations of ``scene``."""
+    if k < 1:
+        raise UserError(f"--seeds {k}: need at least one realisation")
+    return [scene.seed + SEED_STRIDE * i for i in range(k)]
+
+
+def _one(scene_dict: dict, out: str, preset, quantities) -> str:
+    """One dask task: simulate one realisation (single-threaded LAMMPS, no progress bar)."""
+    from granavg.sim.simulate import simulate
+
+    simulate(Scene.from_dict(scene_dict), out, progress=False, preset=preset,
+             quantities=quantities)
+    return out
+
+
+def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
+                      scheduler: str | None = None, preset: str | None = None,
+                      quantities=None) -> list:
+    """Simulate ``k`` independent realisations of ``scene`` into ``out/seed<N>/``.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (SI units); only its ``seed`` differs between realisations.
+    out : path
+        A new directory; it receives one run directory per seed and ``ensemble.json``.
+    k : int
+        Number of realisations.
+    workers : int
+        Processes of the local dask cluster (one LAMMPS each); ignored with ``scheduler``.
+    scheduler : str, optional
+        Address of a dask scheduler whose workers see ``out``.
+
+    Returns
+    -------
+    list of Path
+        The run directories, in seed order. A realisation that fails is reported after
+        the others finished; the ones that completed are kept.
+    """
+    from dask.distributed import Client, as_completed
+
+    from granavg.io.parallel import local_cluster
+
+    seeds = seeds_for(scene, k)
+    for s in seeds:
+        dataclasses.replace(scene, seed=s).derive()      # refuse before any work
+    if scheduler is None and workers < 1:
+        raise UserError(f"--workers {workers}: need at least one")
+    out = claim_new(Path(out))
+    runs = [out / f"seed{s}" for s in seeds]
+    record = {"scene": scene.to_dict(), "preset": preset, "seeds": seeds,
+              "runs": {r.name: "running" for r in runs}}
+    _write(out, record)
+    cluster = None if scheduler else local_cluster(min(workers, k))
+    failed = []
+    try:
+        with Client(scheduler or cluster) as client:
+            futures = {client.submit(_one, dataclasses.replace(scene, seed=s).to_dict(),
+                                     str(r), preset, quantities, pure=False): r
+                       for s, r in zip(seeds, runs)}
+            for fut in as_completed(list(futures)):
+                run = futures[fut]
+                try:
+                    fut.result()
+                    record["runs"][run.name] = "complete"
+                    log.info("realisation %s complete", run.name)
+                except Exception as exc:                 # noqa: BLE001 - reported below
+                    record["runs"][run.name] = f"failed: {exc}"
+                    failed.append(f"{run.name}: {exc}")
+                _write(out, record)
+    finally:
+        if cluster is not None:
+            cluster.close()
+    if failed:
+        raise UserError(f"{len(failed)} of {k} realisations failed ({failed[0]}); the "
+                        f"others are complete in {out}")
+    return runs
+
+
+def _write(out: Path, record: dict) -> None:
+    tmp = out / (ENSEMBLE + ".tmp")
+    tmp.write_text(json.dumps(record, indent=2) + "\n")
+    os.replace(tmp, out / ENSEMBLE)

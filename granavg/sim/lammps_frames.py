@@ -1,0 +1,53 @@
+"""Frames taken from a running LAMMPS (no files): this rank's atoms and contacts, and
+their gathering to rank 0 under MPI. SI units.
+
+Columns are those of granavg's dumps (docs/outputs.md), as float64 arrays, so the same
+:func:`granavg.io.contacts.contact_table` and averaging kernels consume them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from granavg.io.contacts import RAW_COLUMNS
+
+#: per-atom columns taken from LAMMPS, in dump order
+ATOM_COLUMNS = ["id", "type", "x", "y", "vx", "vy", "omegaz", "radius", "mass"]
+
+
+def local_atoms(lmp) -> np.ndarray:
+    """This rank's disks (types 1, 2; not wall disks), shape (n, 9), :data:`ATOM_COLUMNS`."""
+    n = lmp.extract_global("nlocal")
+    get = lmp.numpy.extract_atom
+    typ = np.asarray(get("type")[:n])
+    cols = np.column_stack([np.asarray(get("id")[:n], float), typ.astype(float),
+                            np.asarray(get("x")[:n, :2]), np.asarray(get("v")[:n, :2]),
+                            np.asarray(get("omega")[:n, 2]), np.asarray(get("radius")[:n]),
+                            np.asarray(get("rmass")[:n])])
+    return cols[typ <= 2]
+
+
+def local_contacts(lmp, lammps) -> np.ndarray:
+    """This rank's rows of ``compute cprop`` + ``cpair`` (the deck's pair/local), shape
+    (n, 11), columns :data:`granavg.io.contacts.RAW_COLUMNS`; each pair is on one rank."""
+    loc, arr = lammps.LMP_STYLE_LOCAL, lammps.LMP_TYPE_ARRAY
+    prop = lmp.numpy.extract_compute("cprop", loc, arr)
+    pair = lmp.numpy.extract_compute("cpair", loc, arr)
+    if prop is None or pair is None:
+        return np.empty((0, len(RAW_COLUMNS)))
+    return np.hstack([np.asarray(prop).reshape(-1, 4), np.asarray(pair).reshape(-1, 7)])
+
+
+def gather(comm, rows: np.ndarray):
+    """All ranks' rows on rank 0 (in rank order), ``None`` on the others; ``comm=None``
+    (one process) returns ``rows``."""
+    if comm is None or comm.size == 1:
+        return rows
+    parts = comm.gather(rows, root=0)
+    return np.vstack(parts) if comm.rank == 0 else None
+
+
+def atoms_by_id(rows: np.ndarray) -> dict:
+    """Rows of :func:`local_atoms` as dump columns, sorted by id (as the atom dump)."""
+    rows = rows[np.argsort(rows[:, 0], kind="stable")]
+    return dict(zip(ATOM_COLUMNS, rows.T))

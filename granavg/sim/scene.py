@@ -1,0 +1,263 @@
+"""The Couette cell scene: geometry, contact law, schedule; presets and validation.
+
+Every quantity is in SI units (m, s, kg, N, rad/s). A :class:`Scene` is what a user
+chooses (``--preset`` plus ``--set key=value``); :meth:`Scene.derive` turns it into the
+numbers LAMMPS needs (masses, damping, time step, step counts) and refuses, with one
+line, a scene that cannot run soundly.
+
+Why these constants (the paper gives none): see ``docs/scene.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, fields
+
+from granavg.sim.contact_law import (ContactLaw, LammpsCoefficients, disk_mass, effective_mass,
+                                     max_stable_timestep, restitution, to_lammps)
+from granavg.errors import UserError
+
+#: Highest area fraction accepted: random close packing of bidisperse disks is about
+#: 0.84 (O'Hern et al. 2003); above it disks cannot fit without large overlaps.
+MAX_AREA_FRACTION = 0.84
+#: Fewest time steps per small-small contact duration accepted (accuracy bound; the
+#: Verlet stability limit of the contact law is checked as well).
+MIN_STEPS_PER_CONTACT = 10.0
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Everything that defines a Couette run (SI units).
+
+    Geometry (paper, section 2): ``R_i``, ``R_o`` ring radii (m), ``h`` disk height (m),
+    ``d_s``, ``d_l`` diameters (m), ``n_small``, ``n_large`` counts, ``rho_p`` material
+    density (kg/m^3), ``Omega`` inner-ring angular velocity (rad/s, counter-clockwise).
+    Contact law: ``law`` (:class:`~granavg.sim.contact_law.ContactLaw`; its fields ``k_n``,
+    ``e_n``, ... are set like scene keys); ``n_per_tc`` time steps per contact duration
+    (dt = t_c / n).
+    Walls: rings of glued disks of diameter ``wall_d`` (m, 0 = d_s) whose centres are
+    ``wall_spacing * wall_d`` apart, touching R_i and R_o from outside the annulus.
+    Schedule: preparation (insert at ``grow_from`` times the diameter, grow over
+    ``t_grow`` s with viscous damping time ``t_damp`` s, relax ``t_relax`` s), then shear
+    for ``t_end`` s; dumps (frames for averaging) every ``dump_every`` steps (0 = about
+    ``dump_dt`` s) from ``t_dump_start`` s; restart files every ``restart_dt`` s of shear.
+    Output: ``contacts`` (contact forces computed and dumped), ``dumps`` (dump files
+    written; 0 with in-situ averaging only), ``gzip``.
+    """
+
+    R_i: float = 0.1032
+    R_o: float = 0.2524
+    h: float = 0.006
+    d_s: float = 0.00742
+    d_l: float = 0.00899
+    n_small: int = 2538
+    n_large: int = 407
+    rho_p: float = 1060.0
+    Omega: float = 0.1
+    law: ContactLaw = ContactLaw()
+    n_per_tc: float = 50.0
+    wall_d: float = 0.0
+    wall_spacing: float = 0.9
+    grow_from: float = 0.5
+    t_grow: float = 5.0
+    t_relax: float = 5.0
+    t_damp: float = 0.5
+    t_end: float = 500.0
+    t_dump_start: float = 0.0
+    dump_every: int = 0
+    dump_dt: float = 2.0
+    restart_dt: float = 25.0
+    seed: int = 20011
+    contacts: bool = True
+    dumps: bool = True
+    gzip: bool = True
+
+    def with_overrides(self, pairs) -> "Scene":
+        """Return a copy with ``key=value`` strings applied (``--set``), type-checked."""
+        known = {f.name: f.type for f in (*fields(self), *fields(ContactLaw))
+                 if f.name != "law"}
+        changes = {}
+        for pair in pairs:
+            key, sep, text = pair.partition("=")
+            key = key.strip()
+            if not sep:
+                raise UserError(f"--set {pair!r}: expected key=value, e.g. --set k_n=100")
+            if key not in known:
+                raise UserError(f"--set {key}: unknown key; known keys: {', '.join(known)}")
+            changes[key] = _parse(key, text.strip(), known[key])
+        return Scene.from_dict({**self.to_dict(), **changes})
+
+    def to_dict(self) -> dict:
+        """Every scene value, the contact law's included, under its ``--set`` key."""
+        flat = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "law"}
+        return {**flat, **dataclasses.asdict(self.law)}
+
+    @classmethod
+    def from_dict(cls, values: dict) -> "Scene":
+        """Inverse of :meth:`to_dict` (for instance from a run's manifest)."""
+        law_keys = {f.name for f in fields(ContactLaw)}
+        law = ContactLaw(**{k: v for k, v in values.items() if k in law_keys})
+        return cls(law=law, **{k: v for k, v in values.items() if k not in law_keys})
+
+    def derive(self) -> "Derived":
+        """Derived numbers for LAMMPS, after refusing scenes that cannot run soundly."""
+        _check_geometry(self)
+        m_s = disk_mass(self.d_s, self.rho_p, self.h)
+        m_l = disk_mass(self.d_l, self.rho_p, self.h)
+        coeffs = to_lammps(self.law, effective_mass(m_s, m_s))
+        dt = coeffs.t_c / self.n_per_tc
+        dt_safe = min(coeffs.t_c / MIN_STEPS_PER_CONTACT,
+                      max_stable_timestep(coeffs, effective_mass(m_s, m_s)))
+        if dt > dt_safe:
+            raise UserError(
+                f"time step dt = t_c/{self.n_per_tc:g} = {dt:.3g} s is above the safe bound "
+                f"{dt_safe:.3g} s of the contact law (t_c = {coeffs.t_c:.3g} s); "
+                f"set n_per_tc >= {coeffs.t_c / dt_safe:.3g}")
+        n_shear = int(round(self.t_end / dt))
+        dump_every = self.dump_every or max(1, int(round(self.dump_dt / dt)))
+        return Derived(
+            scene=self, coeffs=coeffs, dt=dt, m_small=m_s, m_large=m_l,
+            wall_d=self.wall_d or self.d_s,
+            area_fraction=area_fraction(self),
+            n_grow=max(1, int(round(self.t_grow / dt))),
+            n_relax=max(1, int(round(self.t_relax / dt))),
+            n_shear=n_shear,
+            n_dump_start=int(math.ceil(self.t_dump_start / dt / dump_every)) * dump_every,
+            dump_every=dump_every,
+            restart_every=max(dump_every,
+                              int(round(self.restart_dt / dt / dump_every)) * dump_every),
+            dt_safe=dt_safe,
+        )
+
+
+@dataclass(frozen=True)
+class Derived:
+    """Numbers derived from a :class:`Scene` (SI units; counts are time steps)."""
+
+    scene: Scene
+    coeffs: LammpsCoefficients
+    dt: float
+    m_small: float
+    m_large: float
+    wall_d: float
+    area_fraction: float
+    n_grow: int
+    n_relax: int
+    n_shear: int
+    n_dump_start: int
+    dump_every: int
+    restart_every: int
+    dt_safe: float
+
+    @property
+    def blowup_speed(self) -> float:
+        """Speed (m/s) that no disk of a sound run approaches: 10 x the larger of the
+        outer edge of the inner ring's speed Omega R_o and the speed 0.2 d_s omega_n a
+        small disk gets from an overlap of 0.2 d_s (omega_n = sqrt(k_n/m_s))."""
+        s = self.scene
+        v_contact = 0.2 * s.d_s * math.sqrt(self.coeffs.kn / self.m_small)
+        return 10.0 * max(s.Omega * s.R_o, v_contact)
+
+    @property
+    def ke_max(self) -> float:
+        """Blow-up bound of the disks' kinetic energy, J: all of them at
+        :attr:`blowup_speed`."""
+        s = self.scene
+        mass = s.n_small * self.m_small + s.n_large * self.m_large
+        return 0.5 * mass * self.blowup_speed ** 2
+
+    @property
+    def period(self) -> float:
+        """Rotation period of the inner ring T = 2 pi / Omega (s)."""
+        return 2.0 * math.pi / self.scene.Omega
+
+    def restitutions(self) -> dict:
+        """Normal restitution of each pair kind for the single LAMMPS gamma_n."""
+        c, ms, ml = self.coeffs, self.m_small, self.m_large
+        pairs = {"small-small": effective_mass(ms, ms), "small-large": effective_mass(ms, ml),
+                 "large-large": effective_mass(ml, ml), "small-wall": ms, "large-wall": ml}
+        return {k: restitution(c.kn, c.gamma_n, m) for k, m in pairs.items()}
+
+    def lammps_variables(self) -> dict:
+        """The deck's variables (``-var name value``), all in SI units."""
+        s, c = self.scene, self.coeffs
+        return {
+            "R_i": s.R_i, "R_o": s.R_o, "h": s.h, "d_s": s.d_s, "d_l": s.d_l,
+            "n_small": s.n_small, "n_large": s.n_large, "rho_area": s.rho_p * s.h,
+            "Omega": s.Omega, "kn": c.kn, "kt": c.kt, "gamma_n": c.gamma_n,
+            "gamma_t": c.gamma_t, "mu": c.mu, "mu_wall": c.mu_wall, "dt": self.dt,
+            "mu_roll": c.mu_roll, "k_roll": c.k_roll, "gamma_roll": c.gamma_roll,
+            "x_gamma_t": c.gamma_t / c.gamma_n if c.gamma_n else 0.0,
+            "wall_d": self.wall_d, "wall_spacing": s.wall_spacing,
+            "grow_from": s.grow_from, "n_grow": self.n_grow, "n_relax": self.n_relax,
+            "damp_gamma": self.m_small / s.t_damp, "n_shear": self.n_shear,
+            "n_dump_start": self.n_dump_start, "dump_every": self.dump_every,
+            "restart_every": self.restart_every, "seed": s.seed,
+            "ke_max": self.ke_max, "halt_every": 100,
+        }
+
+
+def area_fraction(s: Scene) -> float:
+    """Area of all disks over the annulus area pi (R_o^2 - R_i^2): the paper's 0.8134."""
+    disks = math.pi / 4 * (s.n_small * s.d_s**2 + s.n_large * s.d_l**2)
+    return disks / (math.pi * (s.R_o**2 - s.R_i**2))
+
+
+def _check_geometry(s: Scene) -> None:
+    finite = all(math.isfinite(v) for v in s.to_dict().values())
+    problems = [
+        (finite, "every value must be finite"),
+        (0 < s.R_i < s.R_o, f"need 0 < R_i < R_o (got R_i={s.R_i}, R_o={s.R_o} m)"),
+        (min(s.h, s.d_s, s.d_l, s.rho_p, s.Omega) > 0, "h, d_s, d_l, rho_p, Omega must be > 0"),
+        (s.n_small >= 0 and s.n_large >= 0 and s.n_small + s.n_large > 0,
+         "need at least one disk"),
+        (s.R_o - s.R_i > 2 * max(s.d_s, s.d_l), "the annulus must be wider than two diameters"),
+        (0 < s.grow_from <= 1, "grow_from must be in (0, 1]"),
+        (0 < s.wall_spacing <= 0.9, "wall_spacing must be in (0, 0.9] wall diameters"
+         " (gaps would let disks through)"),
+        (min(s.t_grow, s.t_relax, s.t_damp, s.t_end, s.dump_dt, s.restart_dt) > 0
+         and s.t_dump_start >= 0, "times must be > 0 (t_dump_start >= 0)"),
+        (s.t_dump_start < s.t_end, f"t_dump_start={s.t_dump_start} s must be < t_end={s.t_end} s"),
+        (s.n_per_tc > 0 and s.dump_every >= 0, "n_per_tc must be > 0, dump_every >= 0"),
+    ]
+    for ok, msg in problems:
+        if not ok:
+            raise UserError(f"scene: {msg}; fix the --set value")
+    nu = area_fraction(s)
+    if nu > MAX_AREA_FRACTION:
+        raise UserError(
+            f"scene: {s.n_small}+{s.n_large} disks cover an area fraction {nu:.3f} of the "
+            f"annulus, above random close packing ({MAX_AREA_FRACTION}); they cannot fit. "
+            f"Use fewer disks or a larger R_o")
+
+
+def _parse(key, text, typ):
+    try:
+        if typ in ("bool", bool):
+            if text.lower() not in ("1", "0", "true", "false", "yes", "no"):
+                raise ValueError
+            return text.lower() in ("1", "true", "yes")
+        if typ in ("int", int):
+            return int(text)
+        return float(text)
+    except ValueError:
+        raise UserError(f"--set {key}={text}: expected a {getattr(typ, '__name__', typ)}") from None
+
+
+PAPER = Scene()
+"""The paper's scene: 2945 disks, 500 s of shear (section 2)."""
+
+DEMO = dataclasses.replace(PAPER, t_end=60.0, t_dump_start=10.0, t_grow=3.0, t_relax=2.0,
+                           dump_dt=0.5, restart_dt=15.0)
+"""The paper's geometry, sheared for 60 s (about one rotation): a few minutes on 2 cores."""
+
+PRESETS = {"paper": PAPER, "demo": DEMO}
+
+
+def preset(name: str) -> Scene:
+    """The named preset scene; a one-line refusal for an unknown name."""
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise UserError(f"unknown preset {name!r}; choose one of: {', '.join(PRESETS)}") from None

@@ -1,0 +1,603 @@
+"""Run the Couette deck: in-process through the LAMMPS Python module, or under mpirun.
+
+Data flow: :class:`~granavg.sim.scene.Scene` -> deck variables -> LAMMPS -> run directory
+(``manifest.json``, ``log.lammps``, ``deck/``, ``atoms.dump.gz``, ``contacts.dump.gz``,
+``restart/``). Every quantity is in SI units.
+
+Embedded (default, one process): LAMMPS runs the deck up to the start of shear, then
+granavg advances it in chunks (``run N upto``) to drive the progress bar and, at every
+dump step, writes the contact dump from ``compute pair/local`` in-process.
+MPI (``np > 1``): ``mpirun -np N lmp -in couette.lmp`` runs the whole deck and writes a
+raw contact dump, which granavg converts to the same contact-dump format afterwards.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import logging
+import math
+import re
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from granavg import __version__
+from granavg.io.contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table, radius_of_type
+from granavg.io.dumpfile import open_text, write_frame
+from granavg.engine.profiles import QUANTITIES
+from granavg.io.reader import DumpReader
+from granavg.errors import LammpsError, UserError
+from granavg.engine.average import groups_for
+from granavg.sim.insitu import InSituAverage, profile_path
+from granavg.sim.lammps_frames import gather, local_atoms, local_contacts
+from granavg.sim.lammps_session import (executable, lammps_env, lammps_session, lammps_version,
+                                        load_lammps)
+from granavg.sim.run_files import (ATOMS, CONTACTS, CONTACTS_RAW, dump_ext, is_dump_step,
+                                   shear_bar)
+from granavg.sim.run_record import Overlaps, Timing
+from granavg.io.rundir import (claim_new, frame_steps, read_manifest, restart_files,
+                               truncate_dump, write_manifest)
+from granavg.sim.scene import Derived, Scene
+
+log = logging.getLogger(__name__)
+
+def _deck() -> Path:
+    """The Couette deck: ``lammps_inputs/couette.lmp`` of a source tree, or the copy
+    inside the installed wheel (package ``granavg.lammps_inputs``)."""
+    source = Path(__file__).resolve().parents[2] / "lammps_inputs" / "couette.lmp"
+    if source.exists():
+        return source
+    from importlib.resources import files
+    return Path(str(files("granavg.lammps_inputs") / "couette.lmp"))
+
+
+DECK = _deck()
+
+PREPARATION = (
+    "disks inserted at random without overlap at grow_from of their diameter (large ones "
+    "first), grown linearly to full size over t_grow with viscous damping (time t_damp), "
+    "relaxed t_relax at full size, damping removed, clock reset to t = 0, then sheared")
+WALLS = (
+    "rough walls: rings of glued disks of diameter wall_d, centres wall_spacing*wall_d "
+    "apart, touching R_i from inside (turned rigidly counter-clockwise at Omega by fix "
+    "move rotate, which also spins them) and R_o from outside (fixed); both rings frozen "
+    "(infinite mass: a disk-wall contact uses the disk's mass). Contacts with them are "
+    "computed by the same pair style (friction mu_wall).")
+
+
+class Interrupted(Exception):
+    """The run was stopped by a signal; results so far are kept and can be resumed."""
+
+
+ENGINES = ("lammps", "reference")
+
+
+def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
+             progress: bool | None = None, preset: str | None = None, start=None,
+             engine: str = "lammps", average=None, t_min: float | None = None,
+             block_time: float | None = None, quantities=None) -> Path:
+    """Run a new Couette simulation into the empty directory ``out``.
+
+    Parameters
+    ----------
+    scene : Scene
+        What to simulate (SI units); refused with a :class:`UserError` if unsound.
+    out : path
+        Output directory; must not hold another run.
+    np_ranks : int
+        MPI ranks; > 1 runs ``mpirun -np N lmp`` from the mpich wheel.
+    omp_threads : int
+        OpenMP threads per rank (``-sf omp -pk omp N``).
+    progress : bool or None
+        Show a progress bar; ``None`` shows it only on a terminal.
+    preset : str, optional
+        Name of the preset the scene came from, recorded in the manifest.
+    start : path, optional
+        A prepared packing (``prepared.data`` of an earlier run, or any sphere-style
+        LAMMPS data file of this scene): shear it instead of preparing a new one.
+        Contacts start with unloaded tangential springs (data files hold no history).
+    engine : {"lammps", "reference"}
+        ``reference`` runs :mod:`granavg.sim.refdem` instead of LAMMPS (needs ``start``, one
+        process, no restart files): for cross-validation, not production.
+    average : sequence of int, optional
+        Ring counts to average over in situ (while LAMMPS runs, from its memory): writes
+        ``profiles_<n>.csv`` for each. Under MPI each rank runs granavg with LAMMPS and
+        rank 0 gathers the frames. With ``scene.dumps`` False no dump is written.
+    t_min : float, optional
+        In-situ averages start at t_min (s); default two inner-ring rotations.
+    block_time : float, optional
+        Base block length (s) of the in-situ blocking analysis; default one dump
+        interval (at most 512 blocks).
+    quantities : sequence of str, optional
+        The quantities the run is for (names of :data:`granavg.engine.profiles.QUANTITIES`);
+        if none of them needs contact forces, LAMMPS computes and writes no contact
+        output (``contacts`` off), and the in-situ averages compute only these.
+
+    Returns
+    -------
+    Path
+        The run directory, with ``manifest.json`` status ``complete``.
+    """
+    scene = scene_for(scene, quantities)
+    derived = scene.derive()                      # refuse before touching the disk
+    start = _check_start(start, engine, np_ranks, omp_threads)
+    if engine == "reference" and derived.coeffs.mu_roll > 0:
+        raise UserError("the reference engine has no rolling resistance (it mirrors pair "
+                        "gran/hooke/history); set mu_roll=0 or use the lammps engine")
+    average = _check_average(derived, average, engine, t_min)
+    if engine == "lammps" and not DECK.exists():
+        raise UserError(f"the LAMMPS deck {DECK} is missing; reinstall granavg (the wheel "
+                        "ships it as granavg/lammps_inputs/couette.lmp)")
+    out = claim_new(Path(out))
+    if engine == "lammps":
+        (out / "deck").mkdir()
+        shutil.copy2(DECK, out / "deck" / DECK.name)
+    manifest = _new_manifest(derived, preset, np_ranks, omp_threads, start, engine)
+    manifest["average"] = {"bins": average, "t_min_s": t_min, "block_time_s": block_time,
+                           "quantities": quantities} if average else None
+    for n in average:
+        manifest["files"][profile_path(Path("."), n).name] = \
+            f"ring profiles over {n} rings, averaged in situ (docs/profiles.md)"
+    write_manifest(out, manifest)
+    return _execute(out, derived, manifest, resume_from=None, progress=progress)
+
+
+def scene_for(scene: Scene, quantities) -> Scene:
+    """The scene with contact output only when a requested quantity needs it: contact
+    forces for coordination, F, sigma and eps; positions and velocities for the rest."""
+    if quantities is None:
+        return scene
+    groups_for(quantities, have_contacts=True)        # unknown names are refused
+    needs = [q for q in quantities if QUANTITIES[q][2]]
+    if needs and not scene.contacts:
+        raise UserError(f"--quantities {needs[0]} needs contact forces, but the scene has "
+                        "contacts=0; drop the quantity or the setting")
+    if not needs and scene.contacts:
+        log.info("no requested quantity needs contact forces: LAMMPS computes and writes "
+                 "no contact output")
+        return dataclasses.replace(scene, contacts=False)
+    return scene
+
+
+def _check_average(derived: Derived, average, engine, t_min):
+    scene = derived.scene
+    bins = sorted({int(n) for n in average}) if average else []
+    if any(n < 1 for n in bins):
+        raise UserError(f"--average {bins}: ring counts must be >= 1")
+    t0 = 2 * derived.period if t_min is None else t_min
+    if bins and t0 >= derived.n_shear * derived.dt:
+        raise UserError(f"in-situ averages would start at t_min = {t0:g} s, after the end "
+                        f"of shear (t_end = {scene.t_end:g} s); give --t-min below t_end")
+    if not scene.dumps and not bins:
+        raise UserError("dumps=0 writes no dump files: add --average N so the run keeps "
+                        "its profiles")
+    if bins and engine != "lammps":
+        raise UserError("--average runs inside LAMMPS; the reference engine writes dumps "
+                        "(average them with 'granavg average')")
+    return bins
+
+
+def _explained(exc: LammpsError, out: Path, derived: Derived) -> LammpsError:
+    """A LAMMPS error, with what it means for a Couette run and what to do."""
+    msg = str(exc)
+    m = re.search(r"halt condition .*?met on step (\d+)", msg)
+    lost = "Lost atoms" in msg
+    if not (m or lost):
+        return exc
+    where = f" near step {m.group(1)} (t = {int(m.group(1)) * derived.dt:.4g} s of shear)" \
+        if m else ""
+    what = ("disks were lost from the box" if lost else
+            f"the disks' kinetic energy passed {derived.ke_max:.3g} J (all disks at "
+            f"{derived.blowup_speed:.3g} m/s) or a disk left the annulus")
+    return LammpsError(f"the run blew up{where}: {what}; dumps and restart files written "
+                       f"before are kept in {out}; lower dt (raise n_per_tc), Omega or the "
+                       f"overlaps (k_n, grow_from)")
+
+
+def _check_start(start, engine, np_ranks, omp_threads):
+    if engine not in ENGINES:
+        raise UserError(f"unknown engine {engine!r}; choose one of: {', '.join(ENGINES)}")
+    if start is not None:
+        start = Path(start).resolve()
+        if not start.is_file():
+            raise UserError(f"--start {start}: no such file; give a prepared packing such "
+                            "as RUN/prepared.data")
+    if engine == "reference" and (start is None or np_ranks > 1 or omp_threads > 1):
+        raise UserError("the reference engine shears a prepared packing in one process: "
+                        "give --start RUN/prepared.data and no --np/--omp")
+    return start
+
+
+def resume(out, *, np_ranks: int | None = None, omp_threads: int | None = None,
+           progress: bool | None = None) -> Path:
+    """Continue an interrupted run from its newest usable restart file.
+
+    The dumps are cut back to the frames before the restart point, then the deck
+    continues (``read_restart``) to the same final step the run was set up for.
+    """
+    out = Path(out)
+    manifest = read_manifest(out)
+    if manifest.get("status") == "complete":
+        raise UserError(f"{out} is already complete; nothing to resume")
+    if manifest["execution"].get("engine", "lammps") != "lammps":
+        raise UserError(f"{out} was run by the reference engine, which writes no restart "
+                        "files; run it again with a new --out")
+    scene = Scene.from_dict(manifest["scene"])
+    derived = scene.derive()
+    if manifest.get("average"):
+        if not scene.dumps:
+            raise UserError(f"{out} averaged in situ without dumps; its averages cannot "
+                            "continue from a restart; run it again with a new --out")
+        log.warning("in-situ averages do not survive an interruption: the resumed run "
+                    "writes dumps only; average them with 'granavg average %s'", out)
+        manifest["average"] = None
+    restart_step, restart_path = _usable_restart(out, derived)
+    for name in (ATOMS, CONTACTS, CONTACTS_RAW):
+        path = out / name.format(ext=dump_ext(scene))
+        if path.exists():
+            truncate_dump(path, restart_step)
+    for step in [s for s in restart_files(out) if s > restart_step]:
+        restart_files(out)[step].unlink()
+    _keep_old_log(out)
+    manifest["resumed"] = manifest.get("resumed", []) + [
+        {"from_step": restart_step, "at": _now()}]
+    if np_ranks is not None:
+        manifest["execution"]["np"] = np_ranks
+    if omp_threads is not None:
+        manifest["execution"]["omp"] = omp_threads
+    return _execute(out, derived, manifest, resume_from=restart_path, progress=progress)
+
+
+def _execute(out, derived, manifest, resume_from, progress):
+    manifest["status"] = "running"
+    write_manifest(out, manifest)
+    ex = manifest["execution"]
+    start = manifest.get("start")
+    if ex.get("engine") != "reference":
+        variables = _deck_variables(out, derived, embedded=ex["np"] == 1 or bool(
+            manifest.get("average")), resume=resume_from, start=start)
+        (out / "run.sh").write_text(_command_script(variables, ex))
+    try:
+        with _signals_interrupt():
+            if ex.get("engine") == "reference":
+                from granavg.sim.refdem_run import run_reference
+                run_reference(out, derived, Path(start), progress)
+            elif ex["np"] == 1:
+                run_embedded(out, derived, manifest, variables, ex["omp"], progress)
+            elif manifest.get("average"):
+                _run_mpi_python(out, derived, ex["np"], progress)
+            else:
+                _run_mpi(out, derived, variables, ex["np"], ex["omp"], progress)
+    except (Interrupted, KeyboardInterrupt):
+        _finish(out, manifest, "interrupted")
+        raise UserError(f"run interrupted; results so far are in {out}; continue it with "
+                        f"'granavg simulate --out {out} --resume'") from None
+    except LammpsError as exc:
+        _finish(out, manifest, "failed")
+        raise _explained(exc, out, derived) from None
+    except BaseException:                # bad input found mid-run, or a bug
+        _finish(out, manifest, "failed")
+        raise
+    _finish(out, manifest, "complete")
+    return out
+
+
+def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm=None):
+    """Run the deck through the LAMMPS Python module and drive the shear in chunks; at
+    every dump step write the contact dump and/or feed the in-situ averages. Under MPI
+    (``comm``, an mpi4py communicator) every rank calls this; rank 0 gathers and writes."""
+    lammps = load_lammps()
+    scene = derived.scene
+    root = comm is None or comm.rank == 0
+    contacts_needed = scene.contacts and (scene.dumps or bool(manifest.get("average")))
+    writer = _ContactWriter(out / CONTACTS.format(ext=dump_ext(scene)), derived) \
+        if scene.contacts and scene.dumps and root else None
+    insitu = InSituAverage(manifest, manifest["average"]["bins"]) \
+        if manifest.get("average") and root else None
+    frames_needed = contacts_needed or bool(manifest.get("average"))
+    radius, overlaps = radius_of_type(derived), Overlaps(derived)
+    with lammps_session(_cmdargs(out, variables, omp), log_hint=str(out / "log.lammps"),
+                        comm=comm) as lmp:
+        lmp.file(str(out / "deck" / DECK.name))
+        _check_inserted(lmp, scene, variables["start"])
+        lmp.command("run 0")                     # set up; writes the atom dump if due
+        step = int(lmp.get_thermo("step"))
+        stride = max(1, derived.n_shear // 400)
+        box = np.column_stack(lmp.extract_box()[:2])
+        timing = Timing()
+        with shear_bar(derived, step, progress if root else False) as bar:
+            while True:
+                if frames_needed and is_dump_step(step, derived):
+                    timing.start_frame()
+                    raw = gather(comm, local_contacts(lmp, lammps)) if contacts_needed else None
+                    atoms = gather(comm, local_atoms(lmp)) if insitu or comm else None
+                    table = contact_table(raw, radius) if raw is not None else None
+                    if table is not None:
+                        overlaps.add(table)
+                    if writer is not None:
+                        writer.write(step, table, box)
+                    if insitu is not None:
+                        insitu.add(step, atoms, table)
+                    timing.end_frame()
+                if step >= derived.n_shear:
+                    break
+                target = min(_next_dump_step(step, derived) if frames_needed else math.inf,
+                             step + stride, derived.n_shear)
+                with timing.lammps():
+                    lmp.command(f"run {target} upto pre no post no")
+                bar.update((target - step) * derived.dt)
+                step = target
+    if insitu is not None:
+        insitu.write(out)
+    if root:
+        overlaps.record(out)
+        timing.record(out)
+
+
+def _run_mpi_python(out, derived: Derived, np_ranks, progress):
+    """``mpirun -np N python -m granavg.sim.mpi_rank OUT``: LAMMPS and granavg on every rank
+    (in-situ averaging gathers each frame to rank 0)."""
+    cmd = [executable("mpirun"), "-np", str(np_ranks), sys.executable, "-m",
+           "granavg.sim.mpi_rank", str(out), "--no-progress" if progress is False else "--progress"]
+    log.info("running %s", shlex.join(cmd))
+    proc = subprocess.run(cmd, env=lammps_env(), stdout=subprocess.DEVNULL,
+                          stderr=subprocess.PIPE, text=True)
+    if proc.returncode != 0:
+        tail = proc.stderr.strip().splitlines()[-1:] or ["no message"]
+        raise LammpsError(f"mpirun granavg ranks exited with code {proc.returncode}: "
+                          f"{tail[0]} (details in {out / 'log.lammps'})")
+
+
+def _run_mpi(out, derived: Derived, variables, np_ranks, omp, progress):
+    cmd = [executable("mpirun"), "-np", str(np_ranks), executable("lmp"),
+           "-in", str(out / "deck" / DECK.name), *_cmdargs(out, variables, omp)]
+    log.info("running %s", shlex.join(cmd))
+    logfile = out / "log.lammps"
+    start = int(variables["restart_step"])
+    with open(out / "mpirun.out", "ab") as sink, shear_bar(derived, start, progress) as bar:
+        proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=lammps_env())
+        try:
+            done = start
+            while proc.poll() is None:
+                time.sleep(0.5)
+                step = _last_thermo_step(logfile)
+                if step is not None and step > done:
+                    bar.update((step - done) * derived.dt)
+                    done = step
+        except BaseException:
+            proc.terminate()
+            proc.wait()
+            raise
+    if proc.returncode != 0:
+        raise LammpsError(f"mpirun lmp exited with code {proc.returncode}: "
+                          f"{_last_error(out)} (details in {logfile})")
+    if derived.scene.contacts:
+        convert_raw_contacts(out / CONTACTS_RAW.format(ext=dump_ext(derived.scene)),
+                             out / CONTACTS.format(ext=dump_ext(derived.scene)), derived)
+
+
+def convert_raw_contacts(raw_path: Path, out_path: Path, derived: Derived) -> None:
+    """Convert a LAMMPS-written ``contacts_raw`` dump into granavg's contact dump.
+
+    Appends to ``out_path`` (a resumed run continues the file) and removes the raw file.
+    """
+    radius, overlaps = radius_of_type(derived), Overlaps(derived)
+    with open_text(out_path, "at") as fh:
+        for frame in DumpReader(raw_path):
+            raw = frame.data[:, [frame.columns.index(c) for c in RAW_COLUMNS]]
+            table = contact_table(raw, radius)
+            overlaps.add(table)
+            write_frame(fh, frame.timestep, frame.time, COLUMNS, table, frame.box, FORMAT)
+    raw_path.unlink()
+    overlaps.record(out_path.parent)
+
+
+class _ContactWriter:
+    """Appends contact-dump frames (rows of :func:`~granavg.io.contacts.contact_table`)."""
+
+    def __init__(self, path: Path, derived: Derived):
+        self.path, self.derived = path, derived
+
+    def write(self, step, table, box):
+        with open_text(self.path, "at") as fh:
+            write_frame(fh, step, step * self.derived.dt, COLUMNS, table, box, FORMAT)
+
+
+def _next_dump_step(step, d: Derived) -> int:
+    return max(d.n_dump_start, (step // d.dump_every + 1) * d.dump_every)
+
+
+def _check_inserted(lmp, scene: Scene, start) -> None:
+    lmp.command("variable granavg_nmob equal count(mobile)")
+    n = int(lmp.extract_variable("granavg_nmob"))
+    want = scene.n_small + scene.n_large
+    if n != want and start != "none":
+        raise UserError(f"the start file {start} holds {n} disks, the scene {want}; set "
+                        "n_small, n_large and the geometry of the run that wrote it")
+    if n != want:
+        raise UserError(f"only {n} of {want} disks could be inserted at grow_from="
+                        f"{scene.grow_from}; lower grow_from or the number of disks")
+
+
+def _usable_restart(out, derived):
+    """The newest restart step at or before which both dumps are complete."""
+    restarts = restart_files(out)
+    if not restarts:
+        raise UserError(f"{out} has no restart file yet; start it again with a new --out")
+    limit = math.inf
+    for name in (ATOMS, CONTACTS, CONTACTS_RAW):
+        path = out / name.format(ext=dump_ext(derived.scene))
+        if path.exists():
+            steps = frame_steps(path)
+            limit = min(limit, (steps[-1] + derived.dump_every) if steps
+                        else derived.n_dump_start)
+    ok = [s for s in restarts if s <= limit]
+    if not ok:
+        raise UserError(f"{out}: no restart file matches the dumps written; "
+                        "start it again with a new --out")
+    return max(ok), restarts[max(ok)]
+
+
+def _deck_variables(out, derived: Derived, embedded: bool, resume, start) -> dict:
+    s = derived.scene
+    v = {k: repr(x) if isinstance(x, float) else str(x)
+         for k, x in derived.lammps_variables().items()}
+    v.update({
+        "out": str(out), "drive": "python" if embedded else "lammps",
+        "contacts": ("python" if embedded else "native") if s.contacts and s.dumps
+        else "none",
+        "atoms_dump": "1" if s.dumps else "0",
+        "resume": str(resume) if resume else "none", "resuming": "1" if resume else "0",
+        "start": str(start) if start else "none", "starting": "1" if start else "0",
+        "astyle": "custom/gz" if s.gzip else "custom",
+        "lstyle": "local/gz" if s.gzip else "local", "ext": dump_ext(s),
+        "thermo_every": str(max(1, derived.n_shear // 200)),
+    })
+    v["restart_step"] = str(int(Path(resume).name.split(".")[1]) if resume else 0)
+    return v
+
+
+def _cmdargs(out, variables, omp) -> list:
+    args = ["-log", str(out / "log.lammps")]
+    if omp > 1:
+        args += ["-sf", "omp", "-pk", "omp", str(omp)]
+    for key, value in variables.items():
+        if key != "restart_step":
+            args += ["-var", key, value]
+    return args
+
+
+def _command_script(variables, ex) -> str:
+    cmd = (["mpirun", "-np", str(ex["np"])] if ex["np"] > 1 else []) + \
+          ["lmp", "-in", "deck/couette.lmp", *_cmdargs(Path("."), variables, ex["omp"])]
+    note = ("# granavg ran this deck in-process with drive=python: after the deck, it\n"
+            "# advanced the shear with 'run N upto' and wrote contacts.* from compute\n"
+            "# pair/local. To let LAMMPS run it alone: -var drive lammps -var contacts native\n"
+            if ex["np"] == 1 else "")
+    return "#!/bin/sh\n# The exact LAMMPS run of this directory (SI units).\n" + note + \
+        shlex.join(cmd) + "\n"
+
+
+def _new_manifest(d: Derived, preset, np_ranks, omp, start=None, engine="lammps") -> dict:
+    s, c = d.scene, d.coeffs
+    lammps = engine == "lammps"
+    return {
+        "granavg_version": __version__,
+        "units": "SI (m, s, kg, N, rad/s)",
+        "status": "created",
+        "preset": preset,
+        "scene": s.to_dict(),
+        "contact_law": {
+            "model": f"{c.pair_style} (linear spring-dashpot, tangential history, "
+                     "Coulomb cap); one gamma_n set by e_n of a small-small pair",
+            "pair_style": c.pair_style,
+            "k_n_N_per_m": c.kn, "k_t_N_per_m": c.kt, "gamma_n_per_s": c.gamma_n,
+            "gamma_t_per_s": c.gamma_t, "mu": c.mu, "mu_wall": c.mu_wall,
+            "mu_roll": c.mu_roll, "k_roll_N_per_m": c.k_roll, "gamma_roll_kg_per_s":
+            c.gamma_roll,
+            "e_n_by_pair": d.restitutions(),
+        },
+        "derived": {
+            "t_c_s": c.t_c, "dt_s": d.dt, "dt_safe_max_s": d.dt_safe,
+            "steps_per_contact": s.n_per_tc, "period_T_s": d.period,
+            "area_fraction": d.area_fraction, "mass_small_kg": d.m_small,
+            "mass_large_kg": d.m_large, "wall_d_m": d.wall_d, "n_grow": d.n_grow, "n_relax": d.n_relax,
+            "n_shear_steps": d.n_shear, "t_end_s": d.n_shear * d.dt,
+            "dump_every_steps": d.dump_every, "dump_interval_s": d.dump_every * d.dt,
+            "first_dump_step": d.n_dump_start, "restart_every_steps": d.restart_every,
+        },
+        "start": str(start) if start else None,
+        "preparation": PREPARATION if start is None else
+        f"the packing in {start} (contacts start with unloaded tangential springs)",
+        "wall_model": WALLS,
+        "seeds": {"large_disks": s.seed, "small_disks": s.seed + 1},
+        "lammps_version": lammps_version(),
+        "execution": {"engine": engine, "np": np_ranks, "omp": omp,
+                      "mode": "reference" if not lammps else
+                      "embedded" if np_ranks == 1 else "mpirun"},
+        "started": _now(),
+        "finished": None,
+        "files": {
+            **({"deck/couette.lmp": "the LAMMPS deck run (variables in run.sh)",
+                "run.sh": "the exact LAMMPS command line with every variable",
+                "log.lammps": "LAMMPS log"} if lammps else {}),
+            **({"prepared.data": "the prepared packing at t = 0 (LAMMPS data file; "
+                "--start reuses it)"} if lammps and start is None else {}),
+            **({ATOMS.format(ext=dump_ext(s)): "per-atom dump (docs/outputs.md)"}
+               if s.dumps else {}),
+            **({CONTACTS.format(ext=dump_ext(s)): "per-contact dump (docs/outputs.md)"}
+               if s.contacts and s.dumps else {}),
+            **({"restart/restart.<step>.bin": "LAMMPS restart files for --resume"}
+               if lammps else {}),
+        },
+    }
+
+
+def _keep_old_log(out):
+    """Move ``log.lammps`` of the interrupted part aside (``log.1.lammps``, ...)."""
+    log_path = out / "log.lammps"
+    if log_path.exists():
+        k = 1
+        while (out / f"log.{k}.lammps").exists():
+            k += 1
+        log_path.rename(out / f"log.{k}.lammps")
+
+
+def _finish(out, manifest, status):
+    """Record the end status; what the run added to the manifest on disk (overlaps) stays."""
+    manifest.update({k: v for k, v in read_manifest(out).items() if k not in manifest})
+    manifest["status"] = status
+    manifest["finished"] = _now()
+    write_manifest(out, manifest)
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def _last_thermo_step(logfile: Path):
+    try:
+        with open(logfile, "rb") as fh:
+            fh.seek(max(0, logfile.stat().st_size - 4096))
+            tail = fh.read().decode(errors="replace").splitlines()
+    except FileNotFoundError:
+        return None
+    for line in reversed(tail):
+        parts = line.split()
+        if len(parts) == 4 and parts[0].isdigit():
+            return int(parts[0])
+    return None
+
+
+def _last_error(out) -> str:
+    text = ""
+    for name in ("log.lammps", "mpirun.out"):
+        path = out / name
+        if path.exists():
+            text += path.read_text(errors="replace")
+    errors = [line.strip() for line in text.splitlines() if "ERROR" in line]
+    return errors[-1] if errors else "no ERROR line in the log"
+
+
+@contextmanager
+def _signals_interrupt():
+    """Turn SIGTERM into :class:`Interrupted` (SIGINT already gives KeyboardInterrupt)."""
+    def handler(signum, frame):
+        raise Interrupted(signal.Signals(signum).name)
+    if threading.current_thread() is not threading.main_thread():   # e.g. a dask worker
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
