@@ -56,17 +56,49 @@ def _parser() -> argparse.ArgumentParser:
                      "realisations on this dask scheduler's workers")
     sim.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
-    avg = sub.add_parser("average", help="ring profiles of a run (Eqs. 1-7, SI units)")
-    avg.add_argument("run_dir", nargs="+", help="run directory of 'granavg simulate' "
+    avg = sub.add_parser("average", help="profiles over rings, slabs or a grid (Eqs. 1-7, "
+                         "SI units) of a granavg run, of an ensemble, or of plain LAMMPS dumps")
+    avg.add_argument("run_dir", nargs="*", help="run directory of 'granavg simulate' "
                      "(manifest + dumps); several: independent realisations of one scene, "
-                     "combined into ensemble profiles with between-run errors")
-    avg.add_argument("--atoms", help="per-atom dump to use instead of the run's")
-    avg.add_argument("--contacts", help="per-contact dump to use instead of the run's")
+                     "combined into ensemble profiles with between-run errors; none: plain "
+                     "LAMMPS dumps given by --atoms (and --contacts)")
+    avg.add_argument("--atoms", help="per-atom dump (dump custom): instead of the run's, or "
+                     "any LAMMPS dump without a run directory")
+    avg.add_argument("--contacts", help="per-contact dump: granavg's, the deck's raw one, "
+                     "or a dump local of compute pair/local + property/local")
     rings = avg.add_mutually_exclusive_group()
-    rings.add_argument("--bins", type=int, help="number of equal rings from R_i to R_o "
-                       "(default 20)")
+    rings.add_argument("--bins", type=int, help="number of equal rings (from R_i to R_o of "
+                       "a run, default 20; or over --r-range) or slabs (over --range)")
     rings.add_argument("--edges", type=float, nargs="+", metavar="R",
-                       help="ring edges in m, increasing")
+                       help="ring (or slab) edges in m, increasing")
+    plain = avg.add_argument_group("plain LAMMPS dumps (no run directory; SI units)")
+    plain.add_argument("--thickness", type=float, metavar="H", help="disk height h in m "
+                       "(2D disks of volume pi h a^2); required")
+    plain.add_argument("--density", type=float, metavar="RHO", help="material density in "
+                       "kg/m^3 (masses rho pi h a^2); or the dump's mass column")
+    plain.add_argument("--dt", type=float, help="time step in s, for dumps without ITEM: TIME")
+    plain.add_argument("--center", type=float, nargs=2, metavar=("X", "Y"), default=(0.0, 0.0),
+                       help="centre of the rings, m (default 0 0)")
+    plain.add_argument("--r-range", type=float, nargs=2, metavar=("R1", "R2"),
+                       help="rings: --bins equal rings from R1 to R2 (m)")
+    plain.add_argument("--slabs", choices=["x", "y"], help="Cartesian strips across x or y "
+                       "(--bins over --range, or --edges) instead of rings")
+    plain.add_argument("--range", type=float, nargs=2, metavar=("LO", "HI"),
+                       help="slabs: from LO to HI (m; default the box)")
+    plain.add_argument("--length", type=float, help="slabs: their length along the other "
+                       "axis, m (default the box's)")
+    plain.add_argument("--grid", type=int, nargs=2, metavar=("NX", "NY"),
+                       help="a grid of NX x NY rectangles over --x-range, --y-range")
+    plain.add_argument("--x-range", type=float, nargs=2, metavar=("X1", "X2"))
+    plain.add_argument("--y-range", type=float, nargs=2, metavar=("Y1", "Y2"))
+    plain.add_argument("--wall-types", type=int, nargs="+", metavar="T", default=[],
+                       help="atom types that are walls: left out of the packing, their "
+                       "contacts with disks kept")
+    plain.add_argument("--atom-columns", metavar="MAP", help="our name=dump column, e.g. "
+                       "omegaz=c_spin[3],radius=c_r (others by name or alias)")
+    plain.add_argument("--contact-columns", metavar="MAP", help="e.g. id1=c_pp[1],"
+                       "id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
+                       "ftx=c_pl[5],fty=c_pl[6]")
     avg.add_argument("--t-min", type=float, help="average frames with t >= T s "
                      "(default: two inner-ring rotations)")
     avg.add_argument("--block-time", type=float,
@@ -149,6 +181,17 @@ def _average(args) -> int:
     from granavg.io.runs import average_runs
 
     out = validate.free_output(Path(args.out), ("", ".json", REPLICATES, TIMESERIES))
+    if not args.run_dir:
+        return _average_plain(args, out)
+    plain_only = [o for o, v in (("--thickness", args.thickness), ("--density", args.density),
+                                 ("--dt", args.dt), ("--r-range", args.r_range),
+                                 ("--slabs", args.slabs), ("--grid", args.grid),
+                                 ("--wall-types", args.wall_types),
+                                 ("--atom-columns", args.atom_columns),
+                                 ("--contact-columns", args.contact_columns)) if v]
+    if plain_only:
+        raise UserError(f"{plain_only[0]} is for plain LAMMPS dumps; a run directory's "
+                        "manifest already says it (drop the option or the run directory)")
     validate.positive("--block-time", args.block_time)
     validate.finite("--t-min", args.t_min)
     validate.ring_options(args.bins, args.edges)
@@ -178,6 +221,81 @@ def _average(args) -> int:
     logging.getLogger("granavg").info("%d rings x %d frames -> %s (+ %s.json)",
                                       profiles.rings.n, profiles.n_frames, out, out.name)
     return 0
+
+
+def _average_plain(args, out) -> int:
+    """``granavg average --atoms F [--contacts F] ...`` on anyone's LAMMPS dumps."""
+    import numpy as np
+
+    from granavg.engine import Grid, Rings, Slabs, average
+    from granavg.io import validate
+    from granavg.io.plain import PlainFrames, parse_map
+    from granavg.io.profiles_io import write_profiles
+    from granavg.io.reader import DumpReader
+
+    if not args.atoms:
+        raise UserError("give a run directory, or a LAMMPS dump with --atoms (and --contacts)")
+    atoms = validate.existing_file("--atoms", args.atoms)
+    contacts = validate.existing_file("--contacts", args.contacts)
+    if args.thickness is None:
+        raise UserError("--thickness H: give the disks' height in m (2D disks have volume "
+                        "pi h a^2)")
+    validate.positive("--thickness", args.thickness)
+    validate.positive("--density", args.density)
+    validate.positive("--dt", args.dt)
+    validate.positive("--block-time", args.block_time)
+    validate.finite("--t-min", args.t_min)
+    validate.ring_options(args.bins, args.edges)
+    if args.workers is not None or args.scheduler:
+        raise UserError("--workers and --scheduler average run directories; plain dumps are "
+                        "averaged in this process")
+    h = args.thickness
+    if args.grid:
+        box = _first_box(DumpReader(atoms))
+        xr = args.x_range or box[0]
+        yr = args.y_range or box[1]
+        if min(args.grid) < 1 or args.grid[0] * args.grid[1] > validate.MAX_BINS:
+            raise UserError(f"--grid {args.grid[0]} {args.grid[1]}: give between 1 and "
+                            f"{validate.MAX_BINS} cells")
+        geometry = Grid(np.linspace(*xr, args.grid[0] + 1), np.linspace(*yr, args.grid[1] + 1), h)
+    elif args.slabs:
+        box = _first_box(DumpReader(atoms))
+        k = "xy".index(args.slabs)
+        lo_hi = args.range or box[k]
+        edges = args.edges or np.linspace(*lo_hi, (args.bins or 20) + 1)
+        length = args.length or (box[1 - k][1] - box[1 - k][0])
+        geometry = Slabs(np.asarray(edges, float), h, args.slabs, length)
+    else:
+        if args.edges is None and args.r_range is None:
+            raise UserError("rings need --r-range R1 R2 (with --bins) or --edges; or choose "
+                            "--slabs or --grid")
+        edges = args.edges or np.linspace(*args.r_range, (args.bins or 20) + 1)
+        geometry = Rings(np.asarray(edges, float), h, tuple(args.center))
+    frames = PlainFrames(atoms, contacts, atom_map=parse_map(args.atom_columns),
+                         contact_map=parse_map(args.contact_columns),
+                         wall_types=args.wall_types, dt=args.dt)
+    profiles = average(frames, geometry, rho_p=args.density,
+                       quantities=_names(args.quantities), t_min=args.t_min or 0.0,
+                       block_time=args.block_time,
+                       progress=False if args.no_progress else None)
+    profiles.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
+                                    else None},
+                          "inputs": {"thickness_m": h, "density_kg_per_m3": args.density,
+                                     "wall_types": args.wall_types, "dt_s": args.dt,
+                                     "atom_columns": frames.amap, "contact_columns": frames.cmap}})
+    if any(frames.dropped.values()):
+        profiles.meta["dropped"] = dict(frames.dropped)
+    write_profiles(profiles, out, parquet=args.parquet)
+    logging.getLogger("granavg").info("%d %s x %d frames -> %s (+ %s.json)", geometry.n,
+                                      geometry.kind, profiles.n_frames, out, out.name)
+    return 0
+
+
+def _first_box(reader):
+    """The box bounds (x, y) of a dump's first frame, m."""
+    for frame in reader:
+        return frame.box[0], frame.box[1]
+    raise UserError(f"{reader.path}: holds no frame")
 
 
 #: Profile columns the analysis needs.
