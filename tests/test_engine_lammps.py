@@ -13,7 +13,8 @@ from granavg.io.contacts import COLUMNS, contact_table
 from granavg.io.reader import Frame
 from granavg.sim.scene import PAPER
 from granavg.io.contacts import radius_of_type
-from granavg.sim.simulate import DECK, _cmdargs, _deck_variables
+from granavg.sim.run_files import DECK, cmdargs
+from granavg.sim.simulate import _deck_variables
 
 from .conftest import SMALL_CELL
 
@@ -82,7 +83,7 @@ def live_frame_and_virial(out, *sets):
     derived = scene.derive()
     out.mkdir()
     variables = _deck_variables(out, derived, embedded=True, resume=None, start=None)
-    with lammps_session(_cmdargs(out, variables, 1)) as lmp:
+    with lammps_session(cmdargs(out, variables, 1)) as lmp:
         lmp.file(str(DECK))
         lmp.commands_string("""
             run 2000

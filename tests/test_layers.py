@@ -34,5 +34,5 @@ def test_the_engine_imports_no_other_layer(path):
 def test_no_module_imports_the_driver_that_imports_it():
     """refdem_run shares the run's file names and progress bar through run_files, not
     through the driver that starts it."""
-    assert "granavg.sim.simulate" not in imports(ROOT / "sim" / "refdem_run.py")
-    assert "granavg.sim.simulate" not in imports(ROOT / "sim" / "run_files.py")
+    for job in ("refdem_run", "run_files", "embedded", "mpi"):
+        assert "granavg.sim.simulate" not in imports(ROOT / "sim" / f"{job}.py"), job

@@ -149,3 +149,43 @@ def test_a_dump_without_what_the_average_needs_is_refused(user_run, tmp_path):
                    "--out", tmp_path / "x.csv")
     assert proc.returncode == 2 and "--thickness" in proc.stderr
     assert not list(tmp_path.iterdir())
+
+
+def test_wall_types_leave_the_packing_and_scaled_coordinates_are_unscaled(user_run, tmp_path):
+    """Type 2 as walls: the grid's disk area is that of type 1 alone (exact weights), and
+    their contacts with type 1 stay as wall contacts of the disk. The same dump with
+    scaled coordinates (xs, ys) gives the same numbers."""
+    out, _ = user_run
+    g = 0.06
+    grid = ["--grid", 4, 4, "--x-range", -g, g, "--y-range", -g, g, "--t-min", 0.39]
+    proc = average(out, tmp_path / "w.csv", *grid, "--wall-types", 2,
+                   "--quantities", "nu,coordination,sigma")
+    assert proc.returncode == 0, proc.stderr
+    p = read_profiles(tmp_path / "w.csv")
+    atoms = last_rows(out / "atoms.dump")
+    disks = np.pi * H * np.sum((0.5 * atoms[atoms[:, 1] == 1, 2]) ** 2)
+    assert np.sum(p.values["nu"] * p.rings.volume) == pytest.approx(disks, rel=1e-12)
+    # scaled coordinates: rewrite the dump with xs ys
+    text = (out / "atoms.dump").read_text().split("ITEM: TIME\n")      # TIME comes first
+    frames = []
+    for block in text[1:]:
+        lines = ("ITEM: TIME\n" + block).splitlines()
+        k = next(i for i, ln in enumerate(lines) if ln.startswith("ITEM: ATOMS"))
+        lines[k] = lines[k].replace(" x y ", " xs ys ")
+        box = [list(map(float, lines[i].split()[:2])) for i in range(k - 3, k - 1)]
+        for i in range(k + 1, len(lines)):
+            c = lines[i].split()
+            c[3] = repr((float(c[3]) - box[0][0]) / (box[0][1] - box[0][0]))
+            c[4] = repr((float(c[4]) - box[1][0]) / (box[1][1] - box[1][0]))
+            lines[i] = " ".join(c)
+        frames.append("\n".join(lines) + "\n")
+    scaled = tmp_path / "scaled.dump"
+    scaled.write_text("".join(frames))
+    proc = run_cli("average", "--atoms", scaled, "--contacts", out / "contacts.dump",
+                   "--contact-columns", MAP, "--thickness", H, "--out", tmp_path / "s.csv",
+                   "--no-progress", *grid, "--wall-types", 2,
+                   "--quantities", "nu,coordination,sigma")
+    assert proc.returncode == 0, proc.stderr
+    s = read_profiles(tmp_path / "s.csv")
+    for name in ("nu", "coordination", "sigma_xy"):
+        assert np.allclose(s.values[name], p.values[name], rtol=1e-9, equal_nan=True), name

@@ -4,6 +4,7 @@ dump schedule and the shear progress bar (SI units)."""
 from __future__ import annotations
 
 from contextlib import contextmanager
+from pathlib import Path
 
 from tqdm.auto import tqdm
 
@@ -12,6 +13,30 @@ from granavg.sim.scene import Derived, Scene
 ATOMS = "atoms.{ext}"
 CONTACTS = "contacts.{ext}"
 CONTACTS_RAW = "contacts_raw.{ext}"
+
+
+def _deck() -> Path:
+    """The Couette deck: ``lammps_inputs/couette.lmp`` of a source tree, or the copy
+    inside the installed wheel (package ``granavg.lammps_inputs``)."""
+    source = Path(__file__).resolve().parents[2] / "lammps_inputs" / "couette.lmp"
+    if source.exists():
+        return source
+    from importlib.resources import files
+    return Path(str(files("granavg.lammps_inputs") / "couette.lmp"))
+
+
+
+DECK = _deck()
+
+
+def cmdargs(out, variables, omp) -> list:
+    args = ["-log", str(out / "log.lammps")]
+    if omp > 1:
+        args += ["-sf", "omp", "-pk", "omp", str(omp)]
+    for key, value in variables.items():
+        if key != "restart_step":
+            args += ["-var", key, value]
+    return args
 
 
 def dump_ext(scene: Scene) -> str:

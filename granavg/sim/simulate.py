@@ -4,11 +4,11 @@ Data flow: :class:`~granavg.sim.scene.Scene` -> deck variables -> LAMMPS -> run 
 (``manifest.json``, ``log.lammps``, ``deck/``, ``atoms.dump.gz``, ``contacts.dump.gz``,
 ``restart/``). Every quantity is in SI units.
 
-Embedded (default, one process): LAMMPS runs the deck up to the start of shear, then
-granavg advances it in chunks (``run N upto``) to drive the progress bar and, at every
-dump step, writes the contact dump from ``compute pair/local`` in-process.
-MPI (``np > 1``): ``mpirun -np N lmp -in couette.lmp`` runs the whole deck and writes a
-raw contact dump, which granavg converts to the same contact-dump format afterwards.
+This module sets a run up (refusals, manifest, resume) and hands it to a job:
+:mod:`granavg.sim.embedded` (default, one process: LAMMPS runs the deck up to the start
+of shear, then granavg advances it in chunks, writing the contact dump from ``compute
+pair/local`` in-process), :mod:`granavg.sim.mpi` (``np > 1``: ``mpirun -np N lmp`` runs
+the whole deck and its raw contact dump is converted afterwards) or the reference DEM.
 """
 
 from __future__ import annotations
@@ -21,46 +21,24 @@ import re
 import shlex
 import shutil
 import signal
-import subprocess
-import sys
 import threading
-import time
 from contextlib import contextmanager
 from pathlib import Path
 
-import numpy as np
-
 from granavg import __version__
-from granavg.io.contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table, radius_of_type
-from granavg.io.dumpfile import open_text, write_frame
 from granavg.engine.profiles import QUANTITIES
-from granavg.io.reader import DumpReader
 from granavg.errors import LammpsError, UserError
 from granavg.engine.average import groups_for
-from granavg.sim.insitu import InSituAverage, profile_path
-from granavg.sim.lammps_frames import gather, local_atoms, local_contacts
-from granavg.sim.lammps_session import (executable, lammps_env, lammps_session, lammps_version,
-                                        load_lammps)
-from granavg.sim.run_files import (ATOMS, CONTACTS, CONTACTS_RAW, dump_ext, is_dump_step,
-                                   shear_bar)
-from granavg.sim.run_record import Overlaps, Timing
+from granavg.sim.insitu import profile_path
+from granavg.sim.lammps_session import lammps_version
+from granavg.sim.run_files import ATOMS, CONTACTS, CONTACTS_RAW, DECK, cmdargs, dump_ext
+from granavg.sim.embedded import run_embedded
+from granavg.sim.mpi import run_mpi, run_mpi_python
 from granavg.io.rundir import (claim_new, frame_steps, read_manifest, restart_files,
                                truncate_dump, write_manifest)
 from granavg.sim.scene import Derived, Scene
 
 log = logging.getLogger(__name__)
-
-def _deck() -> Path:
-    """The Couette deck: ``lammps_inputs/couette.lmp`` of a source tree, or the copy
-    inside the installed wheel (package ``granavg.lammps_inputs``)."""
-    source = Path(__file__).resolve().parents[2] / "lammps_inputs" / "couette.lmp"
-    if source.exists():
-        return source
-    from importlib.resources import files
-    return Path(str(files("granavg.lammps_inputs") / "couette.lmp"))
-
-
-DECK = _deck()
 
 PREPARATION = (
     "disks inserted at random without overlap at grow_from of their diameter (large ones "
@@ -274,9 +252,9 @@ def _execute(out, derived, manifest, resume_from, progress):
             elif ex["np"] == 1:
                 run_embedded(out, derived, manifest, variables, ex["omp"], progress)
             elif manifest.get("average"):
-                _run_mpi_python(out, derived, ex["np"], progress)
+                run_mpi_python(out, derived, ex["np"], progress)
             else:
-                _run_mpi(out, derived, variables, ex["np"], ex["omp"], progress)
+                run_mpi(out, derived, variables, ex["np"], ex["omp"], progress)
     except (Interrupted, KeyboardInterrupt):
         _finish(out, manifest, "interrupted")
         raise UserError(f"run interrupted; results so far are in {out}; continue it with "
@@ -289,143 +267,6 @@ def _execute(out, derived, manifest, resume_from, progress):
         raise
     _finish(out, manifest, "complete")
     return out
-
-
-def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm=None):
-    """Run the deck through the LAMMPS Python module and drive the shear in chunks; at
-    every dump step write the contact dump and/or feed the in-situ averages. Under MPI
-    (``comm``, an mpi4py communicator) every rank calls this; rank 0 gathers and writes."""
-    lammps = load_lammps()
-    scene = derived.scene
-    root = comm is None or comm.rank == 0
-    contacts_needed = scene.contacts and (scene.dumps or bool(manifest.get("average")))
-    writer = _ContactWriter(out / CONTACTS.format(ext=dump_ext(scene)), derived) \
-        if scene.contacts and scene.dumps and root else None
-    insitu = InSituAverage(manifest, manifest["average"]["bins"]) \
-        if manifest.get("average") and root else None
-    frames_needed = contacts_needed or bool(manifest.get("average"))
-    radius, overlaps = radius_of_type(derived), Overlaps(derived)
-    with lammps_session(_cmdargs(out, variables, omp), log_hint=str(out / "log.lammps"),
-                        comm=comm) as lmp:
-        lmp.file(str(out / "deck" / DECK.name))
-        _check_inserted(lmp, scene, variables["start"])
-        lmp.command("run 0")                     # set up; writes the atom dump if due
-        step = int(lmp.get_thermo("step"))
-        stride = max(1, derived.n_shear // 400)
-        box = np.column_stack(lmp.extract_box()[:2])
-        timing = Timing()
-        with shear_bar(derived, step, progress if root else False) as bar:
-            while True:
-                if frames_needed and is_dump_step(step, derived):
-                    timing.start_frame()
-                    raw = gather(comm, local_contacts(lmp, lammps)) if contacts_needed else None
-                    atoms = gather(comm, local_atoms(lmp)) if insitu or comm else None
-                    table = contact_table(raw, radius) if raw is not None else None
-                    if table is not None:
-                        overlaps.add(table)
-                    if writer is not None:
-                        writer.write(step, table, box)
-                    if insitu is not None:
-                        insitu.add(step, atoms, table)
-                    timing.end_frame()
-                if step >= derived.n_shear:
-                    break
-                target = min(_next_dump_step(step, derived) if frames_needed else math.inf,
-                             step + stride, derived.n_shear)
-                with timing.lammps():
-                    lmp.command(f"run {target} upto pre no post no")
-                bar.update((target - step) * derived.dt)
-                step = target
-    if insitu is not None:
-        insitu.write(out)
-    if root:
-        overlaps.record(out)
-        timing.record(out)
-
-
-def _run_mpi_python(out, derived: Derived, np_ranks, progress):
-    """``mpirun -np N python -m granavg.sim.mpi_rank OUT``: LAMMPS and granavg on every rank
-    (in-situ averaging gathers each frame to rank 0)."""
-    cmd = [executable("mpirun"), "-np", str(np_ranks), sys.executable, "-m",
-           "granavg.sim.mpi_rank", str(out), "--no-progress" if progress is False else "--progress"]
-    log.info("running %s", shlex.join(cmd))
-    proc = subprocess.run(cmd, env=lammps_env(), stdout=subprocess.DEVNULL,
-                          stderr=subprocess.PIPE, text=True)
-    if proc.returncode != 0:
-        tail = proc.stderr.strip().splitlines()[-1:] or ["no message"]
-        raise LammpsError(f"mpirun granavg ranks exited with code {proc.returncode}: "
-                          f"{tail[0]} (details in {out / 'log.lammps'})")
-
-
-def _run_mpi(out, derived: Derived, variables, np_ranks, omp, progress):
-    cmd = [executable("mpirun"), "-np", str(np_ranks), executable("lmp"),
-           "-in", str(out / "deck" / DECK.name), *_cmdargs(out, variables, omp)]
-    log.info("running %s", shlex.join(cmd))
-    logfile = out / "log.lammps"
-    start = int(variables["restart_step"])
-    with open(out / "mpirun.out", "ab") as sink, shear_bar(derived, start, progress) as bar:
-        proc = subprocess.Popen(cmd, stdout=sink, stderr=subprocess.STDOUT, env=lammps_env())
-        try:
-            done = start
-            while proc.poll() is None:
-                time.sleep(0.5)
-                step = _last_thermo_step(logfile)
-                if step is not None and step > done:
-                    bar.update((step - done) * derived.dt)
-                    done = step
-        except BaseException:
-            proc.terminate()
-            proc.wait()
-            raise
-    if proc.returncode != 0:
-        raise LammpsError(f"mpirun lmp exited with code {proc.returncode}: "
-                          f"{_last_error(out)} (details in {logfile})")
-    if derived.scene.contacts:
-        convert_raw_contacts(out / CONTACTS_RAW.format(ext=dump_ext(derived.scene)),
-                             out / CONTACTS.format(ext=dump_ext(derived.scene)), derived)
-
-
-def convert_raw_contacts(raw_path: Path, out_path: Path, derived: Derived) -> None:
-    """Convert a LAMMPS-written ``contacts_raw`` dump into granavg's contact dump.
-
-    Appends to ``out_path`` (a resumed run continues the file) and removes the raw file.
-    """
-    radius, overlaps = radius_of_type(derived), Overlaps(derived)
-    with open_text(out_path, "at") as fh:
-        for frame in DumpReader(raw_path):
-            raw = frame.data[:, [frame.columns.index(c) for c in RAW_COLUMNS]]
-            table = contact_table(raw, radius)
-            overlaps.add(table)
-            write_frame(fh, frame.timestep, frame.time, COLUMNS, table, frame.box, FORMAT)
-    raw_path.unlink()
-    overlaps.record(out_path.parent)
-
-
-class _ContactWriter:
-    """Appends contact-dump frames (rows of :func:`~granavg.io.contacts.contact_table`)."""
-
-    def __init__(self, path: Path, derived: Derived):
-        self.path, self.derived = path, derived
-
-    def write(self, step, table, box):
-        with open_text(self.path, "at") as fh:
-            write_frame(fh, step, step * self.derived.dt, COLUMNS, table, box, FORMAT)
-
-
-def _next_dump_step(step, d: Derived) -> int:
-    return max(d.n_dump_start, (step // d.dump_every + 1) * d.dump_every)
-
-
-def _check_inserted(lmp, scene: Scene, start) -> None:
-    lmp.command("variable granavg_nmob equal count(mobile)")
-    n = int(lmp.extract_variable("granavg_nmob"))
-    want = scene.n_small + scene.n_large
-    if n != want and start != "none":
-        raise UserError(f"the start file {start} holds {n} disks, the scene {want}; set "
-                        "n_small, n_large and the geometry of the run that wrote it")
-    if n != want:
-        raise UserError(f"only {n} of {want} disks could be inserted at grow_from="
-                        f"{scene.grow_from}; lower grow_from or the number of disks")
 
 
 def _usable_restart(out, derived):
@@ -466,19 +307,9 @@ def _deck_variables(out, derived: Derived, embedded: bool, resume, start) -> dic
     return v
 
 
-def _cmdargs(out, variables, omp) -> list:
-    args = ["-log", str(out / "log.lammps")]
-    if omp > 1:
-        args += ["-sf", "omp", "-pk", "omp", str(omp)]
-    for key, value in variables.items():
-        if key != "restart_step":
-            args += ["-var", key, value]
-    return args
-
-
 def _command_script(variables, ex) -> str:
     cmd = (["mpirun", "-np", str(ex["np"])] if ex["np"] > 1 else []) + \
-          ["lmp", "-in", "deck/couette.lmp", *_cmdargs(Path("."), variables, ex["omp"])]
+          ["lmp", "-in", "deck/couette.lmp", *cmdargs(Path("."), variables, ex["omp"])]
     note = ("# granavg ran this deck in-process with drive=python: after the deck, it\n"
             "# advanced the shear with 'run N upto' and wrote contacts.* from compute\n"
             "# pair/local. To let LAMMPS run it alone: -var drive lammps -var contacts native\n"
@@ -562,30 +393,6 @@ def _finish(out, manifest, status):
 
 def _now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
-
-
-def _last_thermo_step(logfile: Path):
-    try:
-        with open(logfile, "rb") as fh:
-            fh.seek(max(0, logfile.stat().st_size - 4096))
-            tail = fh.read().decode(errors="replace").splitlines()
-    except FileNotFoundError:
-        return None
-    for line in reversed(tail):
-        parts = line.split()
-        if len(parts) == 4 and parts[0].isdigit():
-            return int(parts[0])
-    return None
-
-
-def _last_error(out) -> str:
-    text = ""
-    for name in ("log.lammps", "mpirun.out"):
-        path = out / name
-        if path.exists():
-            text += path.read_text(errors="replace")
-    errors = [line.strip() for line in text.splitlines() if "ERROR" in line]
-    return errors[-1] if errors else "no ERROR line in the log"
 
 
 @contextmanager
