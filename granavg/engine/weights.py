@@ -54,34 +54,42 @@ area_inside_circle = vectorize(["float64(float64, float64, float64)"], cache=Tru
 area_inside_circle.__doc__ = _area.__doc__
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _cumulative(mode, pos, a, edge):
+    """Area of a disk (centre coordinate pos, radius a) on the inner side of a cell edge:
+    inside the circle of radius ``edge`` (mode 0, rings) or below x = edge (mode 1,
+    strips)."""
+    if mode == 0:
+        return _area_scalar(pos, a, edge)
+    return _below(edge - pos, a)
+
+
 @njit(cache=True, nogil=True)
-def _triplets(r, a, edges):
-    n_rings = edges.shape[0] - 1
-    cap = r.shape[0] * 4
+def _triplets(pos, a, edges, mode):
+    """(particle, cell, weight) of disks in 1D cells, from differences of cumulative
+    areas at consecutive edges."""
+    n = edges.shape[0] - 1
+    cap = pos.shape[0] * 4
     particle = np.empty(cap, np.int64)
-    ring = np.empty(cap, np.int64)
+    cell = np.empty(cap, np.int64)
     w = np.empty(cap)
     t = 0
-    for p in range(r.shape[0]):
-        lo = np.searchsorted(edges, r[p] - a[p], side="right") - 1
-        hi = np.searchsorted(edges, r[p] + a[p], side="left") - 1
-        lo = min(max(lo, 0), n_rings - 1)
-        hi = min(max(hi, 0), n_rings - 1)
+    for p in range(pos.shape[0]):
+        lo = min(max(np.searchsorted(edges, pos[p] - a[p], side="right") - 1, 0), n - 1)
+        hi = min(max(np.searchsorted(edges, pos[p] + a[p], side="left") - 1, 0), n - 1)
         full = math.pi * a[p] * a[p]
-        inner = _area_scalar(r[p], a[p], edges[lo])
+        inner = _cumulative(mode, pos[p], a[p], edges[lo])
         for k in range(lo, hi + 1):
-            outer = _area_scalar(r[p], a[p], edges[k + 1])
+            outer = _cumulative(mode, pos[p], a[p], edges[k + 1])
             wk = (outer - inner) / full
             inner = outer
             if wk > 0:
-                if t == cap:                     # more rings per disk than expected
+                if t == cap:                     # more cells per disk than expected
                     cap *= 2
-                    particle = _grow(particle, cap)
-                    ring = _grow(ring, cap)
-                    w = _grow(w, cap)
-                particle[t], ring[t], w[t] = p, k, wk
+                    particle, cell, w = _grow(particle, cap), _grow(cell, cap), _grow(w, cap)
+                particle[t], cell[t], w[t] = p, k, wk
                 t += 1
-    return particle[:t], ring[:t], w[:t]
+    return particle[:t], cell[:t], w[:t]
 
 
 @njit(cache=True, nogil=True)
@@ -111,7 +119,7 @@ def ring_weights(r, a, edges):
         Fraction of the disk's area in that ring (0 < w <= 1).
     """
     return _triplets(np.ascontiguousarray(r, float), np.ascontiguousarray(a, float),
-                     np.ascontiguousarray(edges, float))
+                     np.ascontiguousarray(edges, float), 0)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -157,37 +165,9 @@ def _corner(X, Y, a):
     return area
 
 
-def disk_below(u, a):
-    """Area of a disk of radius a with x < u (relative to its centre), m^2; vectorised."""
-    return np.vectorize(_below, otypes=[float])(u, a)
-
-
 def disk_corner(X, Y, a):
     """Area of a disk of radius a with x < X and y < Y (relative to its centre), m^2."""
     return np.vectorize(_corner, otypes=[float])(X, Y, a)
-
-
-@njit(cache=True, nogil=True)
-def _strip_triplets(u, a, edges):
-    n = edges.shape[0] - 1
-    cap = u.shape[0] * 4
-    particle = np.empty(cap, np.int64)
-    cell = np.empty(cap, np.int64)
-    w = np.empty(cap)
-    t = 0
-    for p in range(u.shape[0]):
-        lo = min(max(np.searchsorted(edges, u[p] - a[p], side="right") - 1, 0), n - 1)
-        hi = min(max(np.searchsorted(edges, u[p] + a[p], side="left") - 1, 0), n - 1)
-        full = math.pi * a[p] * a[p]
-        for k in range(lo, hi + 1):
-            wk = (_below(edges[k + 1] - u[p], a[p]) - _below(edges[k] - u[p], a[p])) / full
-            if wk > 0:
-                if t == cap:
-                    cap *= 2
-                    particle, cell, w = _grow(particle, cap), _grow(cell, cap), _grow(w, cap)
-                particle[t], cell[t], w[t] = p, k, wk
-                t += 1
-    return particle[:t], cell[:t], w[:t]
 
 
 @njit(cache=True, nogil=True)
@@ -238,8 +218,8 @@ def strip_weights(u, a, edges):
         Disk index, strip index and the fraction of the disk's area in it (exact:
         differences of circular segments).
     """
-    return _strip_triplets(np.ascontiguousarray(u, float), np.ascontiguousarray(a, float),
-                           np.ascontiguousarray(edges, float))
+    return _triplets(np.ascontiguousarray(u, float), np.ascontiguousarray(a, float),
+                     np.ascontiguousarray(edges, float), 1)
 
 
 def grid_weights(x, y, a, xedges, yedges):
