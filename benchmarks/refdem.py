@@ -3,7 +3,7 @@
     python benchmarks/refdem.py START.data [STEPS]
 
 START is a prepared packing of the small test cell (the ``prepared.data`` of
-``granavg simulate --preset demo`` with the test suite's SMALL_CELL settings). Both
+``granavg simulate --preset paper-hooke`` with the test suite's SMALL_CELL settings). Both
 engines shear it for STEPS steps (default 4290, 1 s) in one process without dumps; the
 ratio is measured in this run. Prints a markdown table and where the reference's time
 goes (cProfile, by function).
@@ -26,6 +26,7 @@ from granavg.sim.refdem_run import reference_engine
 from granavg.sim.scene import preset
 from granavg.sim.simulate import simulate
 
+SMALL_PRESET = "paper-hooke"     # the plain law, grown from random positions
 SMALL_CELL = ["R_i=0.04", "R_o=0.0826", "n_small=250", "n_large=40", "Omega=0.5",
               "t_dump_start=0", "contacts=0"]
 
@@ -66,7 +67,7 @@ def reference_rate(start: Path, derived, steps: int) -> tuple[float, pstats.Stat
 
 def main(start, steps=4290):
     start = Path(start).resolve()
-    base = preset("demo").with_overrides(SMALL_CELL)
+    base = preset(SMALL_PRESET).with_overrides(SMALL_CELL)
     derived = base.derive()
     scene = base.with_overrides([f"t_end={steps * derived.dt!r}", f"dump_dt={10 * steps * derived.dt!r}",
                                  f"restart_dt={10 * steps * derived.dt!r}"])

@@ -14,7 +14,7 @@ echo "## reader, engine, memory"
 "$BIN/python" "$ROOT/benchmarks/averaging.py" "$OUT/demo"
 echo "## dask"; "$BIN/python" "$ROOT/benchmarks/parallel.py" "$OUT/demo" 1 2
 echo "## reference DEM"
-"$BIN/granavg" simulate --preset demo --out "$OUT/small" --no-progress --set R_i=0.04 \
+"$BIN/granavg" simulate --preset paper-hooke --out "$OUT/small" --no-progress --set R_i=0.04 \
   --set R_o=0.0826 --set n_small=250 --set n_large=40 --set Omega=0.5 --set t_grow=1 \
   --set t_relax=1 --set t_end=1 --set t_dump_start=0 --set restart_dt=1
 "$BIN/python" "$ROOT/benchmarks/refdem.py" "$OUT/small/prepared.data"

@@ -23,7 +23,9 @@ def _parser() -> argparse.ArgumentParser:
 
     sim = sub.add_parser("simulate", help="run the Couette cell in LAMMPS (SI units)")
     sim.add_argument("--preset", default="demo",
-                     help="scene preset: demo (the paper's geometry, 60 s) or paper (500 s)")
+                     help="scene preset: demo (the paper's geometry, 60 s), paper (500 s; "
+                     "paper-hooke is the same), paper-rolling (rolling resistance from a "
+                     "shipped sheared packing, 250 s); docs/scene.md")
     sim.add_argument("--out", required=True, help="run directory to create (must be new)")
     sim.add_argument("--set", dest="overrides", action="append", default=[],
                      metavar="KEY=VALUE", help="change one scene value (SI units); repeatable")
@@ -41,7 +43,7 @@ def _parser() -> argparse.ArgumentParser:
                      help="average in situ over N rings (several counts allowed) while "
                      "LAMMPS runs: writes profiles_N.csv; with --set dumps=0 no dump files")
     sim.add_argument("--t-min", type=float, help="in-situ averages from t >= T s (default: "
-                     "two inner-ring rotations)")
+                     "the scene's discarded transient: discard_rotations inner-ring rotations)")
     sim.add_argument("--block-time", type=float, help="in-situ standard errors: base blocks "
                      "of this length in s (default: one dump interval, at most 512)")
     sim.add_argument("--quantities", help="comma-separated quantities the run is for (as "
@@ -100,7 +102,8 @@ def _parser() -> argparse.ArgumentParser:
                        "id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
                        "ftx=c_pl[5],fty=c_pl[6]")
     avg.add_argument("--t-min", type=float, help="average frames with t >= T s "
-                     "(default: two inner-ring rotations)")
+                     "(default: the scene's discarded transient, discard_rotations inner-ring "
+                     "rotations)")
     avg.add_argument("--block-time", type=float,
                      help="length in s of the base time blocks of the blocking analysis "
                      "behind the standard errors (default: one dump interval, at most 512 "

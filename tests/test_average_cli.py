@@ -132,3 +132,14 @@ def test_mismatched_time_steps_are_listed(small_run, plain_dumps, tmp_path):
 def test_bad_options_are_refused(small_run, tmp_path, args, message):
     proc = run_cli("average", small_run, "--out", tmp_path / "p.csv", "--no-progress", *args)
     assert proc.returncode == 2 and message in proc.stderr, proc.stderr
+
+
+def test_coordination_alone_reads_no_forces_and_agrees_with_the_full_average(small_run):
+    """Asked for coordination only, the reader skips the force columns; the profile is
+    the one of the full average (the forces enter no coordination channel)."""
+    from granavg.io.runs import average_run
+
+    alone = average_run(small_run, bins=5, t_min=1.0, quantities=["coordination"])
+    full = average_run(small_run, bins=5, t_min=1.0)
+    np.testing.assert_allclose(alone.values["coordination"], full.values["coordination"],
+                               rtol=1e-12)

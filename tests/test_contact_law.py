@@ -11,7 +11,7 @@ from granavg.sim.contact_law import (ContactLaw, contact_duration, damping_for_r
                                      disk_mass, effective_mass, max_stable_timestep,
                                      restitution, to_lammps)
 from granavg.errors import UserError
-from granavg.sim.scene import PAPER
+from granavg.sim.scene import PAPER_HOOKE
 
 
 @pytest.mark.parametrize("e_n", [0.1, 0.5, 0.9, 0.99])
@@ -63,9 +63,10 @@ def test_unphysical_constants_are_refused(bad):
         ContactLaw(**bad)
 
 
-def test_deck_defaults_are_the_paper_preset():
-    """lammps_inputs/couette.lmp must run the paper scene under plain `lmp -in`."""
+def test_deck_defaults_are_the_paper_hooke_preset():
+    """lammps_inputs/couette.lmp must run the paper-hooke scene (the plain law, grown
+    from random positions) under plain `lmp -in`."""
     deck = (Path(__file__).parents[1] / "lammps_inputs" / "couette.lmp").read_text()
     defaults = dict(re.findall(r"^variable\s+(\w+)\s+index\s+(\S+)", deck, re.M))
-    for key, value in PAPER.derive().lammps_variables().items():
+    for key, value in PAPER_HOOKE.derive().lammps_variables().items():
         assert float(defaults[key]) == pytest.approx(float(value), rel=1e-9), key

@@ -11,7 +11,7 @@ from granavg.engine.profiles import QUANTITIES
 from granavg.io.reader import DumpReader, FramePairs
 from granavg.io.contacts import COLUMNS, contact_table
 from granavg.io.reader import Frame
-from granavg.sim.scene import PAPER
+from granavg.sim.scene import PAPER_HOOKE
 from granavg.io.contacts import radius_of_type
 from granavg.sim.run_files import DECK, cmdargs
 from granavg.sim.simulate import _deck_variables
@@ -79,7 +79,7 @@ def live_frame_and_virial(out, *sets):
     LAMMPS state."""
     import lammps
 
-    scene = PAPER.with_overrides([*SMALL_CELL, *sets])
+    scene = PAPER_HOOKE.with_overrides([*SMALL_CELL, *sets])
     derived = scene.derive()
     out.mkdir()
     variables = _deck_variables(out, derived, embedded=True, resume=None, start=None)

@@ -11,7 +11,7 @@ from granavg.io.runs import average_run
 from granavg.engine.ensemble import combine_runs
 from granavg.errors import UserError
 from granavg.io.profiles_io import read_profiles
-from tests.conftest import SMALL_CELL, run_cli
+from tests.conftest import SMALL_CELL, SMALL_PRESET, run_cli
 
 SHORT = [s if not s.startswith("t_end") else "t_end=3" for s in SMALL_CELL]
 
@@ -20,7 +20,7 @@ SHORT = [s if not s.startswith("t_end") else "t_end=3" for s in SMALL_CELL]
 def ensemble(tmp_path_factory):
     out = tmp_path_factory.mktemp("ens") / "e"
     sets = [a for s in SHORT for a in ("--set", s)]
-    proc = run_cli("simulate", "--preset", "demo", "--out", out, "--seeds", 3, "--workers", 2,
+    proc = run_cli("simulate", "--preset", SMALL_PRESET, "--out", out, "--seeds", 3, "--workers", 2,
                    *sets)
     assert proc.returncode == 0, proc.stderr
     return out

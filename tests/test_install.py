@@ -28,7 +28,7 @@ def test_the_wheel_carries_the_deck_and_simulates_outside_the_source_tree(tmp_pa
     into a directory of its own and run a tiny simulation from elsewhere."""
     from pathlib import Path
 
-    from tests.conftest import SMALL_CELL
+    from tests.conftest import SMALL_CELL, SMALL_PRESET
 
     root = Path(__file__).resolve().parent.parent
     wheels = tmp_path / "wheels"
@@ -42,12 +42,14 @@ def test_the_wheel_carries_the_deck_and_simulates_outside_the_source_tree(tmp_pa
                            "--target", str(target), str(wheel)], capture_output=True, text=True)
     assert inst.returncode == 0, inst.stderr
     assert (target / "granavg" / "lammps_inputs" / "couette.lmp").exists()
+    shipped = target / "granavg" / "sim" / "packings" / "rolling-sheared"
+    assert (shipped / "provenance.json").exists() and list(shipped.glob("seed*.data.gz"))
     env = dict(os.environ, PYTHONPATH=str(target))
     where = subprocess.run([sys.executable, "-c", "import granavg; print(granavg.__file__)"],
                            capture_output=True, text=True, env=env, cwd=tmp_path)
     assert where.stdout.strip().startswith(str(target)), where.stdout
     sets = [a for s in (*SMALL_CELL, "t_end=0.5", "t_dump_start=0") for a in ("--set", s)]
-    run = subprocess.run([sys.executable, "-m", "granavg", "simulate", "--preset", "demo",
+    run = subprocess.run([sys.executable, "-m", "granavg", "simulate", "--preset", SMALL_PRESET,
                           "--out", str(tmp_path / "run"), "--no-progress", *sets],
                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600)
     assert run.returncode == 0, run.stderr

@@ -43,7 +43,7 @@ def simulate_all(out: Path, fractions, t_end, sets):
         if (run / "manifest.json").exists():
             continue
         ns, nl = counts_for(f)
-        scene = preset("paper").with_overrides([*sets, f"n_small={ns}", f"n_large={nl}",
+        scene = preset("paper-hooke").with_overrides([*sets, f"n_small={ns}", f"n_large={nl}",
                                                 f"t_end={t_end}", "dump_dt=5",
                                                 f"restart_dt={t_end}"])
         log.info("area fraction %.4f: %d + %d disks (%.4f)", f, ns, nl, area_fraction(scene))
@@ -51,7 +51,7 @@ def simulate_all(out: Path, fractions, t_end, sets):
     if not todo:
         return
     with local_cluster(2) as cluster, Client(cluster) as client:
-        futures = {client.submit(simulate, s, str(r), progress=False, preset="paper",
+        futures = {client.submit(simulate, s, str(r), progress=False, preset="paper-hooke",
                                  pure=False): r for r, s in todo.items()}
         for fut in as_completed(list(futures)):
             fut.result()

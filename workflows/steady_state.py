@@ -47,18 +47,20 @@ def run_candidate(out: Path, overrides, seeds: int, t_end: float) -> list:
     from granavg.sim.ensemble import simulate_ensemble
     from granavg.sim.scene import preset
 
-    scene = preset("paper").with_overrides([*overrides, f"t_end={t_end}", "dump_dt=5",
+    scene = preset("paper-hooke").with_overrides([*overrides, f"t_end={t_end}", "dump_dt=5",
                                             f"restart_dt={t_end}"])
-    return simulate_ensemble(scene, out, seeds, workers=min(seeds, 2), preset="paper")
+    return simulate_ensemble(scene, out, seeds, workers=min(seeds, 2), preset="paper-hooke")
 
 
-def score(runs) -> dict:
-    """The targets measured on the runs (window: two rotations to the end)."""
+def score(runs, t_min=None) -> dict:
+    """The targets measured on the runs (window: t_min, default the scene's discarded
+    rotations, to the end)."""
     from granavg.analysis.claims import analyze, bulk, dynamic_over_static
     from granavg.io.runs import average_run
     from granavg.engine.ensemble import combine_runs
 
-    p20s, p60s = ([average_run(r, bins=n, progress=False) for r in runs] for n in (20, 60))
+    p20s, p60s = ([average_run(r, bins=n, t_min=t_min, progress=False) for r in runs]
+                  for n in (20, 60))
     for run, p in zip(runs, p20s):
         p.timeseries.to_csv(run.parent / f"{run.name}.timeseries.csv", index=False)
     p20 = combine_runs(p20s, [str(r) for r in runs]) if len(runs) > 1 else p20s[0]

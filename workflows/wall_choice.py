@@ -43,7 +43,7 @@ def ring_profile(run: Path, scene) -> np.ndarray:
 
 
 def main(out, names):
-    base = preset("paper")
+    base = preset("paper-hooke")
     centres = base.R_i + (np.arange(8) + 0.5) * (base.R_o - base.R_i) / RINGS
     print(f"{'paper fit':>14s} " + " ".join(
         f"{0.645 * np.exp(-(c - base.R_i) / 0.0127):.3f}" for c in centres))
@@ -52,7 +52,7 @@ def main(out, names):
                                      *VARIANTS[name]])
         run = Path(out) / name
         if not (run / "manifest.json").exists():
-            simulate(scene, run, progress=False, preset="paper")
+            simulate(scene, run, progress=False, preset="paper-hooke")
         print(f"{name:>14s} " + " ".join(f"{v:.3f}" for v in ring_profile(run, scene)[:8]))
 
 

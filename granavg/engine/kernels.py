@@ -110,10 +110,13 @@ def _contact_channels(q, atoms, contacts, er, ephi, vol, h, want):
     i2[pair] = rows_of(ids, contacts["id2"][pair])
     nc = np.zeros(len(vol))
     fab, sig, dfm = (np.zeros((len(vol), 4)) for _ in range(3))
-    _accumulate_contacts(i1, i2, contacts["fnx"] + contacts["ftx"],
-                         contacts["fny"] + contacts["fty"], contacts["nx"], contacts["ny"],
-                         contacts["overlap"], er, ephi, atoms["radius"], np.pi * h,
-                         nc, fab, sig, dfm)
+    # columns the wanted channels do not need (e.g. forces for coordination alone) may be
+    # absent: they enter only channels that are not kept
+    col = {k: contacts[k] if k in contacts else np.zeros(len(i1))
+           for k in ("fnx", "ftx", "fny", "fty", "nx", "ny", "overlap")}
+    _accumulate_contacts(i1, i2, col["fnx"] + col["ftx"], col["fny"] + col["fty"],
+                         col["nx"], col["ny"], col["overlap"], er, ephi, atoms["radius"],
+                         np.pi * h, nc, fab, sig, dfm)
     if "ncontact" in want:
         q[:, INDEX["ncontact"]] = vol * nc
     for name, values in (("fab_rr", vol[:, None] * fab), ("sig_rr", sig), ("def_rr", dfm)):

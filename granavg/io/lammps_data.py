@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from granavg.errors import UserError
+from granavg.io.dumpfile import open_text
 
 #: Columns of the ``Atoms # sphere`` and ``Velocities`` sections.
 ATOM_COLUMNS = ["id", "type", "diameter", "density", "x", "y", "z"]
@@ -18,7 +19,7 @@ VELOCITY_COLUMNS = ["id", "vx", "vy", "vz", "wx", "wy", "wz"]
 
 
 def read_data(path) -> dict:
-    """Atoms of a sphere-style data file, sorted by id.
+    """Atoms of a sphere-style data file (plain, or gzip by the ``.gz`` suffix), sorted by id.
 
     Returns
     -------
@@ -30,9 +31,11 @@ def read_data(path) -> dict:
     """
     path = Path(path)
     try:
-        lines = path.read_text().splitlines()
-    except OSError as exc:
-        raise UserError(f"cannot read the data file {path}: {exc.strerror}") from None
+        with open_text(path) as fh:
+            lines = fh.read().splitlines()
+    except (OSError, EOFError) as exc:
+        raise UserError(f"cannot read the data file {path}: "
+                        f"{getattr(exc, 'strerror', None) or exc}") from None
     atoms = _section(path, lines, "Atoms", len(ATOM_COLUMNS))
     vel = _section(path, lines, "Velocities", len(VELOCITY_COLUMNS))
     atoms, vel = atoms[np.argsort(atoms[:, 0])], vel[np.argsort(vel[:, 0])]

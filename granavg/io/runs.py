@@ -36,7 +36,8 @@ def average_run(run_dir=None, *, bins=None, edges=None, t_min=None, block_time=N
     bins : int, optional
         Number of equal rings between R_i and R_o; or ``edges`` (m).
     t_min : float, optional
-        Start of the average (s); default two inner-ring rotations, 2 T = 4 pi / Omega.
+        Start of the average (s); default the scene's discarded transient,
+        ``discard_rotations`` x T (T = 2 pi / Omega; two rotations for older manifests).
     block_time : float, optional
         Length (s) of the base blocks of the blocking analysis; default one dump
         interval (at most 512 blocks over the averaged span).
@@ -81,13 +82,13 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
 def ring_average(manifest: dict, groups, *, bins=None, edges=None, t_min=None,
                  block_time=None, frames=None) -> RingAverage:
     """A :class:`RingAverage` of a run (its manifest) with granavg's defaults: 20 equal
-    rings from R_i to R_o, t_min = two inner-ring rotations, base blocks of one dump
+    rings from R_i to R_o, t_min = the scene's discarded rotations, base blocks of one dump
     interval (at most 512). Its profiles' ``meta`` describe the average (SI units)."""
     scene, derived = manifest["scene"], manifest["derived"]
     rings = Rings(np.asarray(edges, float), scene["h"]) if edges is not None else \
         Rings.count(20 if bins is None else bins, scene["R_i"], scene["R_o"], scene["h"])
     T = 2 * math.pi / scene["Omega"]
-    t_min = 2 * T if t_min is None else float(t_min)
+    t_min = scene.get("discard_rotations", 2.0) * T if t_min is None else float(t_min)
     t_end = derived["t_end_s"]
     block_time = block_time or max(derived["dump_interval_s"], (t_end - t_min) / MAX_BLOCKS)
     series = TimeSeries(scene["R_i"], scene["R_o"], scene["h"], scene["rho_p"], scene["d_s"])

@@ -15,7 +15,8 @@ from granavg.io.dumpfile import open_text, write_frame
 from granavg.sim.insitu import InSituAverage
 from granavg.sim.lammps_frames import gather, local_atoms, local_contacts
 from granavg.sim.lammps_session import lammps_session, load_lammps
-from granavg.sim.run_files import CONTACTS, DECK, cmdargs, dump_ext, is_dump_step, shear_bar
+from granavg.sim.run_files import (CONTACTS, DECK, SHEARED, cmdargs, dump_ext, is_dump_step,
+                                   shear_bar)
 from granavg.sim.run_record import Overlaps, Timing
 from granavg.sim.scene import Derived, Scene
 
@@ -65,6 +66,7 @@ def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm
                     lmp.command(f"run {target} upto pre no post no")
                 bar.update((target - step) * derived.dt)
                 step = target
+        lmp.command(f"write_data {out / SHEARED} nocoeff")
     if insitu is not None:
         insitu.write(out)
     if root:

@@ -2,7 +2,8 @@
 
 Realisation k shears its own random packing (seed ``scene.seed + SEED_STRIDE * k``; the
 deck uses ``seed`` and ``seed + 1`` for the two disk sizes, so the stride keeps every
-random stream distinct). The runs are independent tasks on a dask cluster (a local one
+random stream distinct), or, for a scene with a shipped ``packing`` set, the sheared
+packing grown from that seed. The runs are independent tasks on a dask cluster (a local one
 of single-threaded processes by default, or ``scheduler``): there is no scheduler of
 granavg's own. ``OUT/ensemble.json`` lists the runs and their status.
 :func:`combine_runs` turns the profiles of the realisations into ensemble profiles with
@@ -20,6 +21,7 @@ from pathlib import Path
 
 from granavg.errors import UserError
 from granavg.io.rundir import claim_new
+from granavg.sim import packings
 from granavg.sim.scene import Scene
 
 log = logging.getLogger(__name__)
@@ -75,6 +77,8 @@ def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
     seeds = seeds_for(scene, k)
     for s in seeds:
         dataclasses.replace(scene, seed=s).derive()      # refuse before any work
+        if scene.packing:
+            packings.check(scene.packing, s)
     if scheduler is None and workers < 1:
         raise UserError(f"--workers {workers}: need at least one")
     out = claim_new(Path(out))

@@ -1,25 +1,44 @@
-"""A small reference DEM in 2D with LAMMPS' contact law and integrator (SI units).
+"""A small reference DEM in 2D with LAMMPS' contact laws and integrator (SI units).
 
 It exists to check LAMMPS runs and granavg's averaging against an independent engine
-with the same physics; it is not a production engine (numpy, no MPI, no neighbour skin:
-candidate pairs come from a k-d tree every step). It follows, operation for operation,
-so that results agree to round-off:
+with the same physics; it is not a production engine (numpy, no MPI; candidate pairs
+come from a k-d tree). It follows, operation for operation, so that results agree to
+round-off:
 
-- ``pair gran/hooke/history`` (Kn Kt gamma_n gamma_t mu, dampflag 1): for a pair in
-  contact (r < r_i + r_j), with del = x_i - x_j, the normal force on i
-  ``(kn (r_i + r_j - r) / r - m_eff gamma_n (v_r . del) / r^2) del``; the tangential
-  spring (history) advanced by ``dt v_t`` (v_t the relative tangential velocity of the
-  contact points), projected back onto the tangent plane, the tangential force
-  ``-(kt shear + m_eff gamma_t v_t)`` capped at ``mu |F_n|`` with LAMMPS' rescaling of
-  the history; torque ``-r_i (del x F_t)_z / r``. m_eff = m_i m_j / (m_i + m_j), or the
-  free disk's mass when the other is frozen (a wall).
+- ``pair gran/hooke/history`` (Kn Kt gamma_n gamma_t mu, dampflag 1), when
+  ``mu_roll == 0``: for a pair in contact (r < r_i + r_j), with del = x_i - x_j, the
+  normal force on i ``(kn (r_i + r_j - r) / r - m_eff gamma_n (v_r . del) / r^2) del``;
+  the tangential spring (history) advanced by ``dt v_t`` (v_t the relative tangential
+  velocity of the contact points), projected back onto the tangent plane, the
+  tangential force ``-(kt shear + m_eff gamma_t v_t)`` capped at ``mu |F_n|`` with
+  LAMMPS' rescaling of the history; torque ``-r_i (del x F_t)_z / r``. m_eff = m_i m_j /
+  (m_i + m_j), or the free disk's mass when the other is frozen (a wall).
+- ``pair granular`` with ``hooke kn gamma_n tangential linear_history kt x_gamma_t mu
+  damping mass_velocity rolling sds k_roll gamma_roll mu_roll``, when ``mu_roll > 0``
+  (the deck's rolling-resistance law): with n = del / r and overlap delta, the normal
+  force ``F_n = kn delta - m_eff gamma_n v_r . n`` along n (no limit_damping: it pulls
+  at the end of a contact, and the Coulomb limits use ``|F_n|``); the tangential spring
+  first turned into the current tangent plane keeping its length, then advanced by
+  ``dt v_t``, the force ``-(kt xi + x_gamma_t m_eff gamma_n v_t)`` capped at
+  ``mu |F_n|``; a rolling spring the same way with the rolling velocity
+  ``R_eff (omega_i - omega_j) z x n`` (R_eff = r_i r_j / (r_i + r_j)),
+  ``-(k_roll xi_r + gamma_roll v_roll)`` capped at ``mu_roll |F_n|``. Torque on i:
+  ``-(r_i - delta/2) (n x F_t)_z + R_eff (n x F_r)_z`` (the tangential force acts at
+  the contact point; the rolling force turns i and j oppositely and moves neither).
+  Not reproduced: when a neighbour-list rebuild swaps the order of a touching pair,
+  LAMMPS' fix neigh/history negates all its history, the rolling spring included,
+  although the rolling velocity does not change sign with the order; the reference
+  keeps the spring (docs/refdem.md).
 - ``fix nve/sphere disc`` (velocity Verlet, moment of inertia m r^2 / 2) with
   ``fix enforce2d``: half kick, drift, forces, half kick.
 - ``fix move rotate 0 0 0 0 0 1 T`` for a rotating wall ring: at step n its disks sit
   at their start positions turned by Omega n dt about the origin, move with
   v = Omega z x r and spin at Omega; like all wall disks they are frozen (infinite mass).
 - ``compute pair/local`` for the contact dump: forces re-evaluated after the step from
-  the stored (updated) springs and the end-of-step velocities, as LAMMPS' ``single()``.
+  the stored (updated) springs and the end-of-step velocities, as the pair style's
+  ``single()``; for ``pair granular`` that also re-caps, and so rewrites, the stored
+  tangential spring of a contact sliding at that moment (not the rolling spring), as
+  LAMMPS does: a run that writes contacts differs from one that does not.
 
 The contact law's constants come from :func:`granavg.sim.contact_law.to_lammps`, the same
 function the decks use.
@@ -33,6 +52,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from granavg.sim.contact_law import LammpsCoefficients
+
+#: LAMMPS' EPSILON of pair granular's history models: a spring whose normal component
+#: times its stiffness is below EPSILON times the Coulomb limit is not turned.
+EPSILON = 1e-10
 
 
 @dataclass
@@ -55,8 +78,28 @@ class Disks:
         self.torque = np.zeros(n)
 
 
+@dataclass
+class _Pairs:
+    """What both contact laws start from, one entry per touching pair (SI units)."""
+
+    i: np.ndarray            # (n,) first disk of each pair (i < j)
+    j: np.ndarray            # (n,) second disk
+    delx: np.ndarray         # (n,) x_i - x_j, m
+    dely: np.ndarray         # (n,) y_i - y_j, m
+    rsq: np.ndarray          # (n,) squared centre distance, m^2
+    r: np.ndarray            # (n,) centre distance, m
+    vr1: np.ndarray          # (n,) v_i - v_j, x, m/s
+    vr2: np.ndarray          # (n,) v_i - v_j, y, m/s
+    meff: np.ndarray         # (n,) effective mass, kg (the free disk's mass against a wall)
+    mu: np.ndarray           # (n,) friction coefficient (mu_wall against a wall)
+    springs: np.ndarray      # (n, 2 or 4) stored springs (tangential, then rolling), m
+
+
 class ReferenceDEM:
-    """Integrate :class:`Disks` with LAMMPS' ``gran/hooke/history`` and ``nve/sphere``.
+    """Integrate :class:`Disks` with LAMMPS' granular contact laws and ``nve/sphere``.
+
+    ``pair gran/hooke/history`` when ``coeffs.mu_roll == 0``, else ``pair granular``
+    hooke + linear_history + rolling sds (see the module docstring).
 
     Parameters
     ----------
@@ -75,7 +118,9 @@ class ReferenceDEM:
                  rotating=None, Omega: float = 0.0):
         self.d, self.c, self.dt = disks, coeffs, dt
         self.step_count = 0
-        self.history = (np.empty(0, int), np.empty((0, 2)))   # sorted pair keys, springs
+        self.granular = coeffs.mu_roll > 0
+        # sorted pair keys and springs: tangential (x, y), then rolling (x, y) with pair granular
+        self.history = (np.empty(0, int), np.empty((0, 4 if self.granular else 2)))
         self.rotating = np.zeros(len(disks.radius), bool) if rotating is None \
             else np.asarray(rotating, bool)
         if np.any(self.rotating & ~disks.frozen):
@@ -105,12 +150,12 @@ class ReferenceDEM:
     def compute_forces(self, update_history=True):
         """Forces and torques of the current positions and velocities (LAMMPS'
         ``compute()``); ``contacts`` then holds i, j, normal and tangential force on i."""
-        i, j, fn, ft, tor3 = self._contact_forces(update_history)
+        i, j, fn, ft, tq_i, tq_j, _ = self._contact_forces(update_history)
         d, n = self.d, len(self.d.radius)
         fx, fy = fn[:, 0] + ft[:, 0], fn[:, 1] + ft[:, 1]
         d.force[:, 0] = np.bincount(i, fx, n) - np.bincount(j, fx, n)
         d.force[:, 1] = np.bincount(i, fy, n) - np.bincount(j, fy, n)
-        d.torque[:] = -(np.bincount(i, d.radius[i] * tor3, n) + np.bincount(j, d.radius[j] * tor3, n))
+        d.torque[:] = np.bincount(i, tq_i, n) + np.bincount(j, tq_j, n)
         self.contacts = (i, j, fn, ft)
 
     def contact_rows(self):
@@ -121,31 +166,64 @@ class ReferenceDEM:
         i, j : ndarray of int, shape (n,)
             Disk indices of each touching pair (i < j).
         rows : ndarray, shape (n, 7)
-            dx dy dist (m; dx = x_i - x_j), normal force on i, tangential force on i (N),
-            re-evaluated from the stored springs and the current velocities (``single()``).
+            dx dy dist (m; dx = x_i - x_j), normal force on i (``del * fforce`` of the
+            pair style's ``single()``), tangential force on i (N), re-evaluated from the
+            stored springs and the current velocities (with pair granular this rewrites
+            the tangential springs of sliding contacts, as LAMMPS' ``single()`` does).
         """
-        i, j, fn, ft, _ = self._contact_forces(update_history=False)
+        i, j, _, ft, _, _, fpair = self._contact_forces(update_history=False)
         dx = self.d.x[i] - self.d.x[j]
-        return i, j, np.column_stack([dx, np.hypot(dx[:, 0], dx[:, 1]), fn, ft])
+        return i, j, np.column_stack([dx, np.hypot(dx[:, 0], dx[:, 1]),
+                                      dx * fpair[:, None], ft])
 
     def _contact_forces(self, update_history):
-        """Per-contact forces, each operation in LAMMPS' order (vectorised over contacts)."""
-        d, c, dt = self.d, self.c, self.dt
+        """Per-contact forces and torques of the active contact law (vectorised over
+        contacts), and the springs it leaves stored.
+
+        Returns
+        -------
+        i, j : ndarray of int, shape (n,)
+        fn, ft : ndarray, shape (n, 2)
+            Normal and tangential force on i, N.
+        tq_i, tq_j : ndarray, shape (n,)
+            Torque on i and on j, N m.
+        fpair : ndarray, shape (n,)
+            ``fforce`` of the pair style's ``single()``: normal force over distance, N/m.
+        """
+        d = self.d
         i, j = self.pairs()
         delx, dely = d.x[i, 0] - d.x[j, 0], d.x[i, 1] - d.x[j, 1]
         rsq = delx * delx + dely * dely
-        r = np.sqrt(rsq)
-        rinv, rsqinv = 1.0 / r, 1.0 / rsq
-        vr1, vr2 = d.v[i, 0] - d.v[j, 0], d.v[i, 1] - d.v[j, 1]
+        mi, mj = d.mass[i], d.mass[j]
+        keys = i * len(d.radius) + j
+        p = _Pairs(i=i, j=j, delx=delx, dely=dely, rsq=rsq, r=np.sqrt(rsq),
+                   vr1=d.v[i, 0] - d.v[j, 0], vr2=d.v[i, 1] - d.v[j, 1],
+                   meff=np.where(d.frozen[j], mi,
+                                 np.where(d.frozen[i], mj, mi * mj / (mi + mj))),
+                   mu=np.where(d.frozen[i] | d.frozen[j], self.c.mu_wall, self.c.mu),
+                   springs=self._old_history(keys))
+        law = self._granular if self.granular else self._hooke_history
+        fn, ft, tq_i, tq_j, fpair, springs = law(p, update_history)
+        if update_history or self.granular:     # pair granular's cap writes even then
+            self.history = (keys, springs)
+        return i, j, fn, ft, tq_i, tq_j, fpair
+
+    def _hooke_history(self, p: _Pairs, update_history):
+        """``pair gran/hooke/history`` (dampflag 1), each operation in LAMMPS' order.
+
+        Returns normal and tangential force on i (N), torques on i and j (N m), single()'s
+        normal force over distance (N/m) and the new tangential springs (m).
+        """
+        d, c, dt = self.d, self.c, self.dt
+        i, j, delx, dely, meff = p.i, p.j, p.delx, p.dely, p.meff
+        rinv, rsqinv = 1.0 / p.r, 1.0 / p.rsq
+        vr1, vr2 = p.vr1, p.vr2
         vnnr = vr1 * delx + vr2 * dely
         vt1, vt2 = vr1 - delx * vnnr * rsqinv, vr2 - dely * vnnr * rsqinv
         wr3 = (d.radius[i] * d.omega[i] + d.radius[j] * d.omega[j]) * rinv
-        mi, mj = d.mass[i], d.mass[j]
-        meff = np.where(d.frozen[j], mi, np.where(d.frozen[i], mj, mi * mj / (mi + mj)))
-        ccel = c.kn * (d.radius[i] + d.radius[j] - r) * rinv - meff * c.gamma_n * vnnr * rsqinv
+        ccel = c.kn * (d.radius[i] + d.radius[j] - p.r) * rinv - meff * c.gamma_n * vnnr * rsqinv
         vtr1, vtr2 = vt1 + dely * wr3, vt2 - delx * wr3
-        keys = i * len(d.radius) + j
-        s1, s2 = self._old_history(keys)
+        s1, s2 = p.springs[:, 0], p.springs[:, 1]
         if update_history:
             s1, s2 = s1 + vtr1 * dt, s2 + vtr2 * dt
         shrmag = np.sqrt(s1 * s1 + s2 * s2)
@@ -155,8 +233,7 @@ class ReferenceDEM:
         fs1 = -(c.kt * s1 + meff * c.gamma_t * vtr1)
         fs2 = -(c.kt * s2 + meff * c.gamma_t * vtr2)
         fs = np.sqrt(fs1 * fs1 + fs2 * fs2)
-        mu = np.where(d.frozen[i] | d.frozen[j], c.mu_wall, c.mu)
-        fn = mu * np.abs(ccel * r)
+        fn = p.mu * np.abs(ccel * p.r)
         slide = fs > fn
         with np.errstate(invalid="ignore", divide="ignore"):
             scale = np.where(slide, fn / fs, 1.0)
@@ -167,18 +244,114 @@ class ReferenceDEM:
         fs1 = np.where(slide, np.where(rescale, fs1 * scale, 0.0), fs1)
         fs2 = np.where(slide, np.where(rescale, fs2 * scale, 0.0), fs2)
         tor3 = rinv * (delx * fs2 - dely * fs1)
+        return (np.column_stack([delx * ccel, dely * ccel]), np.column_stack([fs1, fs2]),
+                -d.radius[i] * tor3, -d.radius[j] * tor3, ccel, np.column_stack([s1, s2]))
+
+    def _granular(self, p: _Pairs, update_history):
+        """``pair granular`` hooke + mass_velocity damping + linear_history + rolling sds
+        (``GranularModel::calculate_forces``), each operation in LAMMPS' order.
+
+        Returns normal and tangential force on i (N), torques on i and j (N m), single()'s
+        normal force over distance (N/m) and the new springs (m): tangential, then
+        rolling (the stored one unless updating: LAMMPS' rolling model caps a copy).
+        """
+        d, c = self.d, self.c
+        i, j = p.i, p.j
+        ri, rj = d.radius[i], d.radius[j]
+        reff = ri * rj / (ri + rj)
+        rinv = 1.0 / p.r
+        delta = (ri + rj) - p.r
+        nx, ny = p.delx * rinv, p.dely * rinv
+        vnnr = p.vr1 * nx + p.vr2 * ny
+        vt1, vt2 = p.vr1 - vnnr * nx, p.vr2 - vnnr * ny
+        wr = ri * d.omega[i] + rj * d.omega[j]
+        vtr1, vtr2 = vt1 + wr * ny, vt2 - wr * nx                  # v_t - wr z x n
+        fnormal = c.kn * delta
+        damp_normal = c.gamma_n * p.meff                           # mass_velocity prefactor
+        fntot = fnormal + -damp_normal * vnnr
+        fncrit = np.abs(fntot)                                     # no limit_damping
+        x_gamma_t = c.gamma_t / c.gamma_n if c.gamma_n else 0.0    # as the deck's variable
+        fs1, fs2, xi1, xi2 = self._history_spring(
+            p.springs[:, 0], p.springs[:, 1], vtr1, vtr2, nx, ny, c.kt,
+            x_gamma_t * damp_normal, fncrit * p.mu, update_history)
+        relrot = d.omega[i] - d.omega[j]
+        vrl1, vrl2 = reff * -(relrot * ny), reff * (relrot * nx)  # R_eff (w_i - w_j) z x n
+        fr1, fr2, rl1, rl2 = self._history_spring(
+            p.springs[:, 2], p.springs[:, 3], vrl1, vrl2, nx, ny, c.k_roll,
+            c.gamma_roll, c.mu_roll * fncrit, update_history)
+        if not update_history:                 # the rolling model keeps its stored spring
+            rl1, rl2 = p.springs[:, 2], p.springs[:, 3]
+        nxfs = -(nx * fs2 - ny * fs1)                              # -(n x F_t)_z
+        torroll = reff * (nx * fr2 - ny * fr1)                     # R_eff (n x F_r)_z
+        return (np.column_stack([fntot * nx, fntot * ny]), np.column_stack([fs1, fs2]),
+                nxfs * (ri - 0.5 * delta) + torroll, nxfs * (rj - 0.5 * delta) - torroll,
+                fntot * rinv, np.column_stack([xi1, xi2, rl1, rl2]))
+
+    def _history_spring(self, h1, h2, v1, v2, nx, ny, k, damp, crit, update_history):
+        """One history spring of pair granular (``linear_history`` or ``rolling sds``).
+
+        When updating: a spring with a normal component (``|h . n| k > EPSILON crit``) is
+        projected onto the tangent plane and rescaled to its old length, then advanced by
+        ``dt v``. Force ``-k h - damp v``; above ``crit`` it is scaled down to ``crit``
+        and the spring set to what gives that force (left unchanged, with zero force, if
+        the spring is zero). LAMMPS' rolling model writes this last step with its
+        factors grouped differently (the same up to rounding).
+
+        Parameters
+        ----------
+        h1, h2 : ndarray
+            Spring (history), m.
+        v1, v2 : ndarray
+            Relative velocity that loads it, m/s.
+        nx, ny : ndarray
+            Contact normal (unit, from j to i).
+        k : float
+            Stiffness, N/m.
+        damp : float or ndarray
+            Damping, kg/s.
+        crit : ndarray
+            Coulomb limit of the force, N.
+        update_history : bool
+
+        Returns
+        -------
+        f1, f2, h1, h2 : ndarray
+            Force on i (N) and the spring after the step (m).
+        """
         if update_history:
-            self.history = (keys, np.column_stack([s1, s2]))
-        return (i, j, np.column_stack([delx * ccel, dely * ccel]), np.column_stack([fs1, fs2]),
-                tor3)
+            rsht = h1 * nx + h2 * ny
+            turn = np.abs(rsht) * k > EPSILON * crit
+            shrmag = np.sqrt(h1 * h1 + h2 * h2)
+            p1, p2 = h1 - rsht * nx, h2 - rsht * ny
+            prjmag = np.sqrt(p1 * p1 + p2 * p2)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                scale = np.where(prjmag > 0, shrmag / prjmag, 0.0)
+            h1, h2 = np.where(turn, scale * p1, h1), np.where(turn, scale * p2, h2)
+            h1, h2 = h1 + self.dt * v1, h2 + self.dt * v2
+        fd1, fd2 = -damp * v1, -damp * v2
+        f1, f2 = -k * h1 + fd1, -k * h2 + fd2
+        mag = np.sqrt(f1 * f1 + f2 * f2)
+        slide = mag > crit
+        rescale = slide & (np.sqrt(h1 * h1 + h2 * h2) != 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s1, s2 = (crit / mag) * f1, (crit / mag) * f2
+            kinv = np.divide(-1.0, k)
+        h1 = np.where(rescale, (s1 - fd1) * kinv, h1)
+        h2 = np.where(rescale, (s2 - fd2) * kinv, h2)
+        f1 = np.where(slide, np.where(rescale, s1, 0.0), f1)
+        f2 = np.where(slide, np.where(rescale, s2, 0.0), f2)
+        return f1, f2, h1, h2
 
     def _old_history(self, keys):
-        """Tangential springs of these contacts from the last step (0 for new ones)."""
+        """Springs of these contacts from the last step (0 for new ones), shape
+        (len(keys), 2 or 4)."""
         old_keys, old = self.history
-        pos = np.minimum(np.searchsorted(old_keys, keys), max(len(old_keys) - 1, 0))
-        found = (old_keys[pos] == keys) if len(old_keys) else np.zeros(len(keys), bool)
-        return (np.where(found, old[pos, 0], 0.0) if len(old_keys) else np.zeros(len(keys)),
-                np.where(found, old[pos, 1], 0.0) if len(old_keys) else np.zeros(len(keys)))
+        springs = np.zeros((len(keys), old.shape[1]))
+        if len(old_keys):
+            pos = np.minimum(np.searchsorted(old_keys, keys), len(old_keys) - 1)
+            found = old_keys[pos] == keys
+            springs[found] = old[pos[found]]
+        return springs
 
     def step(self):
         """One velocity-Verlet step of ``fix nve/sphere disc`` + ``enforce2d`` (and

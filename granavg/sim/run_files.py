@@ -13,6 +13,8 @@ from granavg.sim.scene import Derived, Scene
 ATOMS = "atoms.{ext}"
 CONTACTS = "contacts.{ext}"
 CONTACTS_RAW = "contacts_raw.{ext}"
+#: The packing at the end of shear (LAMMPS data file; ``--start`` shears it further).
+SHEARED = "sheared.data"
 
 
 def _deck() -> Path:

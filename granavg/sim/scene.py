@@ -42,6 +42,11 @@ class Scene:
     ``t_grow`` s with viscous damping time ``t_damp`` s, relax ``t_relax`` s), then shear
     for ``t_end`` s; dumps (frames for averaging) every ``dump_every`` steps (0 = about
     ``dump_dt`` s) from ``t_dump_start`` s; restart files every ``restart_dt`` s of shear.
+    Start: ``packing`` names a set of shipped sheared packings
+    (:mod:`granavg.sim.packings`): the run shears the one grown from ``seed`` instead of
+    preparing a new packing ('' = prepare one).
+    Averaging: ``discard_rotations`` inner-ring rotations of shear (the transient) are left
+    out of the averages by default (t_min = discard_rotations 2 pi / Omega, s).
     Output: ``contacts`` (contact forces computed and dumped), ``dumps`` (dump files
     written; 0 with in-situ averaging only), ``gzip``.
     """
@@ -68,7 +73,9 @@ class Scene:
     dump_every: int = 0
     dump_dt: float = 2.0
     restart_dt: float = 25.0
+    discard_rotations: float = 2.0
     seed: int = 20011
+    packing: str = ""
     contacts: bool = True
     dumps: bool = True
     gzip: bool = True
@@ -172,6 +179,11 @@ class Derived:
         """Rotation period of the inner ring T = 2 pi / Omega (s)."""
         return 2.0 * math.pi / self.scene.Omega
 
+    @property
+    def t_discard(self) -> float:
+        """Default start of the averages, s: ``discard_rotations`` periods of shear."""
+        return self.scene.discard_rotations * self.period
+
     def restitutions(self) -> dict:
         """Normal restitution of each pair kind for the single LAMMPS gamma_n."""
         c, ms, ml = self.coeffs, self.m_small, self.m_large
@@ -205,7 +217,7 @@ def area_fraction(s: Scene) -> float:
 
 
 def _check_geometry(s: Scene) -> None:
-    finite = all(math.isfinite(v) for v in s.to_dict().values())
+    finite = all(math.isfinite(v) for v in s.to_dict().values() if not isinstance(v, str))
     problems = [
         (finite, "every value must be finite"),
         (0 < s.R_i < s.R_o, f"need 0 < R_i < R_o (got R_i={s.R_i}, R_o={s.R_o} m)"),
@@ -219,6 +231,7 @@ def _check_geometry(s: Scene) -> None:
         (min(s.t_grow, s.t_relax, s.t_damp, s.t_end, s.dump_dt, s.restart_dt) > 0
          and s.t_dump_start >= 0, "times must be > 0 (t_dump_start >= 0)"),
         (s.t_dump_start < s.t_end, f"t_dump_start={s.t_dump_start} s must be < t_end={s.t_end} s"),
+        (s.discard_rotations >= 0, "discard_rotations must be >= 0"),
         (s.n_per_tc > 0 and s.dump_every >= 0, "n_per_tc must be > 0, dump_every >= 0"),
     ]
     for ok, msg in problems:
@@ -238,6 +251,8 @@ def _parse(key, text, typ):
             if text.lower() not in ("1", "0", "true", "false", "yes", "no"):
                 raise ValueError
             return text.lower() in ("1", "true", "yes")
+        if typ in ("str", str):
+            return text
         if typ in ("int", int):
             return int(text)
         return float(text)
@@ -245,14 +260,29 @@ def _parse(key, text, typ):
         raise UserError(f"--set {key}={text}: expected a {getattr(typ, '__name__', typ)}") from None
 
 
-PAPER = Scene()
-"""The paper's scene: 2945 disks, 500 s of shear (section 2)."""
+PAPER_HOOKE = Scene()
+"""The paper's scene with the plain ``pair gran/hooke/history`` law, grown from random
+positions, 500 s of shear (section 2). It relaxes for the whole run into a barely jammed
+state (docs/steady-state.md)."""
+
+PAPER = PAPER_HOOKE
+"""The paper's scene: the plain law, grown from random positions, 500 s of shear."""
+
+PAPER_ROLLING = dataclasses.replace(PAPER_HOOKE, law=ContactLaw(mu_roll=0.3),
+                                    packing="rolling-sheared", t_end=250.0,
+                                    discard_rotations=0.25)
+"""The candidate closest to a steady jammed state (issue 12, docs/steady-state.md): the
+same law with rolling resistance (``pair granular``, mu_roll = 0.3), sheared for 250 s
+from a shipped packing grown with the seed and already sheared 250 s with this law
+(:mod:`granavg.sim.packings`); the first quarter rotation (15.7 s, the springs reloading)
+is left out of the averages. Its pressure still relaxes slowly."""
 
 DEMO = dataclasses.replace(PAPER, t_end=60.0, t_dump_start=10.0, t_grow=3.0, t_relax=2.0,
                            dump_dt=0.5, restart_dt=15.0)
 """The paper's geometry, sheared for 60 s (about one rotation): a few minutes on 2 cores."""
 
-PRESETS = {"paper": PAPER, "demo": DEMO}
+PRESETS = {"paper": PAPER, "demo": DEMO, "paper-hooke": PAPER_HOOKE,
+           "paper-rolling": PAPER_ROLLING}
 
 
 def preset(name: str) -> Scene:

@@ -31,11 +31,12 @@ from granavg.errors import LammpsError, UserError
 from granavg.engine.average import groups_for
 from granavg.sim.insitu import profile_path
 from granavg.sim.lammps_session import lammps_version
-from granavg.sim.run_files import ATOMS, CONTACTS, CONTACTS_RAW, DECK, cmdargs, dump_ext
+from granavg.sim.run_files import ATOMS, CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext
 from granavg.sim.embedded import run_embedded
 from granavg.sim.mpi import run_mpi, run_mpi_python
 from granavg.io.rundir import (claim_new, frame_steps, read_manifest, restart_files,
                                truncate_dump, write_manifest)
+from granavg.sim import packings
 from granavg.sim.scene import Derived, Scene
 
 log = logging.getLogger(__name__)
@@ -91,7 +92,8 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         ``profiles_<n>.csv`` for each. Under MPI each rank runs granavg with LAMMPS and
         rank 0 gathers the frames. With ``scene.dumps`` False no dump is written.
     t_min : float, optional
-        In-situ averages start at t_min (s); default two inner-ring rotations.
+        In-situ averages start at t_min (s); default the scene's discarded transient
+        (``discard_rotations`` inner-ring rotations).
     block_time : float, optional
         Base block length (s) of the in-situ blocking analysis; default one dump
         interval (at most 512 blocks).
@@ -107,15 +109,22 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
     """
     scene = scene_for(scene, quantities)
     derived = scene.derive()                      # refuse before touching the disk
-    start = _check_start(start, engine, np_ranks, omp_threads)
-    if engine == "reference" and derived.coeffs.mu_roll > 0:
-        raise UserError("the reference engine has no rolling resistance (it mirrors pair "
-                        "gran/hooke/history); set mu_roll=0 or use the lammps engine")
+    shipped = scene.packing and start is None
+    if shipped:
+        packings.check(scene.packing, scene.seed)
+    start = _check_start(start, engine, np_ranks, omp_threads, shipped)
     average = _check_average(derived, average, engine, t_min)
+    if np_ranks > 1 and derived.coeffs.mu_roll > 0:
+        log.warning("with rolling resistance under MPI, a disk that changes processor can "
+                    "swap a contact's order in LAMMPS' neighbour list, and LAMMPS then "
+                    "reverses that contact's rolling spring (docs/scene.md); one process "
+                    "keeps every order")
     if engine == "lammps" and not DECK.exists():
         raise UserError(f"the LAMMPS deck {DECK} is missing; reinstall granavg (the wheel "
                         "ships it as granavg/lammps_inputs/couette.lmp)")
     out = claim_new(Path(out))
+    if shipped:
+        start = packings.unpack(scene.packing, scene.seed, out)
     if engine == "lammps":
         (out / "deck").mkdir()
         shutil.copy2(DECK, out / "deck" / DECK.name)
@@ -151,7 +160,7 @@ def _check_average(derived: Derived, average, engine, t_min):
     bins = sorted({int(n) for n in average}) if average else []
     if any(n < 1 for n in bins):
         raise UserError(f"--average {bins}: ring counts must be >= 1")
-    t0 = 2 * derived.period if t_min is None else t_min
+    t0 = derived.t_discard if t_min is None else t_min
     if bins and t0 >= derived.n_shear * derived.dt:
         raise UserError(f"in-situ averages would start at t_min = {t0:g} s, after the end "
                         f"of shear (t_end = {scene.t_end:g} s); give --t-min below t_end")
@@ -181,7 +190,7 @@ def _explained(exc: LammpsError, out: Path, derived: Derived) -> LammpsError:
                        f"overlaps (k_n, grow_from)")
 
 
-def _check_start(start, engine, np_ranks, omp_threads):
+def _check_start(start, engine, np_ranks, omp_threads, shipped=False):
     if engine not in ENGINES:
         raise UserError(f"unknown engine {engine!r}; choose one of: {', '.join(ENGINES)}")
     if start is not None:
@@ -189,7 +198,8 @@ def _check_start(start, engine, np_ranks, omp_threads):
         if not start.is_file():
             raise UserError(f"--start {start}: no such file; give a prepared packing such "
                             "as RUN/prepared.data")
-    if engine == "reference" and (start is None or np_ranks > 1 or omp_threads > 1):
+    if engine == "reference" and ((start is None and not shipped) or np_ranks > 1
+                                  or omp_threads > 1):
         raise UserError("the reference engine shears a prepared packing in one process: "
                         "give --start RUN/prepared.data and no --np/--omp")
     return start
@@ -348,6 +358,7 @@ def _new_manifest(d: Derived, preset, np_ranks, omp, start=None, engine="lammps"
         },
         "start": str(start) if start else None,
         "preparation": PREPARATION if start is None else
+        packings.describe(s.packing, s.seed) if Path(start).name == packings.START else
         f"the packing in {start} (contacts start with unloaded tangential springs)",
         "wall_model": WALLS,
         "seeds": {"large_disks": s.seed, "small_disks": s.seed + 1},
@@ -363,6 +374,11 @@ def _new_manifest(d: Derived, preset, np_ranks, omp, start=None, engine="lammps"
                 "log.lammps": "LAMMPS log"} if lammps else {}),
             **({"prepared.data": "the prepared packing at t = 0 (LAMMPS data file; "
                 "--start reuses it)"} if lammps and start is None else {}),
+            **({packings.START: "the shipped sheared packing this run started from "
+                "(LAMMPS data file)"} if start is not None
+               and Path(start).name == packings.START else {}),
+            **({SHEARED: "the packing at the end of shear (LAMMPS data file; --start "
+                "shears it further, tangential springs unloaded)"} if lammps else {}),
             **({ATOMS.format(ext=dump_ext(s)): "per-atom dump (docs/outputs.md)"}
                if s.dumps else {}),
             **({CONTACTS.format(ext=dump_ext(s)): "per-contact dump (docs/outputs.md)"}
