@@ -23,9 +23,9 @@ def _parser() -> argparse.ArgumentParser:
 
     sim = sub.add_parser("simulate", help="run the Couette cell in LAMMPS (SI units)")
     sim.add_argument("--preset", default="demo",
-                     help="scene preset: demo (the paper's geometry, 60 s), paper (500 s; "
-                     "paper-hooke is the same), paper-rolling (rolling resistance from a "
-                     "shipped sheared packing, 250 s); docs/scene.md")
+                     help="scene preset: paper (= paper-rolling: rolling resistance, 250 s "
+                     "from a shipped sheared packing), demo (the same, 60 s), paper-hooke "
+                     "(plain gran/hooke/history, grown, 500 s); docs/scene.md")
     sim.add_argument("--out", required=True, help="run directory to create (must be new)")
     sim.add_argument("--set", dest="overrides", action="append", default=[],
                      metavar="KEY=VALUE", help="change one scene value (SI units); repeatable")
@@ -132,8 +132,9 @@ def _parser() -> argparse.ArgumentParser:
                           "rings, analyse and write the report")
     demo.add_argument("--out", required=True, help="directory to create (must be new)")
     demo.add_argument("--omp", type=int, default=2, help="OpenMP threads (default 2)")
-    demo.add_argument("--t-min", type=float, default=20.0,
-                      help="average frames with t >= T s (default 20: the demo shears 60 s)")
+    demo.add_argument("--t-min", type=float, default=None,
+                      help="average frames with t >= T s (default: the scene's discarded "
+                      "start, 6.3 s)")
     return p
 
 
@@ -359,7 +360,7 @@ def _demo(args) -> int:
     if out.exists() and any(out.iterdir()):
         raise UserError(f"{out} is not empty; choose a new --out")
     run = simulate(preset("demo"), out / "run", omp_threads=args.omp, preset="demo")
-    report_run(run, out, t_min=args.t_min, title="granavg demo (the paper's cell, 60 s of shear)")
+    report_run(run, out, t_min=args.t_min, title="granavg demo (the paper's cell with rolling resistance, 60 s of shear)")
     logging.getLogger("granavg").info("demo complete: open %s", out / "report.html")
     return 0
 

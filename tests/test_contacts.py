@@ -2,9 +2,10 @@
 
 import numpy as np
 
-from granavg.io.contacts import COLUMNS, RAW_COLUMNS, contact_table
+from granavg.io.contacts import COLUMNS, RAW_COLUMNS, contact_table, radius_by_id
 
-R = np.array([0.0, 0.004, 0.005, 0.003, 0.003])      # radius of types 1-4
+# radius by atom id: small disks 5-8, a large disk 9 (4 and 6 mm), wall disks 1 and 3
+R = radius_by_id([1, 3, 5, 6, 7, 8, 9], [0.003, 0.003, 0.004, 0.004, 0.004, 0.004, 0.005])
 
 
 def raw_row(id1, id2, t1, t2, x1, x2, fn_on_1, ft_on_1):
@@ -40,3 +41,13 @@ def test_inner_wall_flag_and_non_contacts_dropped():
 
 def test_empty_frame():
     assert contact_table(np.empty((0, len(RAW_COLUMNS))), R).shape == (0, len(COLUMNS))
+
+
+def test_overlap_uses_each_atoms_own_radius():
+    """Disks of one type may differ in size (size_spread): the overlap is r_1 + r_2 - dist
+    of the two atoms themselves, and a pair touching only by its own sizes is kept."""
+    radius = radius_by_id([5, 6], [0.0036, 0.0041])
+    row = raw_row(5, 6, 1, 1, (0, 0), (0.0076, 0), (0, 0), (0, 0))
+    out = dict(zip(COLUMNS, contact_table([row], radius)[0]))
+    assert np.isclose(out["overlap"], 0.0036 + 0.0041 - 0.0076)
+    assert np.isnan(radius_by_id([2], [0.001])[1])

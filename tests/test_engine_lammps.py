@@ -12,7 +12,7 @@ from granavg.io.reader import DumpReader, FramePairs
 from granavg.io.contacts import COLUMNS, contact_table
 from granavg.io.reader import Frame
 from granavg.sim.scene import PAPER_HOOKE
-from granavg.io.contacts import radius_of_type
+from granavg.io.contacts import radius_by_id
 from granavg.sim.run_files import DECK, cmdargs
 from granavg.sim.simulate import _deck_variables
 
@@ -105,7 +105,7 @@ def live_frame_and_virial(out, *sets):
     order = np.argsort(ids[disk])
     atoms = {"id": ids[disk][order], "x": x[disk, 0][order], "y": x[disk, 1][order],
              "radius": rad[disk][order]}
-    table = contact_table(raw, radius_of_type(derived))
+    table = contact_table(raw, radius_by_id(ids, rad))
     frame = Frame(int(last["Step"]), 0.0, atoms, dict(zip(COLUMNS, table.T)))
     forces = dict(zip(ids[disk].astype(int), force[disk]))
     return scene, derived, frame, last["c_t[1]"] + last["c_t[2]"], forces

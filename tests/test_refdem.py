@@ -329,7 +329,7 @@ def test_reference_engine_shears_with_rolling_resistance(tmp_path):
     out = tmp_path / "run"
     sets = ["R_i=0.02", "R_o=0.06", "n_small=100", "n_large=10", "t_end=0.01",
             "t_dump_start=0", "dump_dt=0.005", "restart_dt=0.01", "mu_roll=0.1"]
-    proc = run_cli("simulate", "--preset", "paper", "--out", out, "--no-progress",
+    proc = run_cli("simulate", "--preset", "paper-hooke", "--out", out, "--no-progress",
                    "--start", data, "--engine", "reference",
                    *[a for s in sets for a in ("--set", s)])
     assert proc.returncode == 0, proc.stderr

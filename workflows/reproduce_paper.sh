@@ -1,8 +1,9 @@
 #!/bin/sh
 # Reproduce the paper end to end: an ensemble of K realisations of the `paper` preset
-# (2945 disks, 500 s of shear each, on a dask cluster of 2 workers), averaged together
-# over 20 and 60 rings from t = 2 rotations on (between-run errors), analysed: Figs. 2-9,
-# the time series and a report.
+# (2945 disks with rolling resistance, 250 s of shear each from the K shipped sheared
+# packings, on a dask cluster of 2 workers), averaged together over 20 and 60 rings from
+# the preset's discard time on (between-run errors), analysed: Figs. 1-9, the time
+# series and a report.
 #   sh workflows/reproduce_paper.sh OUTDIR [K] [simulate options]      (K default 4)
 # The committed result is docs/paper/ (report.html, summary.json, figures); see its README.
 set -e

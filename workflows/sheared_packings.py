@@ -2,7 +2,7 @@
 
 Usage::
 
-    python workflows/sheared_packings.py OUT NAME [--preset paper] [--seeds 4]
+    python workflows/sheared_packings.py OUT NAME [--preset paper-hooke] [--seeds 4]
                                          [--age 250] [--set key=value ...] [--ship]
 
 Grows K independent packings (seeds ``seed + 7919 k``, as ``granavg simulate --seeds K``)
@@ -46,9 +46,12 @@ def done(run: Path, scene) -> bool:
     manifest = run / "manifest.json"
     if not manifest.exists():
         return False
+    from granavg.sim.scene import Scene
+
     m = json.loads(manifest.read_text())
+    have = Scene.from_dict(m["scene"]).to_dict()      # keys added since: their defaults
     want = {k: v for k, v in scene.to_dict().items() if k != "discard_rotations"}
-    return m.get("status") == "complete" and all(m["scene"].get(k) == v for k, v in want.items())
+    return m.get("status") == "complete" and all(have.get(k) == v for k, v in want.items())
 
 
 def simulate_missing(out: Path, scenes: dict, preset: str) -> None:
@@ -72,7 +75,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("out", type=Path, help="directory of the runs (created, or reused)")
     ap.add_argument("name", help="name of the packing set")
-    ap.add_argument("--preset", default="paper")
+    ap.add_argument("--preset", default="paper-hooke")
     ap.add_argument("--seeds", type=int, default=4)
     ap.add_argument("--age", type=float, default=250.0, help="seconds of shear")
     ap.add_argument("--set", dest="overrides", action="append", default=[])

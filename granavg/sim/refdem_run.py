@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from granavg.io.contacts import COLUMNS, FORMAT, contact_table, radius_of_type
+from granavg.io.contacts import COLUMNS, FORMAT, contact_table, radius_by_id
 from granavg.io.dumpfile import open_text, write_frame
 from granavg.io.lammps_data import read_data
 from granavg.sim.refdem import Disks, ReferenceDEM
@@ -50,7 +50,7 @@ def run_reference(out: Path, derived: Derived, start: Path, progress=None) -> No
     s, d = derived.scene, dem.d
     mobile = np.flatnonzero(~d.frozen)
     ids, types = data["id"], data["type"]
-    radius = radius_of_type(derived)
+    radius = radius_by_id(data["id"], data["radius"])
     ext = dump_ext(s)
     with shear_bar(derived, 0, progress) as bar, \
             open_text(out / ATOMS.format(ext=ext), "wt") as fa, \

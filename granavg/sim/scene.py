@@ -32,7 +32,9 @@ class Scene:
 
     Geometry (paper, section 2): ``R_i``, ``R_o`` ring radii (m), ``h`` disk height (m),
     ``d_s``, ``d_l`` diameters (m), ``n_small``, ``n_large`` counts, ``rho_p`` material
-    density (kg/m^3), ``Omega`` inner-ring angular velocity (rad/s, counter-clockwise).
+    density (kg/m^3), ``Omega`` inner-ring angular velocity (rad/s, counter-clockwise);
+    ``size_spread``: each disk's diameter is its nominal one times 1 + size_spread u, u
+    uniform in [-1, 1] (0 = the paper's two sizes exactly).
     Contact law: ``law`` (:class:`~granavg.sim.contact_law.ContactLaw`; its fields ``k_n``,
     ``e_n``, ... are set like scene keys); ``n_per_tc`` time steps per contact duration
     (dt = t_c / n).
@@ -59,6 +61,7 @@ class Scene:
     n_small: int = 2538
     n_large: int = 407
     rho_p: float = 1060.0
+    size_spread: float = 0.0
     Omega: float = 0.1
     law: ContactLaw = ContactLaw()
     n_per_tc: float = 50.0
@@ -201,7 +204,7 @@ class Derived:
             "gamma_t": c.gamma_t, "mu": c.mu, "mu_wall": c.mu_wall, "dt": self.dt,
             "mu_roll": c.mu_roll, "k_roll": c.k_roll, "gamma_roll": c.gamma_roll,
             "x_gamma_t": c.gamma_t / c.gamma_n if c.gamma_n else 0.0,
-            "wall_d": self.wall_d, "wall_spacing": s.wall_spacing,
+            "wall_d": self.wall_d, "wall_spacing": s.wall_spacing, "size_spread": s.size_spread,
             "grow_from": s.grow_from, "n_grow": self.n_grow, "n_relax": self.n_relax,
             "damp_gamma": self.m_small / s.t_damp, "n_shear": self.n_shear,
             "n_dump_start": self.n_dump_start, "dump_every": self.dump_every,
@@ -211,9 +214,10 @@ class Derived:
 
 
 def area_fraction(s: Scene) -> float:
-    """Area of all disks over the annulus area pi (R_o^2 - R_i^2): the paper's 0.8134."""
+    """Expected area of all disks over the annulus area pi (R_o^2 - R_i^2): the paper's
+    0.8134 (a uniform size spread s raises the mean d^2 by the factor 1 + s^2 / 3)."""
     disks = math.pi / 4 * (s.n_small * s.d_s**2 + s.n_large * s.d_l**2)
-    return disks / (math.pi * (s.R_o**2 - s.R_i**2))
+    return disks * (1 + s.size_spread**2 / 3) / (math.pi * (s.R_o**2 - s.R_i**2))
 
 
 def _check_geometry(s: Scene) -> None:
@@ -226,6 +230,7 @@ def _check_geometry(s: Scene) -> None:
          "need at least one disk"),
         (s.R_o - s.R_i > 2 * max(s.d_s, s.d_l), "the annulus must be wider than two diameters"),
         (0 < s.grow_from <= 1, "grow_from must be in (0, 1]"),
+        (0 <= s.size_spread <= 0.3, "size_spread must be in [0, 0.3]"),
         (0 < s.wall_spacing <= 0.9, "wall_spacing must be in (0, 0.9] wall diameters"
          " (gaps would let disks through)"),
         (min(s.t_grow, s.t_relax, s.t_damp, s.t_end, s.dump_dt, s.restart_dt) > 0
@@ -265,24 +270,24 @@ PAPER_HOOKE = Scene()
 positions, 500 s of shear (section 2). It relaxes for the whole run into a barely jammed
 state (docs/steady-state.md)."""
 
-PAPER = PAPER_HOOKE
-"""The paper's scene: the plain law, grown from random positions, 500 s of shear."""
-
 PAPER_ROLLING = dataclasses.replace(PAPER_HOOKE, law=ContactLaw(mu_roll=0.3),
                                     packing="rolling-sheared", t_end=250.0,
-                                    discard_rotations=0.25)
-"""The candidate closest to a steady jammed state (issue 12, docs/steady-state.md): the
-same law with rolling resistance (``pair granular``, mu_roll = 0.3), sheared for 250 s
-from a shipped packing grown with the seed and already sheared 250 s with this law
-(:mod:`granavg.sim.packings`); the first quarter rotation (15.7 s, the springs reloading)
-is left out of the averages. Its pressure still relaxes slowly."""
+                                    discard_rotations=0.1)
+"""The paper's scene closest to a steady jammed state (issue 12, docs/steady-state.md):
+the same law with rolling resistance (``pair granular``, mu_roll = 0.3), sheared for
+250 s from a shipped packing grown with the seed and already sheared 250 s with this law
+(:mod:`granavg.sim.packings`); the first tenth of a rotation (6.3 s: the contact springs
+reload after the start from a data file) is left out of the averages. Jammed and
+quasi-static; its pressure still relaxes by a few per cent per rotation."""
 
-DEMO = dataclasses.replace(PAPER, t_end=60.0, t_dump_start=10.0, t_grow=3.0, t_relax=2.0,
-                           dump_dt=0.5, restart_dt=15.0)
-"""The paper's geometry, sheared for 60 s (about one rotation): a few minutes on 2 cores."""
+PAPER = PAPER_ROLLING
+"""The default paper scene: :data:`PAPER_ROLLING` (the plain law is ``paper-hooke``)."""
 
-PRESETS = {"paper": PAPER, "demo": DEMO, "paper-hooke": PAPER_HOOKE,
-           "paper-rolling": PAPER_ROLLING}
+DEMO = dataclasses.replace(PAPER, t_end=60.0, dump_dt=0.5, restart_dt=15.0)
+"""The paper scene sheared for 60 s (about one rotation) from its shipped packing."""
+
+PRESETS = {"paper": PAPER, "demo": DEMO, "paper-rolling": PAPER_ROLLING,
+           "paper-hooke": PAPER_HOOKE}
 
 
 def preset(name: str) -> Scene:
