@@ -48,11 +48,26 @@ def test_average_of_runs_is_their_mean_with_the_between_run_error(ensemble, tmp_
     for name in ("nu", "v_phi", "sigma_rr", "eps_rphi"):
         x = np.stack([p.values[name] for p in single])
         assert np.allclose(ens.values[name], x.mean(axis=0), rtol=1e-9, atol=0)
-        assert np.allclose(ens.sem[name], x.std(axis=0, ddof=1) / np.sqrt(3), rtol=1e-9)
+        within = np.sqrt(np.sum([p.sem[name] ** 2 for p in single], axis=0)) / 3
+        assert np.allclose(ens.sem[name], np.fmax(x.std(axis=0, ddof=1) / np.sqrt(3), within),
+                           rtol=1e-9)
     assert np.all(ens.n_runs == 3)
     assert [r["run"] for r in ens.meta["runs"]] == [str(r) for r in runs]
     assert ens.replicates.kind == "runs" and ens.replicates.n == 3
     assert "between-run" in ens.meta["errors"]["method"]
+
+
+def test_runs_that_agree_by_chance_keep_their_own_errors(ensemble):
+    """Two runs equal in every ring have between-run error 0; the ensemble error is then
+    the mean's error from the runs' own errors, sem / sqrt(2), never 0 (a 0 would let
+    such rings dominate every weighted fit: with two paper runs it moved s by 50%)."""
+    run = sorted(p for p in ensemble.iterdir() if p.is_dir())[0]
+    p = average_run(run, bins=8, t_min=1.5, progress=False)
+    twin = combine_runs([p, p], ["a", "b"])
+    for name in ("nu", "v_phi", "sigma_rr"):
+        ok = np.isfinite(p.sem[name])
+        assert np.allclose(twin.sem[name][ok], p.sem[name][ok] / np.sqrt(2), rtol=1e-12)
+        assert np.all(twin.sem[name][ok & (p.sem[name] > 0)] > 0)
 
 
 def test_the_analysis_of_an_ensemble_uses_between_run_errors(ensemble, tmp_path):

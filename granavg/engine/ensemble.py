@@ -17,9 +17,12 @@ def combine_runs(profiles: list, names: list) -> RingProfiles:
     """Ensemble profiles from the profiles of independent realisations.
 
     Each value is the mean over the runs with a finite value in that ring, its ``_sem``
-    the between-run standard error std/sqrt(n); ``n_runs`` counts the runs with a disk
-    in the ring. The replicates are the runs' own profiles, so derived numbers get
-    between-run errors too.
+    the between-run standard error std/sqrt(n), but never below the error of that mean
+    from the runs' own (within-run) errors, sqrt(sum sem_i^2)/n: with few runs the
+    between-run estimate has n - 1 degrees of freedom and can come out far too small by
+    chance (two runs that happen to agree in a ring), which would let that ring dominate
+    every weighted fit. ``n_runs`` counts the runs with a disk in the ring. The
+    replicates are the runs' own profiles, so derived numbers get between-run errors too.
 
     Parameters
     ----------
@@ -41,7 +44,8 @@ def combine_runs(profiles: list, names: list) -> RingProfiles:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)          # all-NaN rings stay NaN
         values = {k: np.nanmean(v, axis=0) for k, v in stacked.items()}
-    sem = reps.profile_errors()
+    sem = {k: np.fmax(v, _within_run_error([p.sem[k] for p in profiles], stacked[k]))
+           for k, v in reps.profile_errors().items()}
     n_runs = np.sum(np.isfinite(stacked["nu"]) & (stacked["nu"] > 0), axis=0) \
         if "nu" in stacked else np.full(first.rings.n, len(profiles))
     flags = np.array([";".join(sorted({f for p in profiles for f in str(p.flags[k]).split(";")
@@ -56,10 +60,21 @@ def combine_runs(profiles: list, names: list) -> RingProfiles:
     series = [p.timeseries.assign(run=name) for name, p in zip(names, profiles)
               if p.timeseries is not None]
     meta["errors"] = {"method": f"between-run standard error over {len(profiles)} independent "
-                                "realisations (values are the mean over the runs)",
+                                "realisations (values are the mean over the runs), at least the "
+                                "mean's error from the runs' own errors",
                       "lower_bound": {}}
     meta["frames"] = {**first.meta.get("frames", {}),
                       "n": int(sum(p.n_frames for p in profiles))}
     return RingProfiles(first.rings, values, sem, flags, int(sum(p.n_frames for p in profiles)),
                         meta, reps, n_runs, pd.concat(series, ignore_index=True) if series
                         else None)
+
+
+def _within_run_error(sems, values) -> np.ndarray:
+    """Standard error of the mean over runs from each run's own errors, shape (n_rings,):
+    sqrt(sum_i sem_i^2) / n over the runs with a finite value (NaN where none)."""
+    sems = np.where(np.isfinite(values), np.stack(sems), np.nan)
+    n = np.sum(np.isfinite(sems), axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(np.nansum(sems**2, axis=0)) / np.where(n > 0, n, np.nan)
+
