@@ -278,7 +278,7 @@ the same law with rolling resistance (``pair granular``, mu_roll = 0.3), sheared
 250 s from a shipped packing grown with the seed and already sheared 250 s with this law
 (:mod:`granavg.sim.packings`); the first tenth of a rotation (6.3 s: the contact springs
 reload after the start from a data file) is left out of the averages. Jammed and
-quasi-static; its pressure still relaxes by a few per cent per rotation."""
+quasi-static; its bulk pressure still falls by about 6% over the 250 s."""
 
 PAPER = PAPER_ROLLING
 """The default paper scene: :data:`PAPER_ROLLING` (the plain law is ``paper-hooke``)."""
