@@ -369,15 +369,46 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM, turned into an exception like Ctrl-C's."""
 
 
-def _on_sigterm(signum, frame):
-    raise Terminated()
+_signalled: list[int] = []          # the signals received during this ``main()``
+
+
+def _on_signal(signum, frame):
+    _signalled.append(signum)
+    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+def _interrupt_code(raised: BaseException) -> int | None:
+    """Exit code when ``raised`` is (the aftermath of) Ctrl-C or SIGTERM, else None.
+
+    A signal can land inside a compiled (numba) call or a ctypes callback; there the
+    interrupt is swallowed or turned into another error (``SystemError``, numba's
+    ``RuntimeError``), so any error raised after a signal arrived counts as the signal's.
+    """
+    if isinstance(raised, Terminated) or signal.SIGTERM in _signalled:
+        return 143
+    if isinstance(raised, KeyboardInterrupt) or _signalled:
+        return 130
+    return None
+
+
+def _unraisable(previous):
+    """``sys.unraisablehook`` that keeps an interrupt inside a callback quiet (main reports it)."""
+    def hook(unraisable):
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            previous(unraisable)
+    return hook
 
 
 def main(argv=None) -> int:
     """Entry point of the ``granavg`` command."""
     args = _parser().parse_args(argv)
-    previous = signal.signal(signal.SIGTERM, _on_sigterm) \
-        if threading.current_thread() is threading.main_thread() else None
+    _signalled.clear()
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, _on_signal)
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:   # not if ignored
+            previous[signal.SIGINT] = signal.signal(signal.SIGINT, _on_signal)
+    unraisable, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="granavg: %(message)s")
     for noisy in ("distributed", "tornado", "bokeh"):     # dask's own chatter
@@ -388,14 +419,18 @@ def main(argv=None) -> int:
     except UserError as exc:
         print(f"granavg: error: {exc}", file=sys.stderr)
         return exc.exit_code
-    except KeyboardInterrupt as exc:
+    except (KeyboardInterrupt, Exception) as raised:
+        code = _interrupt_code(raised)
+        if code is None:
+            raise
         what = "stopped (the run is kept; --resume continues it)" if \
             args.command in ("simulate", "demo") else "nothing written"
         print(f"granavg: interrupted; {what}", file=sys.stderr)
-        return 143 if isinstance(exc, Terminated) else 130
+        return code
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = unraisable
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 if __name__ == "__main__":

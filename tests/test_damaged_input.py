@@ -408,3 +408,20 @@ def test_a_signal_stops_averaging_with_one_line_and_no_output(long_run, tmp_path
     assert proc.returncode == code, err
     assert "interrupted; nothing written" in err and "Traceback" not in err
     assert not list(tmp_path.iterdir())
+
+
+def test_an_error_after_a_signal_counts_as_the_interrupt():
+    # a signal landing inside numba's compiler or a ctypes callback comes out as another
+    # error (SystemError, numba's RuntimeError): that is still Ctrl-C, not a bug to show
+    # as a traceback; without a signal the same error is a bug and is raised
+    import granavg.cli as cli
+    try:
+        assert cli._interrupt_code(RuntimeError("no compiled object yet")) is None
+        assert cli._interrupt_code(KeyboardInterrupt()) == 130
+        assert cli._interrupt_code(cli.Terminated()) == 143
+        cli._signalled.append(signal.SIGINT)
+        assert cli._interrupt_code(SystemError("returned a result with an exception set")) == 130
+        cli._signalled.append(signal.SIGTERM)
+        assert cli._interrupt_code(RuntimeError("no compiled object yet")) == 143
+    finally:
+        cli._signalled.clear()
