@@ -126,6 +126,10 @@ def write_report(summary: dict, figures: dict, path, title="granavg report") -> 
               ("frames averaged", (summary.get("frames") or {}).get("n")),
               ("t_min (s)", (summary.get("frames") or {}).get("t_min_s")),
               ("LAMMPS, granavg", f"{run.get('lammps_version')}, {run.get('granavg_version')}")]
+    forecast = run.get("forecast") or {}
+    if "accuracy_class" in forecast:      # what the speed/accuracy study expects (docs/sweep)
+        params.append(("accuracy class of the settings (docs/sweep)",
+                       f"{forecast['accuracy_class']}: {forecast['accuracy_reason']}"))
     parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{e(title)}</title>",
              "<style>body{font-family:sans-serif;max-width:70em;margin:auto;padding:1em}"
              "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #999;"

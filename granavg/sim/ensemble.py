@@ -15,13 +15,14 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
+import math
 import os
 from pathlib import Path
 
 
 from granavg.errors import UserError
 from granavg.io.rundir import claim_new
-from granavg.sim import packings
+from granavg.sim import packings, trade
 from granavg.sim.scene import Scene
 
 log = logging.getLogger(__name__)
@@ -82,6 +83,11 @@ def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
     if scheduler is None and workers < 1:
         raise UserError(f"--workers {workers}: need at least one")
     out = claim_new(Path(out))
+    forecast = trade.expectation(scene.derive(), prepared=bool(scene.packing))
+    if "wall_time_s" in forecast:
+        rounds = math.ceil(k / workers) if scheduler is None else None
+        log.info("each realisation: %s%s", trade.describe(forecast), "" if rounds is None else
+                 f"; {k} on {workers} workers: about {rounds * forecast['wall_time_s'] / 60:.1f} min")
     runs = [out / f"seed{s}" for s in seeds]
     record = {"scene": scene.to_dict(), "preset": preset, "seeds": seeds,
               "runs": {r.name: "running" for r in runs}}

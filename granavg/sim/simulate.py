@@ -36,7 +36,7 @@ from granavg.sim.embedded import run_embedded
 from granavg.sim.mpi import run_mpi, run_mpi_python
 from granavg.io.rundir import (claim_new, frame_steps, read_manifest, restart_files,
                                truncate_dump, write_manifest)
-from granavg.sim import packings
+from granavg.sim import packings, trade
 from granavg.sim.scene import Derived, Scene
 
 log = logging.getLogger(__name__)
@@ -129,6 +129,10 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         (out / "deck").mkdir()
         shutil.copy2(DECK, out / "deck" / DECK.name)
     manifest = _new_manifest(derived, preset, np_ranks, omp_threads, start, engine)
+    if engine == "lammps":
+        manifest["forecast"] = trade.expectation(derived, prepared=start is not None,
+                                                 np_ranks=np_ranks, omp_threads=omp_threads)
+        log.info("%s", trade.describe(manifest["forecast"]))
     manifest["average"] = {"bins": average, "t_min_s": t_min, "block_time_s": block_time,
                            "quantities": quantities} if average else None
     for n in average:

@@ -1,0 +1,99 @@
+"""What a simulation will cost and how accurate it will be, from the measured study.
+
+The speed/accuracy study (``workflows/sweep.py``, docs/sweep/) measured, on a 2-core
+machine, the cost of LAMMPS steps and frames and, for the paper scene, how far each
+setting of (k_n, n = t_c/dt, Omega) lands from the stiff, fine-step limit. ``trade.json``
+beside this module holds what it measured (``sweep.py OUT --ship`` writes it).
+:func:`expectation` turns that into a forecast for a scene: the expected wall time of one
+LAMMPS process and the accuracy class of its settings. It is a forecast, not a
+measurement: another machine scales the time, and the class holds only for the paper
+scene's geometry, disks and contact law (anything else is "not measured").
+"""
+
+from __future__ import annotations
+
+import json
+from functools import lru_cache
+from pathlib import Path
+
+STUDY = Path(__file__).with_name("trade.json")
+#: scene fields that must equal the study's for its accuracy classes to apply
+SAME_SCENE = ("R_i", "R_o", "n_small", "n_large", "d_s", "d_l", "rho_p", "e_n", "mu",
+              "mu_wall", "mu_roll", "kt_over_kn", "size_spread", "packing")
+CLASSES = {"5%": "every headline number within 5% of the stiff limit (2 sigma)",
+           "10%": "every headline number within 10% of the stiff limit (2 sigma)",
+           "worse": "some headline number can be more than 10% off the stiff limit"}
+
+
+@lru_cache(maxsize=1)
+def study() -> dict | None:
+    """The measured study (``trade.json``), or None if this install has none."""
+    return json.loads(STUDY.read_text()) if STUDY.exists() else None
+
+
+def wall_time(n_steps: int, n_disks: int, n_frames: int, table: dict) -> float:
+    """Expected wall time (s) of one single-threaded LAMMPS process: ``n_steps`` steps of
+    ``n_disks`` disks and ``n_frames`` frames taken (contact dump, in-situ averaging),
+    at the study's measured seconds per disk-step and per disk-frame."""
+    return n_disks * (n_steps * table["seconds_per_disk_step"]
+                      + n_frames * table["seconds_per_disk_frame"])
+
+
+def accuracy_class(scene: dict, table: dict) -> tuple[str, str]:
+    """The accuracy class of ``scene``'s settings and why: (class, reason).
+
+    A scene at least as stiff (k_n), fine (n) and slow (Omega) as a measured setting is
+    given that setting's class (the best such); one at most as stiff, fine and slow as a
+    setting measured "worse" is "worse"; anything else, or another scene, is "not
+    measured". The class is about the bias of the settings; the statistical error depends
+    on run length and realisations and comes with every number of the report."""
+    ref = table["scene"]
+    differs = [k for k in SAME_SCENE if scene.get(k) != ref.get(k)]
+    if differs:
+        return "not measured", (f"the study covers the paper scene only (this scene differs "
+                                f"in {', '.join(differs)})")
+    k, n, om = scene["k_n"], scene["n_per_tc"], scene["Omega"]
+    rank = {"5%": 0, "10%": 1, "worse": 2}
+    better = [s for s in table["settings"]
+              if k >= s["k_n"] and n >= s["n_per_tc"] and om <= s["Omega"]]
+    if better:
+        best = min(better, key=lambda s: rank[s["class"]])
+        if best["class"] != "worse":
+            return best["class"], (f"at least as stiff, fine and slow as the measured setting "
+                                   f"'{best['name']}' ({CLASSES[best['class']]})")
+    for s in table["settings"]:
+        if s["class"] == "worse" and k <= s["k_n"] and n <= s["n_per_tc"] and om >= s["Omega"]:
+            return "worse", (f"at most as stiff, fine and slow as the measured setting "
+                             f"'{s['name']}' ({CLASSES['worse']})")
+    return "not measured", "no measured setting brackets these k_n, n and Omega"
+
+
+def expectation(derived, *, prepared: bool, np_ranks: int = 1, omp_threads: int = 1) -> dict:
+    """The forecast for a run of ``derived`` (a :class:`granavg.sim.scene.Derived`):
+    expected wall time (s, one process) and accuracy class, for the manifest and the log.
+
+    ``prepared``: the run shears a given packing (no growth phase)."""
+    table = study()
+    if table is None:
+        return {"what": "no speed/accuracy study in this install (granavg/sim/trade.json)"}
+    s = derived.scene
+    steps = derived.n_shear + (0 if prepared else derived.n_grow + derived.n_relax)
+    frames = derived.n_shear // derived.dump_every + 1 if derived.dump_every else 0
+    seconds = wall_time(steps, s.n_small + s.n_large, frames, table)
+    cls, why = accuracy_class(s.to_dict(), table)
+    return {"wall_time_s": seconds, "accuracy_class": cls, "accuracy_reason": why,
+            "parallel": np_ranks * omp_threads > 1,
+            "what": f"forecast from {table['measured']} ({table['machine']}); wall time of "
+                    "one single-threaded LAMMPS process, within about "
+                    f"{100 * table['time_spread']:.0f}% there"}
+
+
+def describe(forecast: dict) -> str:
+    """One log line for a forecast."""
+    if "wall_time_s" not in forecast:
+        return forecast["what"]
+    t = forecast["wall_time_s"]
+    when = f"{t / 60:.1f} min" if t >= 60 else f"{t:.0f} s"
+    more = " (more processes: less; the study timed one)" if forecast["parallel"] else ""
+    return (f"expected wall time {when} on the study's machine{more}; expected accuracy: "
+            f"{forecast['accuracy_class']} - {forecast['accuracy_reason']}")

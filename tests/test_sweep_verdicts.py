@@ -1,0 +1,61 @@
+"""The speed/accuracy study's verdicts (workflows/sweep.py): the stiff-limit extrapolation
+and the 5%/10% classes, each shown to come out both ways."""
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "workflows"))
+import sweep  # noqa: E402
+
+
+def test_a_straight_line_in_kn_to_the_minus_half_extrapolates_to_its_intercept():
+    kn = np.array([10.0, 100.0, 1000.0])
+    x = kn ** -0.5
+    a, err, red = sweep.extrapolate(x, 0.7 - 0.4 * x, [0.01, 0.01, 0.01])
+    assert a == pytest.approx(0.7) and red == pytest.approx(0.0, abs=1e-20)
+    # the intercept's error of a weighted fit: sqrt of the (0,0) element of (A^T W A)^-1
+    A = np.stack([np.ones(3), x], axis=1)
+    assert err == pytest.approx(math.sqrt(np.linalg.inv(A.T @ A / 1e-4)[0, 0]))
+
+
+def test_scatter_beyond_the_errors_widens_the_limit_s_error():
+    x = np.array([10.0, 100.0, 1000.0]) ** -0.5
+    _, quiet, _ = sweep.extrapolate(x, 0.7 - 0.4 * x, [0.01] * 3)
+    _, noisy, red = sweep.extrapolate(x, 0.7 - 0.4 * x + [0.05, -0.1, 0.05], [0.01] * 3)
+    assert red > 1 and noisy == pytest.approx(quiet * math.sqrt(red))
+
+
+def _limit(value=1.0, err=0.0):
+    return pd.DataFrame({"value": {k: value for k in sweep.HEADLINES},
+                         "err": {k: err for k in sweep.HEADLINES}})
+
+
+def _row(value, err, dyn=0.01):
+    r = {k: value for k in sweep.HEADLINES}
+    r.update({f"{k}_err": err for k in sweep.HEADLINES})
+    r["eom_residual"], r["eom_residual_err"] = 0.02, 0.001
+    r["dynamic_over_static"] = dyn
+    return r
+
+
+@pytest.mark.parametrize("value, err, within_10, within_5", [
+    (1.03, 0.001, True, True),      # 3% off, well measured
+    (1.07, 0.001, True, False),     # 7% off
+    (1.20, 0.001, False, False),    # 20% off
+    (1.00, 0.04, True, False),      # on the limit, but 5% not shown at 2 sigma
+    (1.00, 0.08, False, False),     # too noisy to show even 10%
+])
+def test_a_setting_passes_only_when_its_error_bound_is_below_the_class(value, err,
+                                                                      within_10, within_5):
+    v = sweep.compare(_row(value, err), _limit())
+    assert (v["within_10"], v["within_5"]) == (within_10, within_5)
+
+
+def test_a_setting_outside_the_quasi_static_regime_fails_whatever_its_numbers():
+    v = sweep.compare(_row(1.0, 0.001, dyn=0.2), _limit())
+    assert not v["within_10"] and not v["quasi_static"]
