@@ -23,9 +23,10 @@ def _parser() -> argparse.ArgumentParser:
 
     sim = sub.add_parser("simulate", help="run the Couette cell in LAMMPS (SI units)")
     sim.add_argument("--preset", default="demo",
-                     help="scene preset: paper (= paper-rolling: rolling resistance, 250 s "
-                     "from a shipped sheared packing), demo (the same, 60 s), paper-hooke "
-                     "(plain gran/hooke/history, grown, 500 s); docs/scene.md")
+                     help="scene preset: paper (rolling resistance, 50 s from a shipped "
+                     "sheared packing; --seeds 4 for the four), fast (= demo: k_n 2.5, 60 s), "
+                     "paper-rolling (the same, 250 s), paper-hooke (plain "
+                     "gran/hooke/history, grown, 500 s); docs/scene.md, docs/sweep/")
     sim.add_argument("--out", required=True, help="run directory to create (must be new)")
     sim.add_argument("--set", dest="overrides", action="append", default=[],
                      metavar="KEY=VALUE", help="change one scene value (SI units); repeatable")
@@ -360,7 +361,7 @@ def _demo(args) -> int:
     if out.exists() and any(out.iterdir()):
         raise UserError(f"{out} is not empty; choose a new --out")
     run = simulate(preset("demo"), out / "run", omp_threads=args.omp, preset="demo")
-    report_run(run, out, t_min=args.t_min, title="granavg demo (the paper's cell with rolling resistance, 60 s of shear)")
+    report_run(run, out, t_min=args.t_min, title="granavg demo (the paper's cell with rolling resistance, k_n = 2.5 N/m, 60 s of shear: the fast preset)")
     logging.getLogger("granavg").info("demo complete: open %s", out / "report.html")
     return 0
 

@@ -56,9 +56,10 @@ def test_two_ranks_write_no_dumps_and_the_same_manifest(runs):
     m1, m2 = (json.loads((runs[k] / "manifest.json").read_text()) for k in ("serial", "mpi2"))
     assert m2["status"] == "complete" and m2["execution"]["np"] == 2
     differ = {k for k in m1 if m1[k] != m2[k]}
-    # the largest overlap is a maximum over two realisations: recorded in both
+    # the largest overlap is a maximum over two realisations: recorded in both; the
+    # forecast differs with the processes and the frames written
     assert differ <= {"execution", "started", "finished", "scene", "files", "overlap",
-                      "timing"}, differ
+                      "timing", "forecast"}, differ
     assert 0 < m2["overlap"]["max_over_d_s"] < m2["overlap"]["warn_above"]
     assert {k for k in m1["scene"] if m1["scene"][k] != m2["scene"][k]} == {"dumps"}
 

@@ -73,6 +73,9 @@ def test_a_run_from_a_shipped_packing_starts_exactly_there(tmp_path):
     assert proc.returncode == 0, proc.stderr
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["preparation"].startswith(f"shipped sheared packing {SET}/seed20011")
+    # the forecast from the speed/accuracy study, before LAMMPS starts (docs/sweep/)
+    assert "expected wall time" in proc.stderr
+    assert manifest["forecast"]["accuracy_class"] == "5%"     # the study's base setting
     start = read_data(packings.check(SET, 20011))
     with open_text(out / "atoms.dump.gz") as fh:
         lines = fh.readlines()

@@ -51,5 +51,6 @@ def test_disks_that_cannot_be_inserted_stop_the_run_and_mark_it_failed(tmp_path)
     out = tmp_path / "run"
     proc = run_cli(*small_cell_args(out, "grow_from=1"))
     assert proc.returncode == 2 and "could be inserted" in proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1
+    lines = proc.stderr.strip().splitlines()     # the forecast, then one line of error
+    assert len(lines) == 2 and "expected wall time" in lines[0]
     assert json.loads((out / "manifest.json").read_text())["status"] == "failed"

@@ -68,6 +68,8 @@ def test_report_and_summary_hold_the_headline_numbers(report):
         assert claim["claim"] in html and claim["evidence"] in html.replace("&#x27;", "'")
     assert html.count("data:image/png;base64,") == len(FIGURES) + 1   # + Fig. 1; self-contained
     assert "src='http" not in html and 'src="http' not in html
+    # the speed/accuracy study's forecast: the small test cell is not the study's scene
+    assert "accuracy class of the settings" in html and "not measured: the study covers" in html
 
 
 def test_degenerate_profiles_give_one_line(profiles, tmp_path):

@@ -16,8 +16,8 @@ import sweep  # noqa: E402
 def test_a_straight_line_in_kn_to_the_minus_half_extrapolates_to_its_intercept():
     kn = np.array([10.0, 100.0, 1000.0])
     x = kn ** -0.5
-    a, err, red = sweep.extrapolate(x, 0.7 - 0.4 * x, [0.01, 0.01, 0.01])
-    assert a == pytest.approx(0.7) and red == pytest.approx(0.0, abs=1e-20)
+    a, err, b, _, red = sweep.extrapolate(x, 0.7 - 0.4 * x, [0.01, 0.01, 0.01])
+    assert a == pytest.approx(0.7) and b == pytest.approx(-0.4) and red == pytest.approx(0.0, abs=1e-20)
     # the intercept's error of a weighted fit: sqrt of the (0,0) element of (A^T W A)^-1
     A = np.stack([np.ones(3), x], axis=1)
     assert err == pytest.approx(math.sqrt(np.linalg.inv(A.T @ A / 1e-4)[0, 0]))
@@ -25,8 +25,8 @@ def test_a_straight_line_in_kn_to_the_minus_half_extrapolates_to_its_intercept()
 
 def test_scatter_beyond_the_errors_widens_the_limit_s_error():
     x = np.array([10.0, 100.0, 1000.0]) ** -0.5
-    _, quiet, _ = sweep.extrapolate(x, 0.7 - 0.4 * x, [0.01] * 3)
-    _, noisy, red = sweep.extrapolate(x, 0.7 - 0.4 * x + [0.05, -0.1, 0.05], [0.01] * 3)
+    _, quiet, _, _, _ = sweep.extrapolate(x, 0.7 - 0.4 * x, [0.01] * 3)
+    _, noisy, _, _, red = sweep.extrapolate(x, 0.7 - 0.4 * x + [0.05, -0.1, 0.05], [0.01] * 3)
     assert red > 1 and noisy == pytest.approx(quiet * math.sqrt(red))
 
 
@@ -45,15 +45,16 @@ def _row(value, err, dyn=0.01):
 
 @pytest.mark.parametrize("value, err, within_10, within_5", [
     (1.03, 0.001, True, True),      # 3% off, well measured
-    (1.07, 0.001, True, False),     # 7% off
-    (1.20, 0.001, False, False),    # 20% off
-    (1.00, 0.04, True, False),      # on the limit, but 5% not shown at 2 sigma
-    (1.00, 0.08, False, False),     # too noisy to show even 10%
+    (1.07, 0.001, True, False),     # a 7% bias
+    (1.20, 0.001, False, False),    # a 20% bias
+    (1.20, 0.15, True, True),       # 20% off but within the noise: no bias shown
+    (0.88, 0.05, False, False),     # 12% off, 2.4 combined errors
 ])
-def test_a_setting_passes_only_when_its_error_bound_is_below_the_class(value, err,
-                                                                      within_10, within_5):
-    v = sweep.compare(_row(value, err), _limit())
+def test_a_difference_is_a_bias_only_beyond_twice_the_combined_error(value, err,
+                                                                     within_10, within_5):
+    v = sweep.compare(_row(value, err), _limit(err=0.0))
     assert (v["within_10"], v["within_5"]) == (within_10, within_5)
+    assert v["resolution"] == pytest.approx(2 * err)      # what a pass can vouch for
 
 
 def test_a_setting_outside_the_quasi_static_regime_fails_whatever_its_numbers():

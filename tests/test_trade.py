@@ -15,7 +15,7 @@ def table(scene, classes):
 
 
 STUDY = [(10.0, 50.0, 0.1, "10%"), (100.0, 50.0, 0.1, "5%"), (2.5, 50.0, 0.1, "worse"),
-         (10.0, 25.0, 0.1, "worse")]
+         (10.0, 25.0, 0.1, "worse"), (2.5, 25.0, 0.1, "10%")]
 
 
 @pytest.mark.parametrize("k, n, om, expected", [
@@ -25,6 +25,7 @@ STUDY = [(10.0, 50.0, 0.1, "10%"), (100.0, 50.0, 0.1, "5%"), (2.5, 50.0, 0.1, "w
     (10.0, 50.0, 0.2, "not measured"),    # faster than anything measured
     (2.0, 40.0, 0.1, "worse"),        # softer and coarser than a setting found wanting
     (10.0, 20.0, 0.1, "worse"),
+    (10.0, 25.0, 0.1, "worse"),       # measured: its own class, though a 10% one bounds it
 ])
 def test_a_setting_gets_the_class_of_the_measured_settings_that_bound_it(k, n, om, expected):
     scene = preset("paper")

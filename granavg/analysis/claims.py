@@ -347,7 +347,8 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
                     "every claim is inconclusive; average them again with this granavg")
     summary = {"units": "SI (m, s, kg, N, Pa)",
                "run": {k: manifest.get(k) for k in ("preset", "scene", "contact_law", "derived",
-                                                   "lammps_version", "granavg_version")},
+                                                   "forecast", "lammps_version",
+                                                   "granavg_version")},
                "frames": p20.meta.get("frames") if p20.meta else None,
                "runs": (p20.meta or {}).get("runs"),
                "stationarity": _stationarity(p20),
