@@ -44,6 +44,7 @@ def test_the_wheel_carries_the_deck_and_simulates_outside_the_source_tree(tmp_pa
     assert (target / "granavg" / "lammps_inputs" / "couette.lmp").exists()
     shipped = target / "granavg" / "sim" / "packings" / "rolling-sheared"
     assert (shipped / "provenance.json").exists() and list(shipped.glob("seed*.data.gz"))
+    assert (target / "granavg" / "sim" / "trade.json").exists()     # what simulate forecasts from
     env = dict(os.environ, PYTHONPATH=str(target))
     where = subprocess.run([sys.executable, "-c", "import granavg; print(granavg.__file__)"],
                            capture_output=True, text=True, env=env, cwd=tmp_path)
@@ -54,3 +55,4 @@ def test_the_wheel_carries_the_deck_and_simulates_outside_the_source_tree(tmp_pa
                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600)
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "run" / "deck" / "couette.lmp").exists()
+    assert "expected wall time" in run.stderr
