@@ -57,5 +57,8 @@ def test_the_wall_time_is_disk_steps_and_frames_at_the_measured_rates(monkeypatc
     assert grown["wall_time_s"] - f["wall_time_s"] == pytest.approx(
         n * (d.n_grow + d.n_relax) * 3e-7)
     assert "expected wall time" in trade.describe(f) and f["accuracy_class"] == "10%"
+    study["seconds_per_disk_step_plain_law"] = 1e-7         # the plain law's own rate
+    plain = trade.expectation(scene.with_overrides(["mu_roll=0"]).derive(), prepared=True)
+    assert plain["wall_time_s"] == pytest.approx(n * (d.n_shear * 1e-7 + frames * 2e-4))
     monkeypatch.setattr(trade, "study", lambda: None)
     assert "wall_time_s" not in trade.expectation(d, prepared=True)
