@@ -1,14 +1,17 @@
 """Ensembles: independent realisations on dask (real LAMMPS runs of the small cell) and
 their combination into profiles with between-run errors, through the real CLI."""
 
+import html
 import json
 
 import numpy as np
 import pytest
 
 from granavg.analysis.claims import analyze
+from granavg.analysis.report import stationarity_table
 from granavg.io.runs import average_run
 from granavg.engine.ensemble import combine_runs
+from granavg.engine.timeseries import ensemble_stationarity
 from granavg.errors import UserError
 from granavg.io.profiles_io import read_profiles
 from tests.conftest import SMALL_CELL, SMALL_PRESET, run_cli
@@ -77,6 +80,13 @@ def test_the_analysis_of_an_ensemble_uses_between_run_errors(ensemble, tmp_path)
     assert summary["errors"] == {**summary["errors"], "kind": "runs", "replicates": 3}
     assert np.isfinite(summary["numbers"]["shear_band"]["s_m_err"])
     assert len(summary["runs"]) == 3
+    # the window judged from the spread between the realisations, beside each run's verdict
+    per_run = [r["stationarity"] for r in summary["runs"]]
+    assert all(per_run) and summary["stationarity"]["ensemble (3 runs)"] == \
+        ensemble_stationarity(per_run)
+    assert {r["n_runs"] for r in summary["stationarity"]["ensemble (3 runs)"].values()} == {3}
+    table = "".join(stationarity_table(summary, html.escape))
+    assert "<td>ensemble (3 runs)</td>" in table and "2 degrees of freedom" in table
 
 
 def test_runs_with_different_rings_or_quantities_are_refused(ensemble, tmp_path):
@@ -95,6 +105,6 @@ def test_runs_with_different_rings_or_quantities_are_refused(ensemble, tmp_path)
 
 def _avg(runs, n, tmp_path):
     out = tmp_path / f"e{n}.csv"
-    proc = run_cli("average", *runs, "--bins", n, "--t-min", 1.5, "--out", out, "--no-progress")
+    proc = run_cli("average", *runs, "--bins", n, "--t-min", 1.0, "--out", out, "--no-progress")
     assert proc.returncode == 0, proc.stderr
     return out

@@ -5,7 +5,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from granavg.engine.timeseries import DRIFT_Z, frame_state, stationarity, steady_from
+from granavg.engine.timeseries import (DRIFT_Z, ensemble_stationarity, frame_state, stationarity,
+                                      steady_from)
 from granavg.io.profiles_io import read_profiles, write_profiles
 
 R_I, R_O, H, RHO = 0.1, 0.2, 0.006, 1000.0
@@ -116,3 +117,66 @@ def test_a_real_run_writes_its_time_series(small_run, tmp_path):
     assert np.all(ts.P_bulk_Pa > 0) and np.all(ts.overlap_max_over_d < 0.2)
     assert set(p.meta["stationarity"]) <= {"C", "C_bulk", "P_bulk_Pa", "rattler_fraction",
                                            "nu_bulk", "psi6_bulk"}
+
+
+def ensemble(n_runs, rng, drift=0.0, phi=0.97, frames=44):
+    """Per-run verdicts of n_runs independent realisations: fluctuations as slow as the
+    window (AR(1), phi 0.97: a correlation time of ~30 frames) plus a shared linear drift
+    of ``drift`` over the window."""
+    t = np.arange(frames, dtype=float)
+    return [stationarity(pd.DataFrame({"t_s": t, "C_bulk": 3 + 0.01 * ar1(frames, phi, rng)
+                                       + drift * t / t[-1]}), 0.0)
+            for _ in range(n_runs)]
+
+
+def test_an_ensemble_of_steady_runs_is_steady_where_single_runs_cannot_tell():
+    rng = np.random.default_rng(21)
+    runs = [ensemble(4, rng) for _ in range(120)]
+    # one run's blocking error is a lower bound here: it cannot decide
+    assert np.mean([r["C_bulk"]["error_lower_bound"] for rs in runs for r in rs]) > 0.5
+    judged = [ensemble_stationarity(rs)["C_bulk"] for rs in runs]
+    assert judged[0]["n_runs"] == 4 and not judged[0]["undetermined"]
+    assert judged[0]["false_alarm"] == pytest.approx(0.058, abs=0.001)   # t, 3 dof, 3 errors
+    # honest between-run errors: false alarms near the stated rate (two tests: below 2x)
+    assert np.mean([j["drifts"] for j in judged]) <= 2 * judged[0]["false_alarm"]
+
+
+def test_a_drift_shared_by_the_runs_is_flagged_by_the_ensemble():
+    rng = np.random.default_rng(22)
+    judged = [ensemble_stationarity(ensemble(4, rng, drift=-0.2))["C_bulk"] for _ in range(30)]
+    assert np.mean([j["drifts"] for j in judged]) >= 0.9
+    assert all(j["change"] < 0 for j in judged)
+    assert all(j["resolution"] == pytest.approx(DRIFT_Z * j["change_err"]) for j in judged)
+
+
+def test_changes_that_go_both_ways_between_runs_are_no_drift():
+    """Each run moves by at least 5 of its own errors, half of them up, half down."""
+    rng = np.random.default_rng(23)
+    runs = ensemble(4, rng, phi=0.0)
+    step = 5 * np.sqrt(2) * max(r["C_bulk"]["second_half_err"] for r in runs)
+    for k, r in enumerate(runs):
+        j = r["C_bulk"]
+        j["second_half"] = j["first_half"] + (-1) ** k * step
+        j["trend_change"] = 1.5 * (j["second_half"] - j["first_half"])
+    judged = ensemble_stationarity(runs)["C_bulk"]
+    assert abs(judged["change"]) < 1e-12 and not judged["drifts"]
+
+
+def test_an_ensemble_verdict_needs_three_runs():
+    rng = np.random.default_rng(24)
+    assert ensemble_stationarity(ensemble(2, rng, drift=-1.0) + [None]) == {}
+    assert "C_bulk" in ensemble_stationarity(ensemble(3, rng, drift=-1.0))
+
+
+def test_the_ageing_of_four_250_s_runs_is_a_drift_of_the_ensemble():
+    """Real data: the 4 x 250 s rolling-resistance ensemble (docs/paper-rolling), whose
+    bulk pressure falls 6.5% over the window in every run; each run's own test could
+    only call it undetermined (lower-bound errors)."""
+    import json
+    from pathlib import Path
+    meta = json.loads((Path(__file__).parents[1] / "docs/paper-rolling/profiles20.csv.json")
+                      .read_text())
+    per_run = [r["stationarity"] for r in meta["runs"]]
+    assert not any(r["P_bulk_Pa"]["drifts"] for r in per_run)
+    judged = ensemble_stationarity(per_run)["P_bulk_Pa"]
+    assert judged["drifts"] and judged["change"] < 0

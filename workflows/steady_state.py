@@ -4,15 +4,19 @@ Usage::
 
     python workflows/steady_state.py OUT [--seeds 2] [--t-end 250] [--only NAME ...]
                                          [--baseline ENSEMBLE_DIR]
+    python workflows/steady_state.py OUT --score NAME ENSEMBLE_DIR [--t-min S]
 
 Every candidate keeps the paper's geometry, disk counts, sizes and Omega and runs as an
 ensemble of independent packings (``granavg simulate --seeds``, dask). Each run is
 averaged over 20 and 60 rings from two rotations on (its time series and the steadiness
 test included), and the candidate is scored on the issue's targets: bulk coordination
->= 3 and rattlers < 15% after the transient, bulk pressure steady over the window,
+>= 3 and rattlers < 15% after the transient, bulk pressure steady over the window (with
+3 or more runs judged from the spread between them, otherwise no run may drift),
 dynamic/static stress <= 0.01 in the bulk, v0/(Omega R_i) within 10% of 0.645 and s
 within 15% of 12.7 mm. Resumable: candidates already in OUT are not run again. Writes
-OUT/candidates.csv, prints a markdown table and draws OUT/timeseries.png.
+OUT/candidates.csv, prints a markdown table and draws OUT/timeseries.png. ``--score``
+scores the runs of an ensemble made otherwise (e.g. ``granavg simulate --preset paper
+--seeds 4``) as candidate NAME, over its preset's window or from ``--t-min``.
 """
 
 from __future__ import annotations
@@ -72,6 +76,8 @@ def score(runs, t_min=None) -> dict:
     drift = {q: [(lambda r: bool(r.get("drifts") or r.get("undetermined")))(
                  p.meta["stationarity"].get(q, {})) for p in p20s]
              for q in ("C_bulk", "P_bulk_Pa", "nu_bulk")}
+    ensemble = next((v for k, v in summary["stationarity"].items()
+                     if k.startswith("ensemble")), {})
     first = pd.concat([p.timeseries[p.timeseries.t_s < 20] for p in p20s])
     sb = summary["numbers"]["shear_band"]
     ratio = dynamic_over_static(p20)[bulk(p20.rings.n)]
@@ -85,6 +91,11 @@ def score(runs, t_min=None) -> dict:
         "pressure_drifts": sum(bool(d) for d in drift["P_bulk_Pa"]),
         "C_drifts": sum(bool(d) for d in drift["C_bulk"]),
         "nu_drifts": sum(bool(d) for d in drift["nu_bulk"]),
+        # the window judged from the spread between >= 3 realisations (z in errors)
+        "ensemble_z": {q: ensemble[q]["z"] for q in ("C_bulk", "P_bulk_Pa", "nu_bulk")
+                       if q in ensemble},
+        "ensemble_drifts": [q for q in ("C_bulk", "P_bulk_Pa", "nu_bulk")
+                            if q in ensemble and ensemble[q]["drifts"]],
         "dyn_over_static_bulk": float(np.nanmax(ratio)),
         "v0": sb["v0_over_omega_Ri"], "v0_err": sb["v0_over_omega_Ri_err"],
         "s": sb["s_m"], "s_err": sb["s_m_err"],
@@ -102,15 +113,34 @@ def meets(row) -> dict:
     s, tol_s = TARGETS["s"]
     return {"C_bulk >= 3": row["C_bulk"] >= TARGETS["C_bulk"],
             "rattlers < 15%": row["rattler_fraction"] < TARGETS["rattler_fraction"],
-            "pressure steady": row["pressure_drifts"] == 0,
+            "pressure steady": _pressure_steady(row),
             "dyn/static <= 0.01": row["dyn_over_static_bulk"] <= TARGETS["dyn_over_static_bulk"],
             "v0 within 10%": abs(row["v0"] / v0 - 1) <= tol_v,
             "s within 15%": abs(row["s"] / s - 1) <= tol_s}
 
 
+def _pressure_steady(row) -> bool:
+    """The ensemble's verdict where >= 3 realisations judged it, else no run drifting or
+    undetermined."""
+    z = row.get("ensemble_z")
+    if isinstance(z, dict) and "P_bulk_Pa" in z:
+        return "P_bulk_Pa" not in row["ensemble_drifts"]
+    return row["pressure_drifts"] == 0
+
+
+def _ensemble(row) -> str:
+    """The ensemble's departures from steady of C_bulk, P_bulk and nu_bulk, in errors
+    (marked * where it drifts), or - with fewer than 3 runs."""
+    z = row.get("ensemble_z")
+    if not isinstance(z, dict) or not z:
+        return "-"
+    return " / ".join(f"{z[q]:.1f}" + ("*" if q in row["ensemble_drifts"] else "")
+                      for q in ("C_bulk", "P_bulk_Pa", "nu_bulk") if q in z)
+
+
 def markdown(df: pd.DataFrame) -> str:
     head = ["candidate", "runs", "C_bulk (t<20 s -> window)", "rattlers", "P_bulk (Pa)",
-            "P not shown steady (runs)", "ordered share", "dyn/static bulk", "v0/(Omega R_i)", "s (mm)",
+            "P not shown steady (runs)", "ensemble: C / P / nu (errors)", "ordered share", "dyn/static bulk", "v0/(Omega R_i)", "s (mm)",
             "targets met"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, r in df.iterrows():
@@ -118,7 +148,8 @@ def markdown(df: pd.DataFrame) -> str:
         lines.append(
             f"| {name} | {r.runs} | {r.C_bulk_start:.2f} -> {r.C_bulk:.2f} +- {r.C_bulk_err:.2f} "
             f"| {r.rattler_fraction:.0%} | {r.P_bulk_start_Pa:.3g} -> {r.P_bulk_Pa:.3g} +- "
-            f"{r.P_bulk_Pa_err:.2g} | {r.pressure_drifts} | {r.psi6_bulk_ordered:.2f} | "
+            f"{r.P_bulk_Pa_err:.2g} | {r.pressure_drifts} | {_ensemble(r)} | "
+            f"{r.psi6_bulk_ordered:.2f} | "
             f"{r.dyn_over_static_bulk:.3f} | {r.v0:.3f} +- {r.v0_err:.3f} | "
             f"{1e3 * r.s:.1f} +- {1e3 * r.s_err:.1f} | {sum(ok.values())}/6: "
             + ", ".join(k for k, v in ok.items() if not v).join(["missing: ", ""]) + " |")
@@ -157,12 +188,20 @@ def main(argv=None):
     ap.add_argument("--only", nargs="+", help="candidate names (default: all)")
     ap.add_argument("--baseline", type=Path, help="an existing ensemble of the paper preset "
                     "to use as the first candidate instead of running it")
+    ap.add_argument("--score", nargs=2, metavar=("NAME", "ENSEMBLE_DIR"),
+                    help="score an existing ensemble's runs as candidate NAME")
+    ap.add_argument("--t-min", type=float, help="with --score: window start (s)")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     table_path = args.out / "candidates.json"
     done = json.loads(table_path.read_text()) if table_path.exists() else {}
     runs_of = {}
-    for name, overrides in CANDIDATES.items():
+    if args.score:
+        name, where = args.score[0], Path(args.score[1])
+        runs_of[name] = sorted(p for p in where.iterdir() if (p / "manifest.json").exists())
+        done[name] = score(runs_of[name], args.t_min)
+        table_path.write_text(json.dumps(done, indent=2, default=float) + "\n")
+    for name, overrides in ({} if args.score else CANDIDATES).items():
         if args.only and name not in args.only:
             continue
         where = args.baseline if (args.baseline and not overrides) else args.out / slug(name)

@@ -29,6 +29,7 @@ import numpy as np
 
 from granavg.analysis import continuum as c
 from granavg.errors import UserError
+from granavg.engine.timeseries import ensemble_stationarity
 
 log = logging.getLogger(__name__)
 
@@ -549,11 +550,17 @@ def _layers(p, geo):
 
 
 def _stationarity(p):
-    """The window's steadiness judged per quantity: of the run, or of each realisation."""
+    """The window's steadiness judged per quantity: of the run, or of each realisation
+    and of the ensemble (:func:`~granavg.engine.timeseries.ensemble_stationarity`, with
+    at least MIN_RUNS realisations)."""
     meta = p.meta or {}
-    if meta.get("runs"):
-        return {r["run"]: r.get("stationarity") for r in meta["runs"]}
-    return {"run": meta.get("stationarity")}
+    if not meta.get("runs"):
+        return {"run": meta.get("stationarity")}
+    judged = {r["run"]: r.get("stationarity") for r in meta["runs"]}
+    ensemble = ensemble_stationarity(list(judged.values()))
+    if ensemble:
+        judged[f"ensemble ({max(r['n_runs'] for r in ensemble.values())} runs)"] = ensemble
+    return judged
 
 
 def _plain(obj):

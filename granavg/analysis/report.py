@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 from granavg.analysis.claims import PAPER
+from granavg.engine.timeseries import DRIFT_Z
 
 _NUMBERS = [  # (section, key, label, unit, paper key)
     ("shear_band", "v0_over_omega_Ri", "v0 / (Omega R_i)", "-", "v0_over_omega_Ri"),
@@ -85,27 +86,41 @@ def error_source(summary) -> str:
 
 
 def stationarity_table(summary, e) -> list:
-    """HTML rows judging the averaging window's steadiness (granavg.engine.timeseries)."""
+    """HTML rows judging the averaging window's steadiness (granavg.engine.timeseries):
+    each run's, and an ensemble's from the spread between its realisations."""
     judged = {run: j for run, j in (summary.get("stationarity") or {}).items() if j}
     if not judged:
         return ["<h2>Steady state</h2><p>No time series: steadiness not judged.</p>"]
+    ens = next((j for j in judged.values() for r in j.values() if "n_runs" in r), None)
     out = ["<h2>Steady state</h2><p>Each quantity over the averaging window: means of its "
            "two halves and the change of a fitted line, against errors from its "
            "fluctuations (blocking analysis). <i>drifts</i>: beyond 3 errors; "
-           "<i>undetermined</i>: beyond 3 errors that are only lower bounds.</p><table><tr>"
-           "<th>run</th><th>quantity</th><th>first half</th><th>second half</th>"
-           "<th>departure (errors)</th><th>verdict</th><th>steady from (s)</th></tr>"]
+           "<i>undetermined</i>: beyond 3 errors that are only lower bounds. "
+           "<i>resolution</i>: the smallest change between the halves that the test would "
+           "call a drift (3 errors; a lower bound where the errors are)."]
+    if ens:
+        r = next(iter(ens.values()))
+        out.append(f" The <i>ensemble</i> rows judge the mean change over {r['n_runs']} "
+                   "independent realisations against its between-run error, which stays "
+                   "honest when fluctuations are as slow as one run's window; a steady "
+                   f"window is flagged with probability {r['false_alarm']:.1%} (Student's t, "
+                   f"{r['n_runs'] - 1} degrees of freedom).")
+    out.append("</p><table><tr><th>run</th><th>quantity</th><th>first half</th>"
+               "<th>second half</th><th>departure (errors)</th><th>resolution</th>"
+               "<th>verdict</th><th>steady from (s)</th></tr>")
     for run, quantities in judged.items():
         for q, r in quantities.items():
             verdict = "drifts" if r["drifts"] else ("undetermined" if r.get("undetermined")
                                                     else "steady")
             cls = {"drifts": "no", "steady": "yes"}.get(verdict, "")
             start = r.get("steady_from_s")
+            resolution = r.get("resolution", DRIFT_Z * math.sqrt(2) * r["second_half_err"])
             out.append(f"<tr><td>{e(str(run))}</td><td>{e(q)}</td><td>{r['first_half']:.4g} "
                        f"&plusmn; {r['first_half_err']:.2g}</td><td>{r['second_half']:.4g} "
                        f"&plusmn; {r['second_half_err']:.2g}</td><td>{r['z']:.1f}</td>"
-                       f"<td class='{cls}'>{verdict}</td><td>"
-                       f"{'none' if start is None else f'{start:.0f}'}</td></tr>")
+                       f"<td>{resolution:.2g}</td><td class='{cls}'>{verdict}</td><td>"
+                       f"{'-' if 'n_runs' in r else 'none' if start is None else f'{start:.0f}'}"
+                       "</td></tr>")
     out.append("</table>")
     return out
 
@@ -120,6 +135,9 @@ def write_report(summary: dict, figures: dict, path, title="granavg report") -> 
               ("k_n (N/m)", law["k_n_N_per_m"]), ("e_n", scene["e_n"]),
               ("contact law", law.get("pair_style", "pair gran/hooke/history")),
               ("mu, mu_wall, mu_roll", f"{law['mu']}, {law['mu_wall']}, {law.get('mu_roll', 0.0)}"),
+              ("base-plate friction mu_base, v_base (m/s)",
+               f"{scene.get('mu_base', 0.0)}, {scene.get('v_base', 0.001)}"
+               if scene.get("mu_base") else "none"),
               ("packing", run.get("preparation")),
               ("t_c, dt (s)", f"{derived['t_c_s']:.4g}, {derived['dt_s']:.4g}"),
               ("sheared (s)", f"{derived['t_end_s']:.4g}"),

@@ -187,20 +187,29 @@ class RingAverage:
 
 
 def warn_if_drifting(judged: dict, t_min: float) -> list:
-    """Log a warning naming each quantity that drifts over the window; returns them."""
+    """Log a warning naming each quantity that drifts over the window (of one run, or of
+    an ensemble judged by :func:`~granavg.engine.timeseries.ensemble_stationarity`);
+    returns them."""
     drifting = [q for q, r in judged.items() if r["drifts"]]
     unsure = [q for q, r in judged.items() if r.get("undetermined")]
+    runs = {r["n_runs"] for r in judged.values() if "n_runs" in r}
+    whose = f"the ensemble's ({max(runs)} runs) averaging window" if runs else \
+        "the averaging window"
     if unsure:
-        log.warning("the averaging window t >= %g s may not be steady in %s: the change "
-                    "exceeds %g errors, but the errors are only lower bounds (fluctuations "
-                    "as slow as the window)", t_min, ", ".join(unsure), DRIFT_Z)
+        log.warning("%s t >= %g s may not be steady in %s: the change exceeds %g errors, "
+                    "but the errors are only lower bounds (fluctuations as slow as the "
+                    "window)", whose, t_min, ", ".join(unsure), DRIFT_Z)
     if drifting:
         starts = [judged[q]["steady_from_s"] for q in drifting]
-        where = ("it would be steady from t = %.0f s (--t-min)" % max(starts)
+        where = ("averaging each run from a later --t-min or more realisations may tell"
+                 if runs else "it would be steady from t = %.0f s (--t-min)" % max(starts)
                  if None not in starts else "no later start gives a steady stretch")
-        log.warning("the averaging window t >= %g s is not steady: %s; %s", t_min, ", ".join(
+        log.warning("%s t >= %g s is not steady: %s; %s", whose, t_min, ", ".join(
             f"{q} {judged[q]['first_half']:.3g} -> {judged[q]['second_half']:.3g} "
             f"({judged[q]['z']:.1f} errors)" for q in drifting), where)
+    elif runs and judged:
+        log.info("%s t >= %g s is steady in %s (changes within %g between-run errors)",
+                 whose, t_min, ", ".join(judged), DRIFT_Z)
     return drifting
 
 

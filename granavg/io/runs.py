@@ -12,10 +12,10 @@ import numpy as np
 
 from granavg import __version__
 from granavg.engine.average import (MAX_BLOCKS, RingAverage, RingProfiles, Rings, groups_for,
-                                    needed_columns)
+                                    needed_columns, warn_if_drifting)
 from granavg.engine.ensemble import combine_runs
 from granavg.engine.profiles import QUANTITIES
-from granavg.engine.timeseries import TimeSeries
+from granavg.engine.timeseries import TimeSeries, ensemble_stationarity
 from granavg.errors import UserError
 from granavg.io.reader import DumpReader, FramePairs
 from granavg.io.rundir import read_manifest
@@ -109,7 +109,9 @@ def _order(cols: dict) -> list:
 
 def average_runs(run_dirs, average, **options):
     """Average several runs with ``average(run_dir, **options)`` and combine them
-    (:func:`combine_runs`); one run gives its own profiles unchanged."""
+    (:func:`combine_runs`) and judge the ensemble's window
+    (:func:`~granavg.engine.timeseries.ensemble_stationarity`); one run gives its own
+    profiles unchanged."""
     profiles = [average(d, **options) for d in run_dirs]
     if len(profiles) == 1:
         return profiles[0]
@@ -117,4 +119,7 @@ def average_runs(run_dirs, average, **options):
     if len(set(seeds)) < len(seeds):
         log.warning("some runs share a seed (%s): they are not independent realisations "
                     "unless their packings differ otherwise", seeds)
-    return combine_runs(profiles, [str(d) for d in run_dirs])
+    combined = combine_runs(profiles, [str(d) for d in run_dirs])
+    warn_if_drifting(ensemble_stationarity([r["stationarity"] for r in combined.meta["runs"]]),
+                     combined.meta.get("frames", {}).get("t_min_s", float("nan")))
+    return combined
