@@ -48,3 +48,28 @@ def test_frozen_wall_disk_acts_as_infinite_mass():
     assert e == pytest.approx(restitution(c.kn, c.gamma_n, M), rel=5e-3)
     assert t_contact == pytest.approx(contact_duration(c.kn, c.gamma_n, M), abs=1.5 * dt)
     assert e < 0.89
+
+
+def test_the_deck_s_base_friction_slows_a_free_disk_as_coulomb_friction_does():
+    """A disk sliding alone on the base plate: dv/dt = -mu_base g v / sqrt(v^2 + v_base^2)
+    (the deck's lines, run by LAMMPS), against the ODE solved to 1e-10: it decelerates at
+    mu_base g while v >> v_base, keeps its direction, and stops after v0 / (mu_base g)."""
+    from scipy.integrate import solve_ivp
+
+    mu_b, v_b, dt, v0 = 0.5, 0.001, 1e-4, (0.05, 0.02)
+    c = to_lammps(ContactLaw(), effective_mass(disk_mass(D, 1060, 0.006),
+                                               disk_mass(D, 1060, 0.006)))
+    _, _, tr = lammps_trajectory(c, dt, [(0, 0, *v0, 0), (0.04, 0, 0, 0, 0)], True, 200,
+                                 base=(mu_b, v_b))
+    speed = np.hypot(tr[:, 4], tr[:, 5])
+    t = dt * np.arange(1, 201)
+    ode = solve_ivp(lambda _, v: -mu_b * 9.81 * v / np.sqrt(v * v + v_b * v_b),
+                    (0, t[-1]), [np.hypot(*v0)], t_eval=t, rtol=1e-10, atol=1e-13).y[0]
+    assert np.max(np.abs(speed - ode)) < 0.5 * mu_b * 9.81 * dt      # half a step's change
+    sliding = speed > 10 * v_b
+    assert np.allclose(np.diff(speed[sliding]) / dt, -mu_b * 9.81, rtol=0.01)
+    assert np.allclose(tr[sliding, 5] / tr[sliding, 4], v0[1] / v0[0], rtol=1e-9)
+    assert speed[-1] < 1e-6 and np.hypot(*v0) / (mu_b * 9.81) < t[-1]
+    # without it the disk keeps its speed
+    _, _, free = lammps_trajectory(c, dt, [(0, 0, *v0, 0), (0.04, 0, 0, 0, 0)], True, 20)
+    assert np.allclose(free[:, 4:6], v0, rtol=1e-12)

@@ -44,6 +44,17 @@ def test_another_scene_is_not_measured_whatever_its_settings():
     assert trade.accuracy_class(hooke.to_dict(), study)[0] == "not measured"
 
 
+def test_a_scene_key_added_after_the_study_counts_at_its_default():
+    """A study written before base friction existed ran without it: a scene without base
+    friction keeps its class, one with it is another scene."""
+    scene = preset("paper")
+    study = table(scene, STUDY)
+    study["scene"] = {k: v for k, v in study["scene"].items() if k not in ("mu_base", "v_base")}
+    assert trade.accuracy_class(scene.to_dict(), study)[0] == "10%"      # STUDY's k_n = 10
+    cls, why = trade.accuracy_class(scene.with_overrides(["mu_base=0.03"]).to_dict(), study)
+    assert cls == "not measured" and "mu_base" in why
+
+
 def test_the_wall_time_is_disk_steps_and_frames_at_the_measured_rates(monkeypatch):
     scene = preset("paper")
     study = table(scene, STUDY)

@@ -56,9 +56,22 @@ def pair_order_commands(c) -> list[str]:
     return re.findall(r'"([^"]+)"', line)[1:]
 
 
-def lammps_trajectory(c, dt, start, frozen2, steps, wall_diameter=D, contacts=False):
+def base_friction_commands(mu_base: float, v_base: float) -> list[str]:
+    """The deck's base-plate friction commands (read from its ``if "${mu_base} > 0"``
+    line), preceded by the two variables they use; none for ``mu_base == 0``."""
+    if mu_base == 0:
+        return []
+    line = next(ln for ln in DECK.read_text().splitlines()
+                if ln.startswith('if "${mu_base} > 0" then'))
+    return [f"variable mu_base index {mu_base!r}", f"variable v_base index {v_base!r}",
+            *re.findall(r'"([^"]+)"', line)[1:]]
+
+
+def lammps_trajectory(c, dt, start, frozen2, steps, wall_diameter=D, contacts=False,
+                      base=(0.0, 0.001)):
     """LAMMPS: masses (2,), radii (2,) and, after each step, x1 y1 x2 y2 vx1 vy1 vx2 vy2
     w1 w2, shape (steps, 10) (a frozen second disk has diameter ``wall_diameter``).
+    ``base`` = (mu_base, v_base) adds the deck's friction with the base plate.
 
     With ``contacts``, also the contact's normal and tangential force on disk 1 after
     each step as ``compute pair/local fx fy p1 p2`` reports it (N; zeros while the disks
@@ -90,6 +103,7 @@ def lammps_trajectory(c, dt, start, frozen2, steps, wall_diameter=D, contacts=Fa
             neighbor 0.002 bin
             fix integrate {"mobile" if frozen2 else "all"} nve/sphere disc
             fix frozen walls freeze
+            {chr(10).join(base_friction_commands(*base))}
             fix flat all enforce2d
             timestep {dt!r}
             compute pair all pair/local fx fy p1 p2 cutoff radius

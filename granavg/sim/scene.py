@@ -24,6 +24,10 @@ MAX_AREA_FRACTION = 0.84
 #: Fewest time steps per small-small contact duration accepted (accuracy bound; the
 #: Verlet stability limit of the contact law is checked as well).
 MIN_STEPS_PER_CONTACT = 10.0
+#: gravity for the base-plate friction (m/s^2), as in the deck
+G = 9.81
+#: largest base-friction damping per step, mu_base g dt / v_base (explicit integration)
+MAX_BASE_DAMPING = 0.2
 
 
 @dataclass(frozen=True)
@@ -38,6 +42,9 @@ class Scene:
     Contact law: ``law`` (:class:`~granavg.sim.contact_law.ContactLaw`; its fields ``k_n``,
     ``e_n``, ... are set like scene keys); ``n_per_tc`` time steps per contact duration
     (dt = t_c / n).
+    Base plate: ``mu_base`` (0 = none) Coulomb friction of every disk with the plate it
+    slides on, F = -mu_base m g v / sqrt(v^2 + v_base^2) (g = 9.81 m/s^2; linear below
+    ``v_base`` m/s, which keeps it smooth for the integrator).
     Walls: rings of glued disks of diameter ``wall_d`` (m, 0 = d_s) whose centres are
     ``wall_spacing * wall_d`` apart, touching R_i and R_o from outside the annulus.
     Schedule: preparation (insert at ``grow_from`` times the diameter, grow over
@@ -64,6 +71,8 @@ class Scene:
     size_spread: float = 0.0
     Omega: float = 0.1
     law: ContactLaw = ContactLaw()
+    mu_base: float = 0.0
+    v_base: float = 0.001
     n_per_tc: float = 50.0
     wall_d: float = 0.0
     wall_spacing: float = 0.9
@@ -119,6 +128,11 @@ class Scene:
         dt = coeffs.t_c / self.n_per_tc
         dt_safe = min(coeffs.t_c / MIN_STEPS_PER_CONTACT,
                       max_stable_timestep(coeffs, effective_mass(m_s, m_s)))
+        if self.mu_base * G * dt / self.v_base > MAX_BASE_DAMPING:
+            raise UserError(
+                f"base friction mu_base = {self.mu_base:g} acts as a damping rate mu_base g / "
+                f"v_base = {self.mu_base * G / self.v_base:.3g} 1/s, too fast for dt = "
+                f"{dt:.3g} s; set v_base >= {self.mu_base * G * dt / MAX_BASE_DAMPING:.3g} m/s")
         if dt > dt_safe:
             raise UserError(
                 f"time step dt = t_c/{self.n_per_tc:g} = {dt:.3g} s is above the safe bound "
@@ -203,6 +217,7 @@ class Derived:
             "Omega": s.Omega, "kn": c.kn, "kt": c.kt, "gamma_n": c.gamma_n,
             "gamma_t": c.gamma_t, "mu": c.mu, "mu_wall": c.mu_wall, "dt": self.dt,
             "mu_roll": c.mu_roll, "k_roll": c.k_roll, "gamma_roll": c.gamma_roll,
+            "mu_base": s.mu_base, "v_base": s.v_base,
             "x_gamma_t": c.gamma_t / c.gamma_n if c.gamma_n else 0.0,
             "wall_d": self.wall_d, "wall_spacing": s.wall_spacing, "size_spread": s.size_spread,
             "grow_from": s.grow_from, "n_grow": self.n_grow, "n_relax": self.n_relax,
@@ -231,6 +246,7 @@ def _check_geometry(s: Scene) -> None:
         (s.R_o - s.R_i > 2 * max(s.d_s, s.d_l), "the annulus must be wider than two diameters"),
         (0 < s.grow_from <= 1, "grow_from must be in (0, 1]"),
         (0 <= s.size_spread <= 0.3, "size_spread must be in [0, 0.3]"),
+        (s.mu_base >= 0 and s.v_base > 0, "need mu_base >= 0 and v_base > 0"),
         (0 < s.wall_spacing <= 0.9, "wall_spacing must be in (0, 0.9] wall diameters"
          " (gaps would let disks through)"),
         (min(s.t_grow, s.t_relax, s.t_damp, s.t_end, s.dump_dt, s.restart_dt) > 0

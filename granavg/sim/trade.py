@@ -16,10 +16,12 @@ import json
 from functools import lru_cache
 from pathlib import Path
 
+from granavg.sim.scene import Scene
+
 STUDY = Path(__file__).with_name("trade.json")
 #: scene fields that must equal the study's for its accuracy classes to apply
 SAME_SCENE = ("R_i", "R_o", "n_small", "n_large", "d_s", "d_l", "rho_p", "e_n", "mu",
-              "mu_wall", "mu_roll", "kt_over_kn", "size_spread", "packing")
+              "mu_wall", "mu_roll", "kt_over_kn", "size_spread", "packing", "mu_base", "v_base")
 CLASSES = {"5%": "no headline number showed a bias above 5% of the stiff limit (biases "
                   "below the study's resolution, 12-27%, cannot be seen)",
            "10%": "no headline number showed a bias above 10% of the stiff limit",
@@ -52,7 +54,7 @@ def accuracy_class(scene: dict, table: dict) -> tuple[str, str]:
     setting measured "worse" is "worse"; anything else, or another scene, is "not
     measured". The class is about the bias of the settings; the statistical error depends
     on run length and realisations and comes with every number of the report."""
-    ref = table["scene"]
+    ref = {**Scene().to_dict(), **table["scene"]}   # keys added since the study: defaults
     differs = [k for k in SAME_SCENE if scene.get(k) != ref.get(k)]
     if differs:
         return "not measured", (f"the study covers the paper scene only (this scene differs "
