@@ -177,6 +177,49 @@ def test_a_cut_gzip_keeps_every_complete_frame(capsys, small_run, dumps, tmp_pat
     assert np.array_equal(got.values["v_phi"], ref.values["v_phi"], equal_nan=True)
 
 
+# -- damaged tails met by --resume ----------------------------------------------------------
+
+def _cut(raw, at):
+    return raw[: int(at * len(raw))]
+
+
+def _corrupt(raw, at):
+    """0xFF over 64 bytes at ``at``: an invalid deflate block, as a writer killed by
+    SIGTERM left once in CI ("invalid block type")."""
+    k = int(at * len(raw))
+    return raw[:k] + b"\xff" * 64 + raw[k + 64:]
+
+
+@pytest.mark.parametrize("damage", [_cut, _corrupt], ids=["cut", "corrupt"])
+def test_resume_bookkeeping_keeps_the_frames_before_a_damaged_gzip(dumps, tmp_path, damage):
+    """frame_steps / truncate_dump (what --resume uses to pick its restart and cut the
+    dump) read a damaged gzip up to the damage: a prefix of the true frames, no error."""
+    from granavg.io.rundir import frame_steps, truncate_dump
+    frames = frames_of(dumps["atoms"])
+    steps = [int(f[1]) for f in frames]
+    path = tmp_path / "atoms.dump.gz"
+    path.write_bytes(damage(gzip.compress("".join(dumps["atoms"]).encode()), 0.5))
+    got = frame_steps(path)
+    assert got == steps[:len(got)] and 0.3 * len(steps) <= len(got) < len(steps)
+    assert truncate_dump(path, got[-1]) == len(got) - 1
+    assert gzip.decompress(path.read_bytes()).decode() == "".join(
+        ln for f in frames[:len(got) - 1] for ln in f)
+
+
+@pytest.mark.parametrize("cut", ["mid row", "after TIMESTEP", "mid count"])
+def test_resume_bookkeeping_on_a_plain_dump_cut_anywhere(dumps, tmp_path, cut):
+    """A plain dump cut inside a row, right after 'ITEM: TIMESTEP' or inside the atom
+    count: every frame before the cut is complete, the cut one is not."""
+    from granavg.io.rundir import frame_steps
+    frames = frames_of(dumps["atoms"])
+    last = frames[3]
+    head = "".join(ln for f in frames[:3] for ln in f)
+    tail = {"mid row": "".join(last[:-1]) + last[-1][:7],
+            "after TIMESTEP": last[0], "mid count": "".join(last[:3]) + last[3][:1]}[cut]
+    path = write(tmp_path, "atoms.dump", [head + tail])
+    assert frame_steps(path) == [int(f[1]) for f in frames[:3]]
+
+
 # -- damaged contact dumps -----------------------------------------------------------------
 
 @pytest.mark.parametrize("column, value, needle", [

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import gzip
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,46 @@ def open_text(path, mode="rt"):
     if path.suffix == ".gz":
         return gzip.open(path, mode, compresslevel=1) if "r" not in mode else gzip.open(path, mode)
     return open(path, mode)
+
+
+def gzip_chunks(path, piece: int = 1 << 16):
+    """Yield the decompressed bytes of a gzip file up to its first damage.
+
+    The raw file is fed to a streaming decompressor in ``piece``-byte pieces, member
+    after member, so everything before a cut or a corrupt byte comes out (the piece in
+    which the damage lies is dropped) and nothing raises: a writer killed mid-stream
+    leaves such tails, and callers keep the complete frames before them.
+    """
+    d = zlib.decompressobj(wbits=31)
+    with open(path, "rb") as fh:
+        while (raw := fh.read(piece)):
+            try:
+                data = d.decompress(raw)
+                while d.eof and d.unused_data:          # the next gzip member
+                    rest = d.unused_data
+                    d = zlib.decompressobj(wbits=31)
+                    data += d.decompress(rest)
+            except zlib.error:
+                return
+            yield data
+
+
+def tolerant_lines(path):
+    """Yield the text lines of a plain or ``.gz`` file (newline kept) up to any damage;
+    undecodable bytes become U+FFFD instead of raising."""
+    path = Path(path)
+    if path.suffix != ".gz":
+        with open(path, errors="replace") as fh:
+            yield from fh
+        return
+    rest = b""
+    for data in gzip_chunks(path):
+        lines = (rest + data).split(b"\n")
+        rest = lines.pop()
+        for line in lines:
+            yield line.decode("ascii", "replace") + "\n"
+    if rest:
+        yield rest.decode("ascii", "replace")
 
 
 def write_frame(fh, timestep, time, columns, data, box, fmt, item="ENTRIES"):

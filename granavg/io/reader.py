@@ -21,6 +21,7 @@ import numpy as np
 from isal import igzip, isal_zlib
 
 from granavg.errors import UserError
+from granavg.io.dumpfile import gzip_chunks
 from granavg.io.parse import MALFORMED, NOT_FINITE, OK, parse_block
 
 log = logging.getLogger(__name__)
@@ -155,28 +156,17 @@ class _Scanner:
         return bool(self._pieces(limit=1))
 
     def _pieces(self, limit=None) -> bytes:
-        """Decompressed bytes after ``delivered``, up to the damage: the raw file fed
-        to a streaming decompressor in 64 kB pieces, member after member, so everything
-        before a cut or a corrupt byte comes out (at most ``limit`` bytes if given)."""
+        """Decompressed bytes after ``delivered``, up to the damage (at most ``limit``
+        bytes if given); see :func:`granavg.io.dumpfile.gzip_chunks`."""
         out, total, skip = [], 0, self.delivered
-        d = zlib.decompressobj(wbits=31)
-        with open(self.path, "rb") as fh:
-            while (raw := fh.read(1 << 16)):
-                try:
-                    data = d.decompress(raw)
-                    while d.eof and d.unused_data:          # the next gzip member
-                        rest = d.unused_data
-                        d = zlib.decompressobj(wbits=31)
-                        data += d.decompress(rest)
-                except zlib.error:
-                    break
-                if skip:
-                    cut = min(skip, len(data))
-                    data, skip = data[cut:], skip - cut
-                out.append(data)
-                total += len(data)
-                if limit is not None and total >= limit:
-                    break
+        for data in gzip_chunks(self.path):
+            if skip:
+                cut = min(skip, len(data))
+                data, skip = data[cut:], skip - cut
+            out.append(data)
+            total += len(data)
+            if limit is not None and total >= limit:
+                break
         return b"".join(out)
 
     def _salvage(self, exc) -> bytes:

@@ -12,7 +12,7 @@ import os
 import re
 from pathlib import Path
 
-from granavg.io.dumpfile import open_text
+from granavg.io.dumpfile import open_text, tolerant_lines
 from granavg.errors import UserError
 
 MANIFEST = "manifest.json"
@@ -89,27 +89,29 @@ def truncate_dump(path: Path, before_step: int) -> int:
 
 def _frames_text(path: Path):
     """Yield (timestep, text) of each complete frame: one begins at the first ``ITEM:``
-    line after the rows of the previous one."""
+    line after the rows of the previous one. A damaged tail (a writer killed
+    mid-stream: cut or corrupt gzip, half a line) ends the frames without an error."""
     lines, step, expect, count, in_rows = [], None, None, 0, False
-    try:
-        with open_text(path) as fh:
-            for line in fh:
-                if in_rows and line.startswith("ITEM:"):
-                    if step is not None and count == expect:
-                        yield step, "".join(lines)
-                    lines, step, expect, count, in_rows = [], None, None, 0, False
-                lines.append(line)
-                if line.startswith("ITEM: TIMESTEP"):
-                    step = int(next(fh))
-                    lines.append(f"{step}\n")
-                elif line.startswith("ITEM: NUMBER OF"):
-                    expect = int(next(fh))
-                    lines.append(f"{expect}\n")
-                elif line.startswith(("ITEM: ATOMS", "ITEM: ENTRIES")):
-                    in_rows = True
-                elif in_rows and line.endswith("\n"):
-                    count += 1
-    except (EOFError, OSError):  # a writer killed mid-stream leaves a damaged gzip tail
-        return
+    fh = tolerant_lines(path)
+    for line in fh:
+        if in_rows and line.startswith("ITEM:"):
+            if step is not None and count == expect:
+                yield step, "".join(lines)
+            lines, step, expect, count, in_rows = [], None, None, 0, False
+        lines.append(line)
+        if line.startswith(("ITEM: TIMESTEP", "ITEM: NUMBER OF")):
+            try:
+                value = int(next(fh, ""))
+            except ValueError:
+                return                  # the damage lies in this frame's header
+            if line.startswith("ITEM: TIMESTEP"):
+                step = value
+            else:
+                expect = value
+            lines.append(f"{value}\n")
+        elif line.startswith(("ITEM: ATOMS", "ITEM: ENTRIES")):
+            in_rows = True
+        elif in_rows and line.endswith("\n"):
+            count += 1
     if step is not None and count == expect:
         yield step, "".join(lines)
