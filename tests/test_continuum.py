@@ -40,6 +40,26 @@ def test_the_decay_range_stops_at_the_noise_floor():
     assert band.s == pytest.approx(s, rel=0.1) and band.r_max == r[n - 1]
 
 
+def test_a_replicate_at_or_below_zero_in_a_fitted_ring_gets_zero_weight():
+    """A replicate's v_phi <= 0 in the fixed range (noise at the band's end) is the limit
+    v -> 0+ of a ring whose weight (v/sem)^2 vanishes: the fit is finite and continuous."""
+    rng = np.random.default_rng(5)
+    r = rings(60)
+    v0, s = 0.0066, 0.0127
+    v = v0 * np.exp(-(r - R_I) / s) * (1 + rng.normal(0, 0.05, len(r)))
+    sem = 0.05 * v0 * np.exp(-(r - R_I) / s) + 1e-6
+    near = v.copy()
+    near[9] = 1e-12                                     # almost zero: almost no weight
+    v[9] = -2e-6
+    band = fit_shear_band(r, v, sem, R_I, n_rings=12)
+    assert band.n_rings == 12 and np.isfinite(band.s)
+    ref = fit_shear_band(r, near, sem, R_I, n_rings=12)
+    assert band.s == pytest.approx(ref.s, rel=1e-6) and band.v0 == pytest.approx(ref.v0, rel=1e-6)
+    v[0] = -1e-6                                        # the wall ring itself: no fit
+    with pytest.raises(UserError, match="no decay to fit"):
+        fit_shear_band(r, v, sem, R_I, n_rings=12)
+
+
 def test_stress_exponents_zero_and_minus_two():
     r = rings(20)
     n, err = power_law(r, 3e-3 / r**2)

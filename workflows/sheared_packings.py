@@ -3,10 +3,12 @@
 Usage::
 
     python workflows/sheared_packings.py OUT NAME [--preset paper-hooke] [--seeds 4]
-                                         [--age 250] [--set key=value ...] [--ship]
+                                         [--age 250] [--from SET] [--set key=value ...]
+                                         [--ship]
 
-Grows K independent packings (seeds ``seed + 7919 k``, as ``granavg simulate --seeds K``)
-with the preset's contact law and shears each for ``--age`` s (dumps every 5 s, so that
+Grows K independent packings (seeds ``seed + 7919 k``, as ``granavg simulate --seeds K``),
+or starts from the shipped set ``--from SET`` (its packing of the same seed), with the
+preset's contact law and shears each for ``--age`` s (dumps every 5 s, so that
 the ageing can be seen), two runs at a time on a local dask cluster, into
 ``OUT/seed<N>/``; a seed whose complete run is already there (same scene) is not run
 again. Each run is then averaged (20 rings) for its state over the last 100 s.
@@ -38,6 +40,11 @@ def end_state(run: Path, age: float) -> dict:
     ts = average_run(run, bins=20, t_min=t0, quantities=["coordination", "sigma"]).timeseries
     ts = ts[ts.t_s >= t0]
     return {q: round(float(ts[q].mean()), 4) for q in END_STATE if q in ts}
+
+
+def _aged(packing_set: Path) -> float:
+    """Seconds of shear a shipped packing set has already had (its provenance)."""
+    return float(json.loads((packing_set / "provenance.json").read_text())["aged_s"])
 
 
 def done(run: Path, scene) -> bool:
@@ -78,6 +85,8 @@ def main(argv=None) -> int:
     ap.add_argument("--preset", default="paper-hooke")
     ap.add_argument("--seeds", type=int, default=4)
     ap.add_argument("--age", type=float, default=250.0, help="seconds of shear")
+    ap.add_argument("--from", dest="start", default="",
+                    help="start from this shipped packing set instead of growing")
     ap.add_argument("--set", dest="overrides", action="append", default=[])
     ap.add_argument("--ship", action="store_true", help="copy into granavg/sim/packings/NAME")
     args = ap.parse_args(argv)
@@ -91,7 +100,7 @@ def main(argv=None) -> int:
     from granavg.sim.scene import preset
 
     scene = preset(args.preset).with_overrides(
-        ["packing=", f"t_end={args.age}", "dump_dt=5", "restart_dt=50", *args.overrides])
+        [f"packing={args.start}", f"t_end={args.age}", "dump_dt=5", "restart_dt=50", *args.overrides])
     args.out.mkdir(parents=True, exist_ok=True)
     scenes = {args.out / f"seed{s}": dataclasses.replace(scene, seed=s)
               for s in seeds_for(scene, args.seeds)}
@@ -99,7 +108,9 @@ def main(argv=None) -> int:
     record = {
         "made_by": "python workflows/sheared_packings.py "
                    + " ".join(sys.argv[1:] if argv is None else argv),
-        "preset": args.preset, "overrides": args.overrides, "aged_s": args.age,
+        "preset": args.preset, "overrides": args.overrides,
+        "aged_s": args.age + (_aged(packings.HERE / args.start) if args.start else 0.0),
+        **({"started_from": args.start} if args.start else {}),
         "law": scene.derive().coeffs.pair_style + f" (mu {scene.law.mu}, mu_wall "
                f"{scene.law.mu_wall}, mu_roll {scene.law.mu_roll})",
         "units": "SI (Pa)",

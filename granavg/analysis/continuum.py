@@ -85,27 +85,31 @@ def fit_shear_band(r, v, sem, R_i, n_rings=None) -> ShearBand:
         Inner ring radius (m).
     n_rings : int, optional
         Fit this many inner rings instead of the decay range (for replicates and the
-        range-sensitivity of s).
+        range-sensitivity of s). Rings among them with v_phi <= 0 get zero weight (the
+        limit of their weight as v_phi -> 0+); the first ring must be positive.
 
     The errors ``v0_err`` and ``s_err`` treat the rings as independent; the analysis
     replaces them by errors from replicates (:mod:`granavg.engine.uncertainty`).
     """
     r, v, sem = (np.asarray(x, float) for x in (r, v, sem))
     n, noise = decay_range(v, sem)
+    use = np.ones(n, bool)
     if n_rings is not None:
         n = int(min(max(n_rings, 0), len(r)))
-        if not np.all(np.isfinite(v[:n]) & (v[:n] > 0)):
-            n = 0
-    if n < 3:
-        raise UserError(f"v_phi is above its noise level ({noise:.3g} m/s) in only {n} "
-                        "ring(s) next to the inner wall; no decay to fit (use finer rings "
-                        "or a longer run)")
-    x, y = r[:n] - R_i, np.log(v[:n])
-    sig = np.where(np.isfinite(sem[:n]) & (sem[:n] > 0), sem[:n] / v[:n], 1.0)
-    A = np.column_stack([np.ones(n), x]) / sig[:, None]
+        # a ring whose v_phi is <= 0 (a replicate's noise near the band's end) gets zero
+        # weight: the limit of the weight (v/sem)^2 as v -> 0+; the ring count stays n
+        use = np.isfinite(v[:n]) & (v[:n] > 0)
+    if use.sum() < 3 or (n_rings is not None and not use[0]):
+        raise UserError(f"v_phi is above its noise level ({noise:.3g} m/s) in only "
+                        f"{int(use.sum())} ring(s) next to the inner wall; no decay to fit "
+                        "(use finer rings or a longer run)")
+    x, y = r[:n][use] - R_i, np.log(v[:n][use])
+    sig = np.where(np.isfinite(sem[:n][use]) & (sem[:n][use] > 0),
+                   sem[:n][use] / v[:n][use], 1.0)
+    A = np.column_stack([np.ones(len(x)), x]) / sig[:, None]
     coef, *_ = np.linalg.lstsq(A, y / sig, rcond=None)
     resid = (y - coef[0] - coef[1] * x) / sig
-    chi2 = max(np.sum(resid**2) / max(n - 2, 1), 1.0)     # scatter beyond the errors
+    chi2 = max(np.sum(resid**2) / max(len(x) - 2, 1), 1.0)  # scatter beyond the errors
     cov = np.linalg.inv(A.T @ A) * chi2
     v0, s = np.exp(coef[0]), -1.0 / coef[1]
     return ShearBand(v0=v0, v0_err=v0 * np.sqrt(cov[0, 0]), s=s,
