@@ -18,8 +18,8 @@ from granavg.sim.contact_law import ContactLaw, effective_mass, restitution, to_
 from granavg.sim.lammps_session import lammps_session, load_lammps
 from granavg.sim.refdem import Disks, ReferenceDEM
 
-from granavg.sim.collision import (D, RHO_AREA, lammps_trajectory, pair_commands,
-                                   pair_order_commands,
+from granavg.sim.collision import (D, RHO_AREA, base_friction_commands, lammps_trajectory,
+                                   pair_commands, pair_order_commands,
                                    reference_trajectory)
 
 from .conftest import run_cli
@@ -101,17 +101,18 @@ def packing_commands(x, v, w, frozen):
     return cmds
 
 
-def lammps_packing_run(c, dt, x, v, w, frozen, steps, settings=()):
+def lammps_packing_run(c, dt, x, v, w, frozen, steps, settings=(), forces=()):
     """LAMMPS on a packing: masses, radii, positions after each step, shape (steps, N, 2),
     and the order in which its neighbour list holds each touching pair, at the start and
     after each step: ``{i * N + j: reversed}`` (i < j; ``reversed`` when LAMMPS has the
     pair as (j, i)). ``compute pair/local`` is evaluated every step, as a contact dump
-    would (pair granular's ``single()`` rewrites sliding tangential springs)."""
+    would (pair granular's ``single()`` rewrites sliding tangential springs). ``forces``:
+    commands of further forces on the group ``mobile`` (the deck's base friction)."""
     n = len(x)
     cmds = [*packing_commands(x, v, w, frozen), *settings]
     cmds += ["group mobile type 1", "group walls type 4", *pair_commands(c),
              "neighbor 0.002 bin", "neigh_modify delay 0 every 1 check yes exclude type 4 4",
-             "fix integrate mobile nve/sphere disc", "fix frozen walls freeze",
+             "fix integrate mobile nve/sphere disc", "fix frozen walls freeze", *forces,
              "fix flat all enforce2d", f"timestep {dt!r}",
              "compute pair all pair/local fx fy p1 p2 cutoff radius",
              "compute order all property/local patom1 patom2 cutoff radius", "run 0"]
@@ -151,10 +152,11 @@ def reverse_rolling_springs_of_swapped_pairs(dem, before, after):
     return len(swapped)
 
 
-@pytest.mark.parametrize("mu_roll,deck", [(0.0, True), (0.1, True), (0.1, False)],
+@pytest.mark.parametrize("mu_roll,deck,base", [(0.0, True, None), (0.1, True, None),
+                                               (0.1, False, None), (0.1, True, (0.03, 0.002))],
                          ids=["gran-hooke-history", "granular-rolling-deck",
-                              "granular-rolling-lammps-defaults"])
-def test_same_packing_same_trajectories_up_to_the_chaos_horizon(mu_roll, deck):
+                              "granular-rolling-lammps-defaults", "base-friction"])
+def test_same_packing_same_trajectories_up_to_the_chaos_horizon(mu_roll, deck, base):
     """Both engines from one start: positions agree to round-off at first; round-off
     differences (the order in which a disk's contact forces are summed) then grow
     chaotically. The horizon is where they reach 1e-6 of a diameter. Both evaluate the
@@ -162,16 +164,27 @@ def test_same_packing_same_trajectories_up_to_the_chaos_horizon(mu_roll, deck):
     reference is told where LAMMPS' neighbour list swapped a pair (with pair granular
     LAMMPS then reverses its rolling spring). With the deck's settings no pair is ever
     swapped (the rolling springs stay right); with LAMMPS' defaults (newton on) pairs
-    are swapped and the agreement needs the reversal."""
+    are swapped and the agreement needs the reversal. With the deck's base friction
+    (mu_base 0.03, v_base 2 mm/s) the reference adds the same force; without it, it
+    departs from LAMMPS at once."""
     x, v, w, frozen = loose_packing()
     law = ContactLaw(k_n=10.0, e_n=0.9, mu=0.5, mu_wall=0.3, mu_roll=mu_roll)
     m0 = RHO_AREA * np.pi * (D / 2) ** 2
     c = to_lammps(law, effective_mass(m0, m0))
     dt, steps = c.t_c / 50, 6000
     settings = pair_order_commands(c) if deck else ()
-    mass, radius, lmp, orders = lammps_packing_run(c, dt, x, v, w, frozen, steps, settings)
+    forces = base_friction_commands(*base) if base else ()
+    mass, radius, lmp, orders = lammps_packing_run(c, dt, x, v, w, frozen, steps, settings,
+                                                   forces)
+    if base:                                           # the friction changes the run
+        plain = Disks(x=x.copy(), v=v.copy(), omega=w.copy(), radius=radius, mass=mass,
+                      frozen=frozen)
+        without = ReferenceDEM(plain, c, dt)
+        for _ in range(100):
+            without.step()
+        assert np.abs(plain.x - lmp[99]).max() / D > 1e-6
     disks = Disks(x=x.copy(), v=v.copy(), omega=w.copy(), radius=radius, mass=mass, frozen=frozen)
-    dem = ReferenceDEM(disks, c, dt)
+    dem = ReferenceDEM(disks, c, dt, base=base)
     dev, contacts, swaps = [], 0, 0
     for k in range(steps):
         swaps += reverse_rolling_springs_of_swapped_pairs(dem, orders[k], orders[k + 1])

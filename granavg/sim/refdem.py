@@ -29,6 +29,10 @@ round-off:
   LAMMPS' fix neigh/history negates all its history, the rolling spring included,
   although the rolling velocity does not change sign with the order; the reference
   keeps the spring (docs/refdem.md).
+- the deck's friction with the base plate (``fix addforce`` of atom-style variables,
+  when ``base`` is given): ``-mu_base 9.81 m v / sqrt(v . v + v_base^2)`` on every free
+  disk, added after the contact forces with the half-step velocities, as LAMMPS'
+  ``post_force`` does.
 - ``fix nve/sphere disc`` (velocity Verlet, moment of inertia m r^2 / 2) with
   ``fix enforce2d``: half kick, drift, forces, half kick.
 - ``fix move rotate 0 0 0 0 0 1 T`` for a rotating wall ring: at step n its disks sit
@@ -52,6 +56,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from granavg.sim.contact_law import LammpsCoefficients
+from granavg.sim.scene import G
 
 #: LAMMPS' EPSILON of pair granular's history models: a spring whose normal component
 #: times its stiffness is below EPSILON times the Coulomb limit is not turned.
@@ -112,11 +117,15 @@ class ReferenceDEM:
         Frozen disks turned rigidly about the origin at ``Omega`` (rad/s,
         counter-clockwise) from their positions at step 0.
     Omega : float
+    base : (float, float), optional
+        (mu_base, v_base in m/s): the deck's Coulomb friction with the base plate
+        (module docstring); None or mu_base = 0: none.
     """
 
     def __init__(self, disks: Disks, coeffs: LammpsCoefficients, dt: float,
-                 rotating=None, Omega: float = 0.0):
+                 rotating=None, Omega: float = 0.0, base=None):
         self.d, self.c, self.dt = disks, coeffs, dt
+        self.base = base if base is not None and base[0] > 0 else None
         self.step_count = 0
         self.granular = coeffs.mu_roll > 0
         # sorted pair keys and springs: tangential (x, y), then rolling (x, y) with pair granular
@@ -156,7 +165,19 @@ class ReferenceDEM:
         d.force[:, 0] = np.bincount(i, fx, n) - np.bincount(j, fx, n)
         d.force[:, 1] = np.bincount(i, fy, n) - np.bincount(j, fy, n)
         d.torque[:] = np.bincount(i, tq_i, n) + np.bincount(j, tq_j, n)
+        if self.base is not None:
+            self._add_base_friction()
         self.contacts = (i, j, fn, ft)
+
+    def _add_base_friction(self):
+        """The deck's ``fix addforce v_fbx v_fby`` on the free disks, operation for
+        operation: ``-v_mu_base*9.81*mass*vx/v_vbase``, ``v_vbase = sqrt(vx*vx+vy*vy+
+        v_v_base*v_v_base)``."""
+        (mu, vb), d, free = self.base, self.d, ~self.d.frozen
+        vx, vy = d.v[free, 0], d.v[free, 1]
+        speed = np.sqrt(vx * vx + vy * vy + vb * vb)
+        d.force[free, 0] += -mu * G * d.mass[free] * vx / speed
+        d.force[free, 1] += -mu * G * d.mass[free] * vy / speed
 
     def contact_rows(self):
         """What LAMMPS' ``compute pair/local dx dy dist fx fy p1 p2`` reports now.
