@@ -206,7 +206,7 @@ def test_resume_bookkeeping_keeps_the_frames_before_a_damaged_gzip(dumps, tmp_pa
         ln for f in frames[:len(got) - 1] for ln in f)
 
 
-@pytest.mark.parametrize("cut", ["mid row", "after TIMESTEP", "mid count"])
+@pytest.mark.parametrize("cut", ["mid row", "after TIMESTEP", "mid count", "mid ITEM"])
 def test_resume_bookkeeping_on_a_plain_dump_cut_anywhere(dumps, tmp_path, cut):
     """A plain dump cut inside a row, right after 'ITEM: TIMESTEP' or inside the atom
     count: every frame before the cut is complete, the cut one is not."""
@@ -215,9 +215,23 @@ def test_resume_bookkeeping_on_a_plain_dump_cut_anywhere(dumps, tmp_path, cut):
     last = frames[3]
     head = "".join(ln for f in frames[:3] for ln in f)
     tail = {"mid row": "".join(last[:-1]) + last[-1][:7],
-            "after TIMESTEP": last[0], "mid count": "".join(last[:3]) + last[3][:1]}[cut]
+            "after TIMESTEP": last[0], "mid count": "".join(last[:3]) + last[3][:1],
+            "mid ITEM": last[0][:3]}[cut]
     path = write(tmp_path, "atoms.dump", [head + tail])
     assert frame_steps(path) == [int(f[1]) for f in frames[:3]]
+    if cut == "mid ITEM":            # the cut piece is not kept with the last frame
+        from granavg.io.rundir import truncate_dump
+        assert truncate_dump(path, 10**12) == 3 and path.read_text() == head
+
+
+def test_resume_bookkeeping_keeps_a_whole_gzip_followed_by_garbage(dumps, tmp_path):
+    """A complete gzip member then junk (an appended member cut at its header, zero
+    padding): every frame of the complete member is kept."""
+    from granavg.io.rundir import frame_steps
+    frames = frames_of(dumps["atoms"])
+    path = tmp_path / "atoms.dump.gz"
+    path.write_bytes(gzip.compress("".join(dumps["atoms"]).encode()) + b"\x1f\x8b\x08junk")
+    assert frame_steps(path) == [int(f[1]) for f in frames]
 
 
 # -- damaged contact dumps -----------------------------------------------------------------

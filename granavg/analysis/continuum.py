@@ -86,7 +86,8 @@ def fit_shear_band(r, v, sem, R_i, n_rings=None) -> ShearBand:
     n_rings : int, optional
         Fit this many inner rings instead of the decay range (for replicates and the
         range-sensitivity of s). Rings among them with v_phi <= 0 get zero weight (the
-        limit of their weight as v_phi -> 0+); the first ring must be positive.
+        limit of their weight as v_phi -> 0+), as do rings without an error; the first
+        ring must have both.
 
     The errors ``v0_err`` and ``s_err`` treat the rings as independent; the analysis
     replaces them by errors from replicates (:mod:`granavg.engine.uncertainty`).
@@ -98,8 +99,11 @@ def fit_shear_band(r, v, sem, R_i, n_rings=None) -> ShearBand:
         n = int(min(max(n_rings, 0), len(r)))
         # a ring whose v_phi is <= 0 (a replicate's noise near the band's end) gets zero
         # weight: the limit of the weight (v/sem)^2 as v -> 0+; the ring count stays n
-        use = np.isfinite(v[:n]) & (v[:n] > 0)
-    if use.sum() < 3 or (n_rings is not None and not use[0]):
+        use = np.isfinite(v[:n]) & (v[:n] > 0) & np.isfinite(sem[:n]) & (sem[:n] > 0)
+        if n and not use[0]:
+            raise UserError("v_phi next to the inner wall is not positive (or has no "
+                            "error): no decay to fit")
+    if use.sum() < 3:
         raise UserError(f"v_phi is above its noise level ({noise:.3g} m/s) in only "
                         f"{int(use.sum())} ring(s) next to the inner wall; no decay to fit "
                         "(use finer rings or a longer run)")

@@ -26,13 +26,15 @@ def gzip_chunks(path, piece: int = 1 << 16):
     """Yield the decompressed bytes of a gzip file up to its first damage.
 
     The raw file is fed to a streaming decompressor in ``piece``-byte pieces, member
-    after member, so everything before a cut or a corrupt byte comes out (the piece in
-    which the damage lies is dropped) and nothing raises: a writer killed mid-stream
+    after member, so everything before a cut or a corrupt byte comes out (but for the
+    part of the 64 kB piece in which the damage is found; corrupt deflate data may also
+    decode to junk for a while before zlib notices) and nothing raises: a writer killed mid-stream
     leaves such tails, and callers keep the complete frames before them.
     """
     d = zlib.decompressobj(wbits=31)
     with open(path, "rb") as fh:
         while (raw := fh.read(piece)):
+            data = b""
             try:
                 data = d.decompress(raw)
                 while d.eof and d.unused_data:          # the next gzip member
@@ -40,6 +42,7 @@ def gzip_chunks(path, piece: int = 1 << 16):
                     d = zlib.decompressobj(wbits=31)
                     data += d.decompress(rest)
             except zlib.error:
+                yield data                  # the members completed before the damage
                 return
             yield data
 

@@ -94,16 +94,21 @@ def _frames_text(path: Path):
     lines, step, expect, count, in_rows = [], None, None, 0, False
     fh = tolerant_lines(path)
     for line in fh:
+        if not line.endswith("\n"):
+            break                       # only the damaged tail lacks its newline
         if in_rows and line.startswith("ITEM:"):
             if step is not None and count == expect:
                 yield step, "".join(lines)
             lines, step, expect, count, in_rows = [], None, None, 0, False
         lines.append(line)
         if line.startswith(("ITEM: TIMESTEP", "ITEM: NUMBER OF")):
+            text = next(fh, "")
             try:
-                value = int(next(fh, ""))
+                value = int(text)
             except ValueError:
                 return                  # the damage lies in this frame's header
+            if not text.endswith("\n"):
+                return
             if line.startswith("ITEM: TIMESTEP"):
                 step = value
             else:
