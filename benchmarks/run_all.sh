@@ -10,7 +10,7 @@ mkdir -p "$OUT"
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2)"
 echo "## LAMMPS"; sh "$ROOT/workflows/lammps_timing.sh" "$OUT/timing" 10000
 echo "## reader, engine, memory"
-"$BIN/granavg" simulate --preset demo --omp 2 --out "$OUT/demo" --no-progress
+"$BIN/granavg" simulate --preset fast --omp 2 --out "$OUT/demo" --no-progress
 "$BIN/python" "$ROOT/benchmarks/averaging.py" "$OUT/demo"
 echo "## dask"; "$BIN/python" "$ROOT/benchmarks/parallel.py" "$OUT/demo" 1 2
 echo "## reference DEM"

@@ -23,9 +23,10 @@ def _parser() -> argparse.ArgumentParser:
 
     sim = sub.add_parser("simulate", help="run the Couette cell in LAMMPS (SI units)")
     sim.add_argument("--preset", default="demo",
-                     help="scene preset: paper (rolling resistance, 50 s from a shipped "
-                     "sheared packing; --seeds 4 for the four), fast (= demo: k_n 2.5, 60 s), "
-                     "paper-rolling (the same, 250 s), paper-hooke (plain "
+                     help="scene preset: paper (rolling resistance and base-plate friction, "
+                     "50 s from a shipped sheared packing; --seeds 4 for the four), demo "
+                     "(the same, 30 s), paper-rolling (no base friction, 250 s), fast "
+                     "(paper-rolling with k_n 2.5, 60 s), paper-hooke (plain "
                      "gran/hooke/history, grown, 500 s); docs/scene.md, docs/sweep/")
     sim.add_argument("--out", required=True, help="run directory to create (must be new)")
     sim.add_argument("--set", dest="overrides", action="append", default=[],
@@ -361,7 +362,8 @@ def _demo(args) -> int:
     if out.exists() and any(out.iterdir()):
         raise UserError(f"{out} is not empty; choose a new --out")
     run = simulate(preset("demo"), out / "run", omp_threads=args.omp, preset="demo")
-    report_run(run, out, t_min=args.t_min, title="granavg demo (the paper's cell with rolling resistance, k_n = 2.5 N/m, 60 s of shear: the fast preset)")
+    report_run(run, out, t_min=args.t_min, title="granavg demo (the paper preset's scene: rolling resistance and "
+                                        "base-plate friction, 30 s of shear, one realisation)")
     logging.getLogger("granavg").info("demo complete: open %s", out / "report.html")
     return 0
 
@@ -412,8 +414,11 @@ def main(argv=None) -> int:
     unraisable, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="granavg: %(message)s")
+    quiet = "debug" if args.verbose else "warning"
     for noisy in ("distributed", "tornado", "bokeh"):     # dask's own chatter
-        logging.getLogger(noisy).setLevel(logging.DEBUG if args.verbose else logging.WARNING)
+        logging.getLogger(noisy).setLevel(quiet.upper())
+    import dask                      # distributed resets its loggers from this on import
+    dask.config.set({"logging.distributed": quiet})
     try:
         return {"simulate": _simulate, "average": _average, "analyze": _analyze,
                 "demo": _demo}[args.command](args)

@@ -26,6 +26,9 @@ def ensemble(tmp_path_factory):
     proc = run_cli("simulate", "--preset", SMALL_PRESET, "--out", out, "--seeds", 3, "--workers", 2,
                    *sets)
     assert proc.returncode == 0, proc.stderr
+    # dask's scheduler and workers keep their INFO chatter (and shutdown tracebacks) to
+    # themselves: the user sees granavg's lines
+    assert "Traceback" not in proc.stderr and "Nanny" not in proc.stderr, proc.stderr
     return out
 
 

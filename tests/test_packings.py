@@ -29,14 +29,16 @@ def test_every_preset_with_a_packing_has_one_for_its_seed_and_the_paper_cell():
         assert int(np.sum(data["type"] <= 2)) == scene.n_small + scene.n_large, name
 
 
-def test_the_shipped_packings_are_the_paper_cell_jammed():
+@pytest.mark.parametrize("name, preset_name", [(SET, PRESET), ("rolling-base-sheared", "paper")])
+def test_the_shipped_packings_are_the_paper_cell_jammed(name, preset_name):
     """Each shipped packing holds the paper's disks (sizes and counts) inside the annulus,
     and its recorded end state is jammed: bulk C >= 3, rattlers < 15%."""
-    scene = preset(PRESET)
-    record = packings.provenance(SET)
-    assert packings.seeds(SET), "no packing shipped"
-    for seed in packings.seeds(SET):
-        data = read_data(packings.check(SET, seed))
+    scene = preset(preset_name)
+    assert scene.packing == name
+    record = packings.provenance(name)
+    assert packings.seeds(name), "no packing shipped"
+    for seed in packings.seeds(name):
+        data = read_data(packings.check(name, seed))
         mob = data["type"] <= 2
         d = np.round(2 * data["radius"][mob], 6)
         assert np.sum(d == round(scene.d_s, 6)) == scene.n_small

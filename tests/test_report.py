@@ -69,7 +69,7 @@ def test_report_and_summary_hold_the_headline_numbers(report):
     assert html.count("data:image/png;base64,") == len(FIGURES) + 1   # + Fig. 1; self-contained
     assert "src='http" not in html and 'src="http' not in html
     # the speed/accuracy study's forecast: the small test cell is not the study's scene
-    assert "accuracy class of the settings" in html and "not measured: the study covers" in html
+    assert "accuracy class of the settings" in html and "not measured: the study measured one" in html
 
 
 def test_degenerate_profiles_give_one_line(profiles, tmp_path):

@@ -180,3 +180,17 @@ def test_the_ageing_of_four_250_s_runs_is_a_drift_of_the_ensemble():
     assert not any(r["P_bulk_Pa"]["drifts"] for r in per_run)
     judged = ensemble_stationarity(per_run)["P_bulk_Pa"]
     assert judged["drifts"] and judged["change"] < 0
+
+
+def test_the_paper_presets_window_is_steady_in_its_ensemble():
+    """Real data: the `paper` preset's 4 x 50 s ensemble (docs/paper, base-plate friction
+    on): judged from its realisations, C_bulk, P_bulk and nu_bulk do not drift over the
+    window (issue 12's done-when) - the same test that flags docs/paper-rolling above."""
+    import json
+    from pathlib import Path
+    meta = json.loads((Path(__file__).parents[1] / "docs/paper/profiles20.csv.json")
+                      .read_text())
+    assert meta["run_manifest"]["scene"]["mu_base"] > 0
+    judged = ensemble_stationarity([r["stationarity"] for r in meta["runs"]])
+    for q in ("C_bulk", "P_bulk_Pa", "nu_bulk"):
+        assert not judged[q]["drifts"], (q, judged[q])

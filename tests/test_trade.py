@@ -47,7 +47,7 @@ def test_another_scene_is_not_measured_whatever_its_settings():
 def test_a_scene_key_added_after_the_study_counts_at_its_default():
     """A study written before base friction existed ran without it: a scene without base
     friction keeps its class, one with it is another scene."""
-    scene = preset("paper")
+    scene = preset("paper-rolling")
     study = table(scene, STUDY)
     study["scene"] = {k: v for k, v in study["scene"].items() if k not in ("mu_base", "v_base")}
     assert trade.accuracy_class(scene.to_dict(), study)[0] == "10%"      # STUDY's k_n = 10
@@ -56,7 +56,7 @@ def test_a_scene_key_added_after_the_study_counts_at_its_default():
 
 
 def test_the_wall_time_is_disk_steps_and_frames_at_the_measured_rates(monkeypatch):
-    scene = preset("paper")
+    scene = preset("paper-rolling")
     study = table(scene, STUDY)
     monkeypatch.setattr(trade, "study", lambda: study)
     d = scene.derive()
@@ -71,5 +71,11 @@ def test_the_wall_time_is_disk_steps_and_frames_at_the_measured_rates(monkeypatc
     study["seconds_per_disk_step_plain_law"] = 1e-7         # the plain law's own rate
     plain = trade.expectation(scene.with_overrides(["mu_roll=0"]).derive(), prepared=True)
     assert plain["wall_time_s"] == pytest.approx(n * (d.n_shear * 1e-7 + frames * 2e-4))
+    based = trade.expectation(scene.with_overrides(["mu_base=0.03"]).derive(), prepared=True)
+    extra = n * d.n_shear * 3e-7 * trade.BASE_FRICTION_EXTRA     # a fixed cost per disk-step
+    assert based["wall_time_s"] == pytest.approx(f["wall_time_s"] + extra)
+    plain_based = trade.expectation(scene.with_overrides(["mu_roll=0", "mu_base=0.03"]).derive(),
+                                    prepared=True)
+    assert plain_based["wall_time_s"] == pytest.approx(plain["wall_time_s"] + extra)
     monkeypatch.setattr(trade, "study", lambda: None)
     assert "wall_time_s" not in trade.expectation(d, prepared=True)

@@ -1,9 +1,9 @@
 #!/bin/sh
 # Reproduce the paper end to end: an ensemble of K realisations of the `paper` preset
-# (2945 disks with rolling resistance, 50 s of shear each from the K shipped sheared
-# packings, on a dask cluster of 2 workers), averaged together over 20 and 60 rings from
-# the preset's discard time on (between-run errors), analysed: Figs. 1-9, the time
-# series and a report.
+# (2945 disks with rolling resistance and base-plate friction, 50 s of shear each from
+# the K shipped sheared packings, on a dask cluster of 2 workers), averaged together
+# over 20 and 60 rings from the preset's discard time on (between-run errors),
+# analysed: Figs. 1-9, the time series and a report.
 #   sh workflows/reproduce_paper.sh OUTDIR [K] [simulate options]      (K default 4)
 # The committed result is docs/paper/ (report.html, summary.json, figures); see its README.
 # A later --preset wins: `... OUT 4 --preset paper-rolling` gives docs/paper-rolling/ (250 s runs).

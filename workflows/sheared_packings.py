@@ -42,11 +42,6 @@ def end_state(run: Path, age: float) -> dict:
     return {q: round(float(ts[q].mean()), 4) for q in END_STATE if q in ts}
 
 
-def _aged(packing_set: Path) -> float:
-    """Seconds of shear a shipped packing set has already had (its provenance)."""
-    return float(json.loads((packing_set / "provenance.json").read_text())["aged_s"])
-
-
 def done(run: Path, scene) -> bool:
     """A complete run of this scene is in ``run`` (the same values, up to the averaging
     window's ``discard_rotations``, which does not change a run)."""
@@ -99,8 +94,11 @@ def main(argv=None) -> int:
     from granavg.sim.run_files import SHEARED
     from granavg.sim.scene import preset
 
+    if args.start:
+        packings.seeds(args.start)                      # refuses an unknown set up front
     scene = preset(args.preset).with_overrides(
-        [f"packing={args.start}", f"t_end={args.age}", "dump_dt=5", "restart_dt=50", *args.overrides])
+        [f"packing={args.start}", f"t_end={args.age}", "dump_dt=5", "restart_dt=50",
+         *args.overrides])
     args.out.mkdir(parents=True, exist_ok=True)
     scenes = {args.out / f"seed{s}": dataclasses.replace(scene, seed=s)
               for s in seeds_for(scene, args.seeds)}
@@ -109,10 +107,12 @@ def main(argv=None) -> int:
         "made_by": "python workflows/sheared_packings.py "
                    + " ".join(sys.argv[1:] if argv is None else argv),
         "preset": args.preset, "overrides": args.overrides,
-        "aged_s": args.age + (_aged(packings.HERE / args.start) if args.start else 0.0),
+        "aged_s": args.age + (packings.provenance(args.start)["aged_s"] if args.start else 0.0),
         **({"started_from": args.start} if args.start else {}),
         "law": scene.derive().coeffs.pair_style + f" (mu {scene.law.mu}, mu_wall "
-               f"{scene.law.mu_wall}, mu_roll {scene.law.mu_roll})",
+               f"{scene.law.mu_wall}, mu_roll {scene.law.mu_roll})"
+               + (f"; base-plate friction mu_base {scene.mu_base}, v_base {scene.v_base} m/s"
+                  if scene.mu_base else ""),
         "units": "SI (Pa)",
         "end_state_last_100_s": {r.name: end_state(r, args.age) for r in scenes},
     }

@@ -4,7 +4,8 @@ limit (issue 14).
     python workflows/sweep.py OUT [--seeds 4] [--workers 2 | --scheduler ADDR]
     python workflows/sweep.py OUT --table       # re-judge OUT/sweep.csv, print the table
 
-Every setting is an ensemble: one short run of the `paper` preset from each of the shipped
+Every setting is an ensemble: one short run of the `paper-rolling` preset (the `paper` scene
+without its base-plate friction, as measured in 2026-11) from each of the shipped
 sheared packings (seeds 20011, 27930, ...: the same starting states for every setting), so
 that the slow ageing of the packing (docs/steady-state.md) is the same for all settings
 and a difference is called a bias only when it exceeds the combined ensemble error. A run
@@ -43,7 +44,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-PRESET = "paper"
+PRESET = "paper-rolling"      # the scene measured: rolling resistance, no base friction
 WINDOW = ["t_end=20", "dump_dt=0.5", "restart_dt=20"]
 SIMULATED = {          # name: --set overrides of the preset (after WINDOW)
     "base": [],                                   # k_n = 10 N/m, n = 50, Omega = 0.1 rad/s

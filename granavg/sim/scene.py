@@ -128,16 +128,16 @@ class Scene:
         dt = coeffs.t_c / self.n_per_tc
         dt_safe = min(coeffs.t_c / MIN_STEPS_PER_CONTACT,
                       max_stable_timestep(coeffs, effective_mass(m_s, m_s)))
-        if self.mu_base * G * dt / self.v_base > MAX_BASE_DAMPING:
-            raise UserError(
-                f"base friction mu_base = {self.mu_base:g} acts as a damping rate mu_base g / "
-                f"v_base = {self.mu_base * G / self.v_base:.3g} 1/s, too fast for dt = "
-                f"{dt:.3g} s; set v_base >= {self.mu_base * G * dt / MAX_BASE_DAMPING:.3g} m/s")
         if dt > dt_safe:
             raise UserError(
                 f"time step dt = t_c/{self.n_per_tc:g} = {dt:.3g} s is above the safe bound "
                 f"{dt_safe:.3g} s of the contact law (t_c = {coeffs.t_c:.3g} s); "
                 f"set n_per_tc >= {coeffs.t_c / dt_safe:.3g}")
+        if self.mu_base * G * dt / self.v_base > MAX_BASE_DAMPING:
+            raise UserError(
+                f"base friction mu_base = {self.mu_base:g} acts as a damping rate mu_base g / "
+                f"v_base = {self.mu_base * G / self.v_base:.3g} 1/s, too fast for dt = "
+                f"{dt:.3g} s; set v_base >= {self.mu_base * G * dt / MAX_BASE_DAMPING:.3g} m/s")
         n_shear = int(round(self.t_end / dt))
         dump_every = self.dump_every or max(1, int(round(self.dump_dt / dt)))
         return Derived(
@@ -289,32 +289,37 @@ state (docs/steady-state.md)."""
 PAPER_ROLLING = dataclasses.replace(PAPER_HOOKE, law=ContactLaw(mu_roll=0.3),
                                     packing="rolling-sheared", t_end=250.0,
                                     discard_rotations=0.1)
-"""The paper's scene closest to a steady jammed state (issue 12, docs/steady-state.md):
-the same law with rolling resistance (``pair granular``, mu_roll = 0.3), sheared for
-250 s from a shipped packing grown with the seed and already sheared 250 s with this law
-(:mod:`granavg.sim.packings`); the first tenth of a rotation (6.3 s: the contact springs
-reload after the start from a data file) is left out of the averages. Jammed and
-quasi-static; its bulk pressure still falls by about 6% over the 250 s (the long
-variant of :data:`PAPER`, for the ageing)."""
+"""The paper's scene with rolling resistance and no base friction (issue 12,
+docs/steady-state.md): the plain law plus rolling resistance (``pair granular``, mu_roll
+= 0.3), sheared for 250 s from a shipped packing grown with the seed and already sheared
+250 s with this law (:mod:`granavg.sim.packings`); the first tenth of a rotation (6.3 s:
+the contact springs reload after the start from a data file) is left out of the
+averages. Jammed and quasi-static, but ageing: its bulk pressure falls by about 6% over
+the 250 s. The scene of the speed/accuracy study (with 50 s runs)."""
 
-PAPER = dataclasses.replace(PAPER_ROLLING, t_end=50.0, dump_dt=1.0, restart_dt=12.5)
-"""The default paper scene: :data:`PAPER_ROLLING`'s law, packings and discard, sheared
-50 s (0.8 rotation) with frames every second. Its settings (k_n = 10 N/m,
-n = t_c/dt = 50, Omega = 0.1 rad/s) show no bias above 5% against the stiff limit in the
-speed/accuracy study (docs/sweep/; as do k_n = 100 and 1000 N/m on either side). The
-precision comes from realisations (``--seeds 4``: the four shipped packings, under
-10 min on two cores), which also keeps each window short against the packing's slow
-ageing."""
+PAPER = dataclasses.replace(PAPER_ROLLING, mu_base=0.03, packing="rolling-base-sheared",
+                            t_end=50.0, dump_dt=1.0, restart_dt=12.5)
+"""The default paper scene (issue 12, docs/steady-state.md): :data:`PAPER_ROLLING`'s law
+with Coulomb friction against the base plate the disks slide on (mu_base = 0.03, v_base
+= 1 mm/s), the only change measured that stops the packing's slow ageing, sheared 50 s
+(0.8 rotation, frames every second) from shipped packings already sheared 250 s with
+rolling resistance and 100 s more with the plate's friction; the first tenth of a
+rotation (6.3 s) is left out. Jammed, quasi-static and steady over its window, with the
+paper's v0 but a narrower band (s about 6 mm against the paper's 12.7 mm). The precision
+comes from realisations (``--seeds 4``: the four shipped packings). The speed/accuracy
+study measured the scene without the plate's friction (:data:`FAST`, ``paper-rolling``):
+its classes do not carry over."""
 
-FAST = dataclasses.replace(PAPER, law=dataclasses.replace(PAPER.law, k_n=2.5), t_end=60.0,
-                           dump_dt=0.5, restart_dt=15.0)
-"""The cheapest scene within 10% of the stiff limit (docs/sweep/): the paper scene with
-springs four times softer (k_n = 2.5 N/m, same restitution: half the steps per second
-of shear) for 60 s with frames every 0.5 s; one realisation end to end (simulate,
-average, analyse) in about 3 minutes here, with wider errors than ``paper``."""
+FAST = dataclasses.replace(PAPER_ROLLING, law=dataclasses.replace(PAPER_ROLLING.law, k_n=2.5),
+                           t_end=60.0, dump_dt=0.5, restart_dt=15.0)
+"""The cheapest scene within 10% of the stiff limit in the speed/accuracy study
+(docs/sweep/), which measured the rolling-resistance scene without base friction: springs
+four times softer than ``paper-rolling``'s (k_n = 2.5 N/m, same restitution: half the
+steps per second of shear), 60 s from its shipped packings with frames every 0.5 s."""
 
-DEMO = FAST
-"""What ``granavg demo`` runs: :data:`FAST`."""
+DEMO = dataclasses.replace(PAPER, t_end=30.0, dump_dt=0.5, restart_dt=15.0)
+"""What ``granavg demo`` runs: :data:`PAPER` for 30 s (one realisation, frames every
+0.5 s)."""
 
 PRESETS = {"paper": PAPER, "fast": FAST, "demo": DEMO, "paper-rolling": PAPER_ROLLING,
            "paper-hooke": PAPER_HOOKE}

@@ -1,13 +1,14 @@
 """What a simulation will cost and how accurate it will be, from the measured study.
 
 The speed/accuracy study (``workflows/sweep.py``, docs/sweep/) measured, on a 2-core
-machine, the cost of LAMMPS steps and frames and, for the paper scene, how far each
+machine, the cost of LAMMPS steps and frames and, for the `paper-rolling` scene, how far each
 setting of (k_n, n = t_c/dt, Omega) lands from the stiff, fine-step limit. ``trade.json``
 beside this module holds what it measured (``sweep.py OUT --ship`` writes it).
 :func:`expectation` turns that into a forecast for a scene: the expected wall time of one
 LAMMPS process and the accuracy class of its settings. It is a forecast, not a
-measurement: another machine scales the time, and the class holds only for the paper
-scene's geometry, disks and contact law (anything else is "not measured").
+measurement: another machine scales the time, and the class holds only for the scene
+the study measured (``paper-rolling``'s geometry, disks, contact law and packings, without
+base-plate friction; anything else, the ``paper`` preset included, is "not measured").
 """
 
 from __future__ import annotations
@@ -22,6 +23,12 @@ STUDY = Path(__file__).with_name("trade.json")
 #: scene fields that must equal the study's for its accuracy classes to apply
 SAME_SCENE = ("R_i", "R_o", "n_small", "n_large", "d_s", "d_l", "rho_p", "e_n", "mu",
               "mu_wall", "mu_roll", "kt_over_kn", "size_spread", "packing", "mu_base", "v_base")
+#: what base-plate friction adds to a disk-step (the deck's atom-style variables,
+#: evaluated every step; the same whatever the contact law), in units of a disk-step of
+#: ``pair granular`` with rolling resistance: the paper cell two runs at a time took 2.03
+#: (1838 s against 907 s for 1.07 million steps) and 2.2 (1.88 against 0.85 ms per
+#: step) times as long with it (docs/steady-state.md)
+BASE_FRICTION_EXTRA = 1.1
 CLASSES = {"5%": "no headline number showed a bias above 5% of the stiff limit (biases "
                   "below the study's resolution, 12-27%, cannot be seen)",
            "10%": "no headline number showed a bias above 10% of the stiff limit",
@@ -35,14 +42,16 @@ def study() -> dict | None:
 
 
 def wall_time(n_steps: int, n_disks: int, n_frames: int, table: dict,
-              rolling: bool = True) -> float:
+              rolling: bool = True, base: bool = False) -> float:
     """Expected wall time (s) of one single-threaded LAMMPS process: ``n_steps`` steps of
     ``n_disks`` disks and ``n_frames`` frames taken (contact dump, in-situ averaging),
     at the study's measured seconds per disk-step (of ``pair granular`` with rolling
-    resistance, or of the plain ``gran/hooke/history`` law, 3.5 times faster here) and
-    per disk-frame."""
+    resistance, or of the plain ``gran/hooke/history`` law, 3.5 times faster here; plus
+    :data:`BASE_FRICTION_EXTRA` rolling-law disk-steps with base-plate friction) and per
+    disk-frame."""
     step = table["seconds_per_disk_step"] if rolling else \
         table.get("seconds_per_disk_step_plain_law", table["seconds_per_disk_step"])
+    step += BASE_FRICTION_EXTRA * table["seconds_per_disk_step"] if base else 0.0
     return n_disks * (n_steps * step + n_frames * table["seconds_per_disk_frame"])
 
 
@@ -57,8 +66,8 @@ def accuracy_class(scene: dict, table: dict) -> tuple[str, str]:
     ref = {**Scene().to_dict(), **table["scene"]}   # keys added since the study: defaults
     differs = [k for k in SAME_SCENE if scene.get(k) != ref.get(k)]
     if differs:
-        return "not measured", (f"the study covers the paper scene only (this scene differs "
-                                f"in {', '.join(differs)})")
+        return "not measured", (f"the study measured one scene, docs/sweep/'s (this scene "
+                                f"differs in {', '.join(differs)})")
     k, n, om = scene["k_n"], scene["n_per_tc"], scene["Omega"]
     for s in table["settings"]:
         if (s["k_n"], s["n_per_tc"], s["Omega"]) == (k, n, om):
@@ -90,7 +99,7 @@ def expectation(derived, *, prepared: bool, np_ranks: int = 1, omp_threads: int 
     steps = derived.n_shear + (0 if prepared else derived.n_grow + derived.n_relax)
     frames = derived.n_shear // derived.dump_every + 1 if derived.dump_every else 0
     seconds = wall_time(steps, s.n_small + s.n_large, frames, table,
-                        rolling=derived.coeffs.mu_roll > 0)
+                        rolling=derived.coeffs.mu_roll > 0, base=s.mu_base > 0)
     cls, why = accuracy_class(s.to_dict(), table)
     return {"wall_time_s": seconds, "accuracy_class": cls, "accuracy_reason": why,
             "parallel": np_ranks * omp_threads > 1,

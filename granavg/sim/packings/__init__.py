@@ -64,6 +64,11 @@ def unpack(name: str, seed: int, out: Path) -> Path:
 def describe(name: str, seed: int) -> str:
     """One line for the manifest and report: which packing and how it was made."""
     p = provenance(name)
-    return (f"shipped sheared packing {name}/seed{seed} (grown from seed {seed}, then "
-            f"sheared {p['aged_s']:g} s with {p['law']}; {p['made_by']}); contacts start "
+    before = ""
+    if p.get("started_from"):
+        first = provenance(p["started_from"])
+        before = f"sheared {first['aged_s']:g} s with {first['law']}, then "
+    aged = p["aged_s"] - (provenance(p["started_from"])["aged_s"] if before else 0.0)
+    return (f"shipped sheared packing {name}/seed{seed} (grown from seed {seed}, {before}"
+            f"sheared {aged:g} s with {p['law']}; {p['made_by']}); contacts start "
             "with unloaded tangential springs")
