@@ -332,8 +332,9 @@ def test_rolling_resistance_regimes_match_the_linear_model(regime, mu_roll, spin
 
 
 def test_reference_engine_shears_with_rolling_resistance(tmp_path):
-    """``granavg simulate --engine reference --start DATA --set mu_roll=0.1`` runs (the
-    reference engine used to refuse rolling resistance) and writes its dumps."""
+    """``granavg simulate --engine reference --start DATA --set mu_roll=0.1 --set
+    mu_base=0.03`` runs (the reference engine used to refuse rolling resistance, and to
+    ignore base friction) and writes its dumps."""
     x, v, w, frozen = loose_packing()
     data = tmp_path / "packing.data"
     with lammps_session(["-log", "none"]) as lmp:
@@ -341,11 +342,12 @@ def test_reference_engine_shears_with_rolling_resistance(tmp_path):
                                       + [f"write_data {data} nocoeff"]))
     out = tmp_path / "run"
     sets = ["R_i=0.02", "R_o=0.06", "n_small=100", "n_large=10", "t_end=0.01",
-            "t_dump_start=0", "dump_dt=0.005", "restart_dt=0.01", "mu_roll=0.1"]
+            "t_dump_start=0", "dump_dt=0.005", "restart_dt=0.01", "mu_roll=0.1", "mu_base=0.03"]
     proc = run_cli("simulate", "--preset", "paper-hooke", "--out", out, "--no-progress",
                    "--start", data, "--engine", "reference",
                    *[a for s in sets for a in ("--set", s)])
     assert proc.returncode == 0, proc.stderr
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["status"] == "complete" and manifest["contact_law"]["mu_roll"] == 0.1
+    assert manifest["scene"]["mu_base"] == 0.03
     assert (out / "atoms.dump.gz").is_file() and (out / "contacts.dump.gz").is_file()
