@@ -60,8 +60,9 @@ def _parser() -> argparse.ArgumentParser:
                      "realisations on this dask scheduler's workers")
     sim.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
-    avg = sub.add_parser("average", help="profiles over rings, slabs or a grid (Eqs. 1-7, "
-                         "SI units) of a granavg run, of an ensemble, or of plain LAMMPS dumps")
+    avg = sub.add_parser("average", help="profiles over rings, slabs or a grid (Eqs. 1-7) "
+                         "of a granavg run or an ensemble (SI units), or of plain LAMMPS "
+                         "dumps (in their own units)")
     avg.add_argument("run_dir", nargs="*", help="run directory of 'granavg simulate' "
                      "(manifest + dumps); several: independent realisations of one scene, "
                      "combined into ensemble profiles with between-run errors; none: plain "
@@ -75,22 +76,26 @@ def _parser() -> argparse.ArgumentParser:
                        "a run, default 20; or over --r-range) or slabs (over --range)")
     rings.add_argument("--edges", type=float, nargs="+", metavar="R",
                        help="ring (or slab) edges in m, increasing")
-    plain = avg.add_argument_group("plain LAMMPS dumps (no run directory; SI units)")
-    plain.add_argument("--thickness", type=float, metavar="H", help="disk height h in m "
+    plain = avg.add_argument_group("plain LAMMPS dumps (no run directory; every number in "
+                                   "the dump's own units)")
+    plain.add_argument("--units", metavar="STYLE", help="LAMMPS units style of the dumps "
+                       "(si, lj, real, metal, cgs, electron, micro, nano) when they have no "
+                       "ITEM: UNITS header (dump_modify units yes); only labels the outputs")
+    plain.add_argument("--thickness", type=float, metavar="H", help="disk height h "
                        "(2D disks of volume pi h a^2); required")
-    plain.add_argument("--density", type=float, metavar="RHO", help="material density in "
-                       "kg/m^3 (masses rho pi h a^2); or the dump's mass column")
-    plain.add_argument("--dt", type=float, help="time step in s, for dumps without ITEM: TIME")
+    plain.add_argument("--density", type=float, metavar="RHO", help="material density "
+                       "(masses rho pi h a^2); or the dump's mass column")
+    plain.add_argument("--dt", type=float, help="time step, for dumps without ITEM: TIME")
     plain.add_argument("--center", type=float, nargs=2, metavar=("X", "Y"), default=(0.0, 0.0),
-                       help="centre of the rings, m (default 0 0)")
+                       help="centre of the rings (default 0 0)")
     plain.add_argument("--r-range", type=float, nargs=2, metavar=("R1", "R2"),
-                       help="rings: --bins equal rings from R1 to R2 (m)")
+                       help="rings: --bins equal rings from R1 to R2")
     plain.add_argument("--slabs", choices=["x", "y"], help="Cartesian strips across x or y "
                        "(--bins over --range, or --edges) instead of rings")
     plain.add_argument("--range", type=float, nargs=2, metavar=("LO", "HI"),
-                       help="slabs: from LO to HI (m; default the box)")
+                       help="slabs: from LO to HI (default the box)")
     plain.add_argument("--length", type=float, help="slabs: their length along the other "
-                       "axis, m (default the box's)")
+                       "axis (default the box's)")
     plain.add_argument("--grid", type=int, nargs=2, metavar=("NX", "NY"),
                        help="a grid of NX x NY rectangles over --x-range, --y-range")
     plain.add_argument("--x-range", type=float, nargs=2, metavar=("X1", "X2"))
@@ -191,6 +196,7 @@ def _average(args) -> int:
         return _average_plain(args, out)
     plain_only = [o for o, v in (("--thickness", args.thickness), ("--density", args.density),
                                  ("--dt", args.dt), ("--r-range", args.r_range),
+                                 ("--units", args.units),
                                  ("--slabs", args.slabs), ("--grid", args.grid),
                                  ("--wall-types", args.wall_types),
                                  ("--atom-columns", args.atom_columns),
@@ -244,8 +250,8 @@ def _average_plain(args, out) -> int:
     atoms = validate.existing_file("--atoms", args.atoms)
     contacts = validate.existing_file("--contacts", args.contacts)
     if args.thickness is None:
-        raise UserError("--thickness H: give the disks' height in m (2D disks have volume "
-                        "pi h a^2)")
+        raise UserError("--thickness H: give the disks' height, in the dump's length unit "
+                        "(2D disks have volume pi h a^2)")
     validate.positive("--thickness", args.thickness)
     validate.positive("--density", args.density)
     validate.positive("--dt", args.dt)
@@ -279,15 +285,19 @@ def _average_plain(args, out) -> int:
         geometry = Rings(np.asarray(edges, float), h, tuple(args.center))
     frames = PlainFrames(atoms, contacts, atom_map=parse_map(args.atom_columns),
                          contact_map=parse_map(args.contact_columns),
-                         wall_types=args.wall_types, dt=args.dt)
+                         wall_types=args.wall_types, dt=args.dt, units=args.units)
+    if frames.units.style == "unstated":
+        logging.getLogger("granavg").info("%s does not say its units (no ITEM: UNITS): the "
+                                          "outputs are labelled 'unstated'; --units STYLE "
+                                          "names them", atoms)
     profiles = average(frames, geometry, rho_p=args.density,
                        quantities=_names(args.quantities), t_min=args.t_min or 0.0,
                        block_time=args.block_time,
-                       progress=False if args.no_progress else None)
+                       progress=False if args.no_progress else None, units=frames.units)
     profiles.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
                                     else None},
-                          "inputs": {"thickness_m": h, "density_kg_per_m3": args.density,
-                                     "wall_types": args.wall_types, "dt_s": args.dt,
+                          "inputs": {"thickness": h, "density": args.density,
+                                     "wall_types": args.wall_types, "dt": args.dt,
                                      "atom_columns": frames.amap, "contact_columns": frames.cmap}})
     if any(frames.dropped.values()):
         profiles.meta["dropped"] = dict(frames.dropped)

@@ -40,7 +40,7 @@ run             4000
 compute         pp all property/local patom1 patom2
 compute         pl all pair/local dist dx dy force p1 p2 p3 p4
 dump            a all custom 400 {out}/atoms.dump id type diameter x y vx vy omegaz mass
-dump_modify     a time yes format float %.14g
+dump_modify     a time yes units yes format float %.14g
 dump            c all local 400 {out}/contacts.dump c_pp[1] c_pp[2] c_pl[1] c_pl[2] c_pl[3] c_pl[4] c_pl[5] c_pl[6] c_pl[7] c_pl[8]
 dump_modify     c format float %.14g
 compute         ch all chunk/atom bin/sphere 0 0 0 0.0 0.045 3 units box discard yes
@@ -117,6 +117,7 @@ def test_the_stress_trace_equals_lammps_virial(user_run, tmp_path):
     # the virial from its force loop; the small remainder was not traced further. Where
     # both come from one state in memory (test_engine_lammps) they agree to 1e-10.
     assert ours == pytest.approx(virial + correction, rel=1e-6)
+    assert p.meta["units"].startswith("SI") and p.meta["columns"]["sigma_xx"] == "Pa"
     assert p.meta["dropped"]["contacts_not_touching"] >= int(np.sum(~touching))   # all frames read
 
 

@@ -16,12 +16,13 @@ from __future__ import annotations
 import itertools
 
 from granavg.engine.average import RingAverage, RingProfiles, groups_for
+from granavg.engine.units import SI, UnitSystem
 from granavg.errors import UserError
 
 
 def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
             t_min: float = 0.0, block_time: float | None = None,
-            progress: bool | None = False) -> RingProfiles:
+            progress: bool | None = False, units: UnitSystem = SI) -> RingProfiles:
     """Time-averaged profiles of ``frames`` over the cells of ``geometry`` (Eqs. 1-7).
 
     Parameters
@@ -41,11 +42,15 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
     block_time : float, optional
         Base block length (s) of the blocking analysis; default the spacing of the first
         two frames (one frame per block).
+    units : UnitSystem
+        The units the frames are in (:mod:`granavg.engine.units`); only named in the
+        sidecar (``meta["units"]``, ``meta["unit_system"]``), nothing is converted. The
+        parameters above are in the same units (the SI names are those of SI frames).
 
     Returns
     -------
     RingProfiles
-        Values, standard errors, flags and jackknife replicates per cell, SI units.
+        Values, standard errors, flags and jackknife replicates per cell, in ``units``.
     """
     it = iter(frames)
     head = list(itertools.islice(it, 2))
@@ -66,7 +71,7 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
             raise UserError("frames must come in increasing time")
     avg = RingAverage(itertools.chain(head, it), geometry, groups,
                       rho_p if rho_p is not None else 0.0, t_min, block_time)
-    avg.meta = {"units": "SI (m, s, kg, N, Pa)", "quantities": groups,
+    avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
                 "geometry": geometry.describe(),
                 "frames": {"t_min_s": t_min, "block_time_s": block_time}}
     return avg.run(progress)

@@ -4,7 +4,8 @@ Each geometry object (freud's ``Box`` in spirit) knows its cells' volumes, the e
 area weights of disks in them (:mod:`granavg.engine.weights`), the basis in which
 vectors and tensors are expressed (polar about the centre for rings, Cartesian for slabs
 and grids), the names of the components in that basis and the coordinate columns of a
-profile table. Volumes are h x cell area (m^3): 2D disks of height ``h``.
+profile table. Volumes are h x cell area: 2D disks of height ``h``. Lengths are in the
+frames' units (m for granavg's own runs).
 """
 
 from __future__ import annotations
@@ -85,8 +86,8 @@ class Rings:
         return {"r_lo": self.edges[:-1], "r_hi": self.edges[1:], "r": self.centre}
 
     def describe(self) -> dict:
-        return {"kind": "rings", "edges_m": list(self.edges), "h_m": self.h,
-                "center_m": list(self.center)}
+        return {"kind": "rings", "edges": list(self.edges), "h": self.h,
+                "center": list(self.center)}
 
 
 @dataclass(frozen=True)
@@ -132,8 +133,8 @@ class Slabs:
                 u: 0.5 * (self.edges[1:] + self.edges[:-1])}
 
     def describe(self) -> dict:
-        return {"kind": "slabs", "edges_m": list(self.edges), "h_m": self.h,
-                "axis": self.axis, "length_m": self.length}
+        return {"kind": "slabs", "edges": list(self.edges), "h": self.h,
+                "axis": self.axis, "length": self.length}
 
 
 @dataclass(frozen=True)
@@ -173,8 +174,8 @@ class Grid:
                 "x": 0.5 * (xe[i] + xe[i + 1]), "y": 0.5 * (ye[j] + ye[j + 1])}
 
     def describe(self) -> dict:
-        return {"kind": "grid", "xedges_m": list(self.xedges), "yedges_m": list(self.yedges),
-                "h_m": self.h}
+        return {"kind": "grid", "xedges": list(self.xedges), "yedges": list(self.yedges),
+                "h": self.h}
 
 
 def rename(name: str, geometry) -> str:
@@ -190,15 +191,17 @@ def rename(name: str, geometry) -> str:
 
 
 def from_description(d: dict):
-    """The geometry a sidecar describes (``describe()``'s dict; old sidecars: rings)."""
+    """The geometry a sidecar describes (``describe()``'s dict, lengths in the sidecar's
+    units; older sidecars: rings, and keys with an ``_m`` suffix)."""
+    d = {k[:-2] if k.endswith("_m") else k: v for k, v in d.items()}
     kind = d.get("kind", "rings")
     if kind == "rings":
-        return Rings(np.asarray(d["edges_m"], float), float(d["h_m"]),
-                     tuple(d.get("center_m", (0.0, 0.0))))
+        return Rings(np.asarray(d["edges"], float), float(d["h"]),
+                     tuple(d.get("center", (0.0, 0.0))))
     if kind == "slabs":
-        return Slabs(np.asarray(d["edges_m"], float), float(d["h_m"]), d["axis"],
-                     float(d["length_m"]))
+        return Slabs(np.asarray(d["edges"], float), float(d["h"]), d["axis"],
+                     float(d["length"]))
     if kind == "grid":
-        return Grid(np.asarray(d["xedges_m"], float), np.asarray(d["yedges_m"], float),
-                    float(d["h_m"]))
+        return Grid(np.asarray(d["xedges"], float), np.asarray(d["yedges"], float),
+                    float(d["h"]))
     raise UserError(f"unknown geometry kind {kind!r}")

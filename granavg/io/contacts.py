@@ -51,11 +51,12 @@ def contact_table(raw: np.ndarray, radius_of_id: np.ndarray) -> np.ndarray:
     t1, t2 = t1.astype(int), t2.astype(int)
     swap = WALL_FLAG_OF_TYPE[t1] > 0          # put the wall disk second
     sign = np.where(swap, -1.0, 1.0)
+    length = np.hypot(dx, dy)                 # = dist up to rounding; the normal is unit
     out = np.column_stack([
         np.where(swap, id2, id1), np.where(swap, id1, id2),
         WALL_FLAG_OF_TYPE[np.where(swap, t1, t2)],
         sign * fnx, sign * fny, sign * ftx, sign * fty,
-        -sign * dx / dist, -sign * dy / dist,
+        -sign * dx / length, -sign * dy / length,
         radius_of_id[id1.astype(int)] + radius_of_id[id2.astype(int)] - dist,
     ])
     return out[out[:, 9] > 0]

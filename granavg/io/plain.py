@@ -10,11 +10,19 @@ of contacts into the frames the engine averages (SI units):
   deck's raw format (``id1 id2 type1 type2 dx dy dist fnx fny ftx fty``), or any
   ``compute pair/local`` + ``compute property/local patom1 patom2`` dump through a map
   (``id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],
-  ftx=c_pl[5],fty=c_pl[6]``); the normal is -(dx, dy)/dist (dx = x_1 - x_2), the normal
-  force fnx, fny or force (dx, dy)/dist, the overlap r_1 + r_2 - dist from the atoms'
-  own radii; rows that do not touch are dropped and counted;
+  ftx=c_pl[5],fty=c_pl[6]``); the normal is -(dx, dy)/|(dx, dy)| (dx = x_1 - x_2),
+  the normal force fnx, fny or force times the same unit vector, the overlap
+  r_1 + r_2 - dist from the atoms' own radii;
+- LAMMPS' default ``%g`` (6 significant digits) is read as it is: numbers that must
+  agree (|(dx, dy)| and dist) are compared within
+  :data:`~granavg.io.reader.CONSISTENCY`, never to the last digit;
+- a row is a contact where the disks overlap or the pair carries a normal force
+  (pair/local lists neighbours within the cutoff, with zero force): a pair touching by
+  less than the printed rounding keeps its force with overlap 0; the others are dropped
+  and counted; a force between disks that are apart by more than rounding is refused;
 - atoms of ``wall_types`` are left out of the packing; their contacts with disks are
-  kept as wall contacts (forces and normal as seen by the disk).
+  kept as wall contacts (forces and normal as seen by the disk);
+- the units are the dump's (``ITEM: UNITS`` or ``units=``; :mod:`granavg.io.units`).
 """
 
 from __future__ import annotations
@@ -25,7 +33,9 @@ import numpy as np
 from isal import igzip
 
 from granavg.errors import UserError
-from granavg.io.reader import DumpReader, Frame, check_contacts
+from granavg.io.reader import (CONSISTENCY, DumpReader, Frame, check_atoms, check_contacts,
+                               check_integers)
+from granavg.io.units import choose_units
 
 log = logging.getLogger(__name__)
 
@@ -46,17 +56,22 @@ def parse_map(text) -> dict:
     return out
 
 
-def header_columns(path) -> list:
-    """The column names of a dump's first ``ITEM: ATOMS`` / ``ITEM: ENTRIES`` line."""
+def dump_header(path):
+    """The column names of a dump's first ``ITEM: ATOMS`` / ``ITEM: ENTRIES`` line, and
+    its ``ITEM: UNITS`` as ``(style, "file:line")`` (None if the dump does not say)."""
     opener = igzip.open if str(path).endswith(".gz") else open
+    units, previous = None, ""
     try:
         with opener(path, "rb") as fh:
             for k, raw in enumerate(fh):
                 line = raw.decode("ascii", "replace")
+                if previous.startswith("ITEM: UNITS"):
+                    units = (line.strip(), f"{path}:{k + 1}")
                 if line.startswith(("ITEM: ATOMS", "ITEM: ENTRIES")):
-                    return line.split()[2:]
+                    return line.split()[2:], units
                 if k > 1000:
                     break
+                previous = line
     except (OSError, EOFError) as exc:
         raise UserError(f"{path}: not readable ({exc})") from None
     raise UserError(f"{path}: no 'ITEM: ATOMS' or 'ITEM: ENTRIES' header; give a LAMMPS "
@@ -65,7 +80,7 @@ def header_columns(path) -> list:
 
 def resolve_atoms(path, explicit: dict) -> dict:
     """Our atom name -> the dump's column, by the explicit map, then by alias."""
-    names = header_columns(path)
+    names, _ = dump_header(path)
     out = {}
     for ours, aliases in ATOM_ALIASES.items():
         if ours in explicit:
@@ -86,7 +101,7 @@ def resolve_atoms(path, explicit: dict) -> dict:
 
 def resolve_contacts(path, explicit: dict) -> dict:
     """Our contact name -> the dump's column (granavg's, the deck's raw, or a map)."""
-    names = header_columns(path)
+    names, _ = dump_header(path)
     if not explicit and all(c in names for c in GRANAVG):
         return {c: c for c in GRANAVG}
     out = {k: v for k, v in explicit.items()}
@@ -120,12 +135,26 @@ class PlainFrames:
     wall_types : sequence of int, optional
         Atom types that are walls, not packing.
     dt : float, optional
-        Time step (s) for dumps without ``ITEM: TIME``.
+        Time step for dumps without ``ITEM: TIME``, in the dump's time unit.
+    units : str, optional
+        LAMMPS units style of dumps without ``ITEM: UNITS``; must agree with the header
+        where there is one.
+
+    Attributes
+    ----------
+    units : UnitSystem
+        The dumps' units (:func:`granavg.io.units.choose_units`).
     """
 
     def __init__(self, atoms, contacts=None, *, atom_map=None, contact_map=None,
-                 wall_types=(), dt=None):
+                 wall_types=(), dt=None, units=None):
         self.atoms_path, self.contacts_path = atoms, contacts
+        self.units = choose_units(dump_header(atoms)[1], units)
+        if contacts is not None and (said := dump_header(contacts)[1]) is not None:
+            if choose_units(said, None).style != self.units.style:
+                raise UserError(f"{said[1]}: the contact dump says 'units {said[0]}', the "
+                                f"atom dump's units are {self.units.style}; use the dumps of "
+                                "one run")
         self.amap = resolve_atoms(atoms, atom_map or {})
         self.cmap = resolve_contacts(contacts, contact_map or {}) if contacts else None
         self.wall_types = np.asarray(list(wall_types), dtype=float)
@@ -146,7 +175,7 @@ class PlainFrames:
                 fa.timestep * self.dt if self.dt is not None else None)
             if time is None:
                 raise UserError(f"{self.atoms_path}: frames have no ITEM: TIME; give --dt "
-                                "(the time step in s)")
+                                "(the time step, in the dump's time unit)")
             atoms, walls = self._atoms(fa)
             contacts = None
             if c_iter is not None:
@@ -171,14 +200,7 @@ class PlainFrames:
                 col[axis] = lo + col[axis] * (hi - lo)
         if self.amap["radius"] == "diameter":
             col["radius"] = 0.5 * col["radius"]
-        bad = np.flatnonzero(~(col["radius"] > 0))
-        if len(bad):
-            raise UserError(f"{self.atoms_path}:{fa.line + bad[0]}: radius "
-                            f"{col['radius'][bad[0]]:g} is not positive (timestep "
-                            f"{fa.timestep}); disks need a radius > 0 (m)")
-        if "id" in col and len(np.unique(col["id"])) < len(col["id"]):
-            raise UserError(f"{self.atoms_path}:{fa.line}: an atom id appears twice in "
-                            f"timestep {fa.timestep}; the dump is damaged")
+        col = check_atoms(self.atoms_path, _View(col, fa))
         wall = np.isin(col["type"], self.wall_types) if len(self.wall_types) else \
             np.zeros(len(col["x"]), bool)
         walls = {"id": col["id"][wall], "radius": col["radius"][wall]} if "id" in col else {}
@@ -188,16 +210,38 @@ class PlainFrames:
     def _contacts(self, fc, atoms, walls):
         raw = fc.as_dict()
         c = {ours: raw[theirs] for ours, theirs in self.cmap.items()}
+        check_integers(self.contacts_path, fc, c, ("id1", "id2"))
         if "wall" in c and "overlap" in c:                      # granavg's own format
-            rows = c
+            rows, packing = dict(c), np.ones(len(c["id1"]), bool)
         else:
-            rows = self._convert(c, fc, atoms, walls)
-        keep = rows["overlap"] > 0
-        self.dropped["contacts_not_touching"] += int(np.sum(~keep))
-        rows = {k: v[keep] for k, v in rows.items()}
-        frame = type("F", (), {"as_dict": lambda s: rows, "line": fc.line,
-                               "timestep": fc.timestep})()
-        return check_contacts(self.contacts_path, frame)
+            rows, packing = self._convert(c, fc, atoms, walls)
+        rows = check_contacts(self.contacts_path, _View(rows, fc))
+        touching = self._touching(rows, fc)
+        self.dropped["contacts_not_touching"] += int(np.sum(packing & ~touching))
+        keep = packing & touching
+        return {k: v[keep] for k, v in rows.items()}
+
+    def _touching(self, rows, fc):
+        """Contacts among the rows: overlap > 0, or a normal force (the overlap of a pair
+        touching by less than the printed rounding, set to 0). A force between disks
+        apart by more than rounding is refused: the radius column is not the radius."""
+        overlap = rows["overlap"]
+        force = (rows["fnx"] != 0) | (rows["fny"] != 0)
+        gap = force & (overlap <= 0)
+        if gap.any():
+            reach = rows.get("reach")
+            far = gap & (-overlap > CONSISTENCY * reach) if reach is not None else \
+                np.zeros_like(gap)
+            if far.any():
+                k = int(np.flatnonzero(far)[0])
+                raise UserError(
+                    f"{self.contacts_path}:{fc.line + k}: atoms {int(rows['id1'][k])} and "
+                    f"{int(rows['id2'][k])} carry a normal force but are {-overlap[k]:.3g} "
+                    f"apart by their radii (timestep {fc.timestep}); check the radius or "
+                    f"diameter column ({self.amap['radius']}) of {self.atoms_path}")
+            rows["overlap"] = overlap = np.where(gap, 0.0, overlap)
+        rows.pop("reach", None)
+        return (overlap > 0) | force
 
     def _convert(self, c, fc, atoms, walls):
         ids = np.concatenate([atoms["id"], walls.get("id", np.zeros(0))])
@@ -217,8 +261,16 @@ class PlainFrames:
             return order[pos]
         i1, i2 = rows_of(c["id1"]), rows_of(c["id2"])
         dist = c["dist"]
+        length = np.hypot(c["dx"], c["dy"])
+        off = np.abs(length - dist) > CONSISTENCY * dist
+        if off.any():
+            k = int(np.flatnonzero(off)[0])
+            raise UserError(f"{self.contacts_path}:{fc.line + k}: |(dx, dy)| = {length[k]:g} "
+                            f"but dist = {dist[k]:g} (timestep {fc.timestep}), more apart "
+                            "than printing's rounding; the dump is damaged or the column map "
+                            "names the wrong columns")
         with np.errstate(invalid="ignore", divide="ignore"):
-            nx, ny = -c["dx"] / dist, -c["dy"] / dist             # from atom 1 towards atom 2
+            nx, ny = -c["dx"] / length, -c["dy"] / length         # from atom 1 towards atom 2
         if "fnx" in c:
             fnx, fny = c["fnx"], c["fny"]
         else:
@@ -233,9 +285,17 @@ class PlainFrames:
         id1 = np.where(swap, c["id2"], c["id1"])
         id2 = np.where(swap, c["id1"], c["id2"])
         wall[w1 ^ w2] = 1.0
-        both = w1 & w2
-        keep = ~both                                              # wall-wall pairs are not packing
         rows = {"id1": id1, "id2": id2, "wall": wall, "fnx": sign * fnx, "fny": sign * fny,
                 "ftx": sign * ftx, "fty": sign * fty, "nx": sign * nx, "ny": sign * ny,
-                "overlap": overlap}
-        return {k: v[keep] for k, v in rows.items()}
+                "overlap": overlap, "reach": radii[i1] + radii[i2]}
+        return rows, ~(w1 & w2)                                   # wall-wall pairs are not packing
+
+
+class _View:
+    """Columns with the line and time step of their dump frame (for the checks)."""
+
+    def __init__(self, columns, frame):
+        self.columns, self.line, self.timestep = columns, frame.line, frame.timestep
+
+    def as_dict(self):
+        return dict(self.columns)

@@ -15,6 +15,7 @@ import pandas as pd
 from granavg.engine.average import RingProfiles
 from granavg.engine.geometry import from_description
 from granavg.engine.uncertainty import Replicates
+from granavg.engine.units import SI, UnitSystem
 from granavg.errors import UserError
 
 #: Suffix of the replicate profiles written beside a profiles table.
@@ -82,12 +83,15 @@ def read_profiles(path) -> RingProfiles:
 
 
 def write_profiles(profiles: RingProfiles, path, parquet: bool = False) -> Path:
-    """Write the table (CSV, or Parquet), a JSON sidecar ``<path>.json`` and the
-    replicates ``<path>.replicates.npz``: each to a temporary name first, renamed
-    only when all are complete."""
+    """Write the table (CSV, or Parquet), a JSON sidecar ``<path>.json`` (with the unit
+    of every column, ``columns``) and the replicates ``<path>.replicates.npz``: each to a
+    temporary name first, renamed only when all are complete."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     table = profiles.to_frame()
+    system = profiles.meta.get("unit_system")
+    units = UnitSystem(**system) if system else SI
+    profiles.meta["columns"] = units.columns([c for c in table.columns if c != "flags"])
     if parquet:
         try:
             import pyarrow  # noqa: F401  (pandas' Parquet engine)

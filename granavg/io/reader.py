@@ -317,14 +317,33 @@ class _Scanner:
                     "frame used is timestep %s", self.path, line, step, self.complete)
 
 
-#: Largest accepted deviation of a contact normal from unit length.
-NORMAL_TOLERANCE = 1e-6
+#: Largest relative disagreement accepted between numbers of one row that are equal in
+#: exact arithmetic: |n| and 1 for a stored normal; |(dx, dy)| and dist, and a pair's
+#: centre distance and the sum of its radii where it carries a force (the overlap's
+#: sign). A number printed with p significant digits is off by at most 5 x 10^-p of
+#: itself, so LAMMPS' default ``%g`` (p = 6) leaves at most about 1e-5 (9.4e-6 measured
+#: on a real dump); 1e-4 accepts every format with p >= 5 and refuses real damage.
+CONSISTENCY = 1e-4
 
 
-def check_atoms(path, frame: DumpFrame) -> dict:
-    """The frame's atom columns, after refusing duplicate ids and radii that are not
-    positive (one line naming file, line and timestep)."""
+def check_integers(path, frame, cols, names):
+    """Refuse a value that should be an integer (an id, a type, a wall code) and is not."""
+    for name in names:
+        if name in cols:
+            v = cols[name]
+            bad = np.flatnonzero(v != np.round(v))
+            if len(bad):
+                raise UserError(f"{path}:{frame.line + bad[0]}: {name} {v[bad[0]]:g} is not "
+                                f"an integer (timestep {frame.timestep}); the dump is "
+                                "damaged, or the column map names the wrong column")
+
+
+def check_atoms(path, frame) -> dict:
+    """The frame's atom columns, after refusing ids or types that are not integers,
+    duplicate ids and radii that are not positive (one line naming file, line and
+    timestep). ``frame`` has ``as_dict()``, ``line`` and ``timestep``."""
     cols = frame.as_dict()
+    check_integers(path, frame, cols, ("id", "type"))
     if "id" in cols:
         ids = cols["id"]
         uniq, first, counts = np.unique(ids, return_index=True, return_counts=True)
@@ -339,18 +358,20 @@ def check_atoms(path, frame: DumpFrame) -> dict:
         if len(bad):
             raise UserError(f"{path}:{frame.line + bad[0]}: radius {cols['radius'][bad[0]]:g} "
                             f"is not positive (timestep {frame.timestep}); disks need a radius "
-                            "> 0 (m)")
+                            "> 0")
     return cols
 
 
-def check_contacts(path, frame: DumpFrame) -> dict:
-    """The frame's contact columns, after refusing rows that make no sense: a disk in
-    contact with itself, an unknown wall code, a normal that is not a unit vector."""
+def check_contacts(path, frame) -> dict:
+    """The frame's contact columns, after refusing rows that make no sense: an id that is
+    not an integer, a disk in contact with itself, an unknown wall code, a normal that is
+    not a unit vector within :data:`CONSISTENCY`. Normals are returned normalised."""
     cols = frame.as_dict()
 
     def fail(row, what):
         raise UserError(f"{path}:{frame.line + row}: {what} (timestep {frame.timestep}); "
                         "the contact dump is damaged or not in granavg's format")
+    check_integers(path, frame, cols, ("id1", "id2", "wall"))
     if "wall" in cols:
         bad = np.flatnonzero(~np.isin(cols["wall"], (0, 1, 2)))
         if len(bad):
@@ -363,11 +384,13 @@ def check_contacts(path, frame: DumpFrame) -> dict:
             fail(np.flatnonzero(same)[0], f"atom {int(cols['id1'][same][0])} is in contact "
                  "with itself")
     if "nx" in cols and "ny" in cols:
-        off = np.abs(np.hypot(cols["nx"], cols["ny"]) - 1.0)
-        if np.any(off > NORMAL_TOLERANCE):
+        norm = np.hypot(cols["nx"], cols["ny"])
+        off = np.abs(norm - 1.0)
+        if np.any(off > CONSISTENCY):
             k = int(np.argmax(off))
             fail(k, f"the contact normal ({cols['nx'][k]:g}, {cols['ny'][k]:g}) is not a unit "
-                 "vector")
+                 f"vector (|n| - 1 = {norm[k] - 1:.2g}, more than printing's rounding)")
+        cols = {**cols, "nx": cols["nx"] / norm, "ny": cols["ny"] / norm}
     return cols
 
 

@@ -16,6 +16,7 @@ from granavg.engine.average import (MAX_BLOCKS, RingAverage, RingProfiles, Rings
 from granavg.engine.ensemble import combine_runs
 from granavg.engine.profiles import QUANTITIES
 from granavg.engine.timeseries import TimeSeries, ensemble_stationarity
+from granavg.engine.units import SI
 from granavg.errors import UserError
 from granavg.io.reader import DumpReader, FramePairs
 from granavg.io.rundir import read_manifest
@@ -94,7 +95,7 @@ def ring_average(manifest: dict, groups, *, bins=None, edges=None, t_min=None,
     series = TimeSeries(scene["R_i"], scene["R_o"], scene["h"], scene["rho_p"], scene["d_s"])
     avg = RingAverage(frames, rings, groups, scene["rho_p"], t_min, block_time, series)
     avg.meta = {
-        "granavg_version": __version__, "units": "SI (m, s, kg, N, Pa)",
+        "granavg_version": __version__, "units": SI.label, "unit_system": SI.describe(),
         "quantities": list(groups), "rings": {"edges_m": list(rings.edges), "h_m": rings.h},
         "geometry": rings.describe(),
         "frames": {"t_min_s": t_min, "block_time_s": block_time},

@@ -1,0 +1,55 @@
+"""LAMMPS' ``units`` styles as :class:`~granavg.engine.units.UnitSystem`s.
+
+A dump keeps the units it was written in: granavg converts nothing, it names them. The
+style comes from the dump's ``ITEM: UNITS`` header (``dump_modify ... units yes``; LAMMPS
+writes it in the first frame only) or from ``--units``. Stresses come out as
+force/length^2 of the style (f l / V): for ``real`` and ``metal`` that is
+(kcal/mol)/A^3 and eV/A^3, not LAMMPS' thermo pressure units (atm, bar).
+"""
+
+from __future__ import annotations
+
+from granavg.engine.units import UnitSystem
+from granavg.errors import UserError
+
+#: style -> (length, time, mass, force, force/length^2), from LAMMPS' ``units`` page.
+_STYLES = {
+    "si": ("m", "s", "kg", "N", "Pa"),
+    "cgs": ("cm", "s", "g", "dyne", "dyne/cm^2"),
+    "lj": ("sigma", "tau", "m", "epsilon/sigma", "epsilon/sigma^3"),
+    "real": ("Angstrom", "fs", "g/mol", "(kcal/mol)/Angstrom", "(kcal/mol)/Angstrom^3"),
+    "metal": ("Angstrom", "ps", "g/mol", "eV/Angstrom", "eV/Angstrom^3"),
+    "electron": ("Bohr", "fs", "amu", "Hartree/Bohr", "Hartree/Bohr^3"),
+    "micro": ("um", "us", "pg", "pg um/us^2", "pg/(um us^2)"),
+    "nano": ("nm", "ns", "ag", "ag nm/ns^2", "ag/(nm ns^2)"),
+}
+_NOTES = {"lj": "LAMMPS reduced units (sigma, tau, m, epsilon of the run)"}
+#: What frames in a dump that does not say its units are labelled.
+UNSTATED = UnitSystem(
+    "unstated", "length", "time", "mass", "force", "force/length^2",
+    "the dump does not say its units (no ITEM: UNITS; write it with 'dump_modify ID units "
+    "yes' or give --units STYLE): every value is in the units the dump was written in")
+
+
+def lammps_units(style: str, where: str = "--units") -> UnitSystem:
+    """The unit system of LAMMPS ``units STYLE``; a one-line error for an unknown style."""
+    key = str(style).strip().lower()
+    if key not in _STYLES:
+        raise UserError(f"{where}: unknown LAMMPS units style {style!r}; choose from "
+                        f"{', '.join(_STYLES)}")
+    length, time, mass, force, stress = _STYLES[key]
+    note = _NOTES.get(key, f"LAMMPS 'units {key}'")
+    return UnitSystem("SI" if key == "si" else key, length, time, mass, force, stress, note)
+
+
+def choose_units(header, option) -> UnitSystem:
+    """The units of a dump: its header's (``(style, "file:line")`` or None) and
+    ``--units`` (str or None) must agree; neither: :data:`UNSTATED`."""
+    if header is not None:
+        style, where = header
+        found = lammps_units(style, where)
+        if option is not None and lammps_units(option).style != found.style:
+            raise UserError(f"{where}: the dump says 'units {style}' but --units is "
+                            f"{option}; drop --units (the dump's header is what LAMMPS ran)")
+        return found
+    return lammps_units(option) if option is not None else UNSTATED
