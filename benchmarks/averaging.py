@@ -18,10 +18,11 @@ import tracemalloc
 import warnings
 from pathlib import Path
 
-from granavg.engine.average import RingAverage, Rings, frame_sums
+from granavg.engine.average import CellAverage, frame_sums
+from granavg.engine.geometry import Rings
 from granavg.io.runs import average_run
 from granavg.engine.kernels import CHANNELS
-from granavg.engine.profiles import QUANTITIES
+from granavg.engine.quantities import QUANTITIES
 from granavg.io.reader import DumpReader, Frame, FramePairs
 from granavg.io.rundir import read_manifest
 
@@ -84,7 +85,7 @@ def memory_rows(frames, m):
                   for k, f in zip(range(n), itertools.cycle(frames)))
         tracemalloc.start()
         t0 = time.perf_counter()
-        RingAverage(stream, rings, list(QUANTITIES), scene["rho_p"], 0.0, 250.0).run(False)
+        CellAverage(stream, rings, list(QUANTITIES), scene["rho_p"], 0.0, 250.0).run(False)
         elapsed = time.perf_counter() - t0
         peak = tracemalloc.get_traced_memory()[1] / 1e6
         tracemalloc.stop()

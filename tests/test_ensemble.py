@@ -10,7 +10,7 @@ import pytest
 from granavg.analysis.claims import analyze
 from granavg.analysis.report import stationarity_table
 from granavg.io.runs import average_run
-from granavg.engine.ensemble import combine_runs
+from granavg.engine.combine import combine_runs
 from granavg.engine.timeseries import ensemble_stationarity
 from granavg.errors import UserError
 from granavg.io.profiles_io import read_profiles

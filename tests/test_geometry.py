@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from granavg.engine import Grid, Rings, Slabs, average
-from granavg.engine.weights import disk_corner, grid_weights, strip_weights
+from granavg.engine.weights import grid_weights, strip_weights
 from granavg.io.reader import DumpReader, FramePairs
 
 H = 0.006
@@ -59,10 +59,15 @@ def test_weights_against_quadrature():
                            atol=1e-12)
 
 
-def test_corner_area_of_a_centred_quadrant_is_a_quarter():
-    assert disk_corner(0.0, 0.0, 2.0) == pytest.approx(np.pi, rel=1e-14)
-    assert disk_corner(5.0, 5.0, 2.0) == pytest.approx(4 * np.pi, rel=1e-14)
-    assert disk_corner(-2.0, 1.0, 2.0) == 0.0
+def test_a_disk_split_by_the_grid_lines_through_its_centre_gives_quarters():
+    """Four cells meeting at the disk's centre each hold a quarter (pi a^2 / 4); a cell
+    holding the whole disk all of it; a cell beyond it nothing."""
+    _, cell, w = grid_weights([0.0], [0.0], [2.0], np.array([-3.0, 0.0, 3.0]),
+                              np.array([-3.0, 0.0, 3.0]))
+    assert np.allclose(np.bincount(cell, w, minlength=4), 0.25, rtol=1e-14)
+    _, cell, w = grid_weights([0.0], [0.0], [2.0], np.array([-5.0, 5.0, 9.0]),
+                              np.array([-5.0, 5.0]))
+    assert np.bincount(cell, w, minlength=2) == pytest.approx([1.0, 0.0], abs=1e-14)
 
 
 def test_stress_trace_is_the_same_summed_over_rings_or_a_grid(small_run):

@@ -61,7 +61,7 @@ def score(runs, t_min=None) -> dict:
     rotations, to the end)."""
     from granavg.analysis.claims import analyze, bulk, dynamic_over_static
     from granavg.io.runs import average_run
-    from granavg.engine.ensemble import combine_runs
+    from granavg.engine.combine import combine_runs
 
     p20s, p60s = ([average_run(r, bins=n, t_min=t_min, progress=False) for r in runs]
                   for n in (20, 60))

@@ -11,7 +11,7 @@ that the slow ageing of the packing (docs/steady-state.md) is the same for all s
 and a difference is called a bias only when it exceeds the combined ensemble error. A run
 shears WINDOW (20 s of the 62.8 s rotation, dumps every 0.5 s) and is averaged from the
 preset's discard time (0.1 rotation) on, over 20 and 60 rings; the realisations are
-combined with between-run errors (granavg.engine.ensemble.combine_runs) and analysed.
+combined with between-run errors (granavg.engine.combine.combine_runs) and analysed.
 A difference from the limit is called a bias only when it exceeds twice the combined
 error; each setting also gets the resolution of its comparisons (the smallest bias they
 could show), since "no bias above 5%" means no more than the resolution allows.
@@ -99,7 +99,7 @@ def average_ensemble(run_dirs: list, out: str, t_end=None, every=1, bins=(20, 60
     """One dask task: average the realisations over both ring counts (the frames up to
     ``t_end``, every ``every``-th), combine them, analyse; returns the averaging cost."""
     from granavg.analysis.pipeline import report_profiles
-    from granavg.engine.ensemble import combine_runs
+    from granavg.engine.combine import combine_runs
     from granavg.io.profiles_io import write_profiles
     from granavg.io.rundir import read_manifest
     from granavg.io.runs import run_averager

@@ -29,13 +29,13 @@ import numpy as np
 
 from granavg.analysis import continuum as c
 from granavg.errors import UserError
+from granavg.engine.quantities import TENSOR
 from granavg.engine.timeseries import ensemble_stationarity
 
 log = logging.getLogger(__name__)
 
 PAPER = {"v0_over_omega_Ri": 0.645, "s_m": 0.0127, "exp_sigma_rr": 0.0,
          "exp_sigma_phiphi": 0.0, "exp_sigma_rphi": -2.0, "exp_sigma_phir": -2.0}
-COMPONENTS = ("rr", "rphi", "phir", "phiphi")
 #: Twice the standard error: what "beyond the error" means in a verdict.
 Z = 2.0
 #: The paper's "almost consistent" (Eq. 10): exponents within this of 0 and -2.
@@ -54,7 +54,7 @@ IDENTITY_TOLERANCE = 0.05
 
 def tensor(p, name):
     """The four components of a tensor profile, as a tuple of arrays."""
-    return tuple(p.values[f"{name}_{k}"] for k in COMPONENTS)
+    return tuple(p.values[f"{name}_{k}"] for k in TENSOR)
 
 
 #: Dynamic over static stress above which the flow is no longer quasi-static (the paper
@@ -163,12 +163,12 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
 
     Parameters
     ----------
-    p20, p60 : RingProfiles
+    p20, p60 : Profiles
         The same data averaged over coarse and fine rings (e.g. 20 and 60), with
         replicates for the errors of derived numbers.
     manifest : dict
         The run's manifest (scene, contact law).
-    density_series : sequence of RingProfiles, optional
+    density_series : sequence of Profiles, optional
         Coarse profiles of the same scene at other area fractions: Fig. 5's master curve
         is judged on the collapse of all of them with ``p20``.
     """
@@ -181,7 +181,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
             raise UserError(f"the profiles lack {missing[0]}; average with all quantities "
                             "(the contact dump is needed)")
     scene = manifest["scene"]
-    geo = Geometry(scene)
+    geo = SceneNumbers(scene)
     est = Estimator(p20, p60)
     num, series, claims = {}, {}, []
 
@@ -237,7 +237,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
     num["stress_exponents"] = est(lambda a, b: _exponents(a))
     ex = num["stress_exponents"]
     parts = []
-    for k in COMPONENTS:
+    for k in TENSOR:
         e, err = ex[f"sigma_{k}"], ex[f"sigma_{k}_err"]
         off = abs(e - PAPER[f"exp_sigma_{k}"])
         if not np.isfinite(err) or err > EXPONENT_TOLERANCE:
@@ -246,7 +246,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
             parts.append("reproduced" if off <= EXPONENT_TOLERANCE + Z * err else "not reproduced")
     claims.append(_claim(
         "sigma_rr, sigma_phiphi ~ r^0 and sigma_rphi, sigma_phir ~ r^-2 (Eq. 10)", _both(*parts),
-        ", ".join(f"{k}: {ex[f'sigma_{k}']:.2f} +- {ex[f'sigma_{k}_err']:.2f}" for k in COMPONENTS)
+        ", ".join(f"{k}: {ex[f'sigma_{k}']:.2f} +- {ex[f'sigma_{k}_err']:.2f}" for k in TENSOR)
         + f" (each within {EXPONENT_TOLERANCE} + {Z:g} errors of 0 or -2)"))
     num["quasi_static"] = est(lambda a, b: {
         "dynamic_over_static_max": float(np.nanmax(dynamic_over_static(a)))})
@@ -358,7 +358,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
     return summary
 
 
-class Geometry:
+class SceneNumbers:
     """The scene's numbers the analysis needs (SI units)."""
 
     def __init__(self, scene):
@@ -428,7 +428,7 @@ def _fabric_numbers(p):
 def _exponents(p):
     b = bulk(p.rings.n)
     out = {}
-    for k in COMPONENTS:
+    for k in TENSOR:
         out[f"sigma_{k}"] = c.power_law(p.rings.centre[b], p.values[f"sigma_{k}"][b])[0]
     return out
 
@@ -481,15 +481,15 @@ def master_curve(profiles, geo) -> dict:
             vals = []
             for i in range(reps.n):
                 v = {k: reps.values[k][i] for k in reps.values}
-                Bi = c.stiffness(tuple(v[f"sigma_{k}"] for k in COMPONENTS),
-                                 tuple(v[f"eps_{k}"] for k in COMPONENTS), geo.k_n)[0][bb]
+                Bi = c.stiffness(tuple(v[f"sigma_{k}"] for k in TENSOR),
+                                 tuple(v[f"eps_{k}"] for k in TENSOR), geo.k_n)[0][bb]
                 Fi = v["F_rr"][bb] + v["F_phiphi"][bb]
                 vals.append(np.nanmean(Bi / (a * Fi + b0) - 1))
             errors.append(reps.error(vals))
         else:
             errors.append(float("nan"))
-        scene = (p.meta.get("run_manifest") or {}).get("scene", {})
-        fractions.append(_area_fraction(scene))
+        derived = (p.meta.get("run_manifest") or {}).get("derived", {})
+        fractions.append(float(derived.get("area_fraction", float("nan"))))
         labels.append(f"area fraction {fractions[-1]:.4f}")
     verdicts = [verdict(COLLAPSE_TOLERANCE - abs(o), e, 0.0) for o, e in zip(offsets, errors)]
     result = _both(*verdicts)
@@ -501,15 +501,6 @@ def master_curve(profiles, geo) -> dict:
                                     for f, o, e in zip(fractions, offsets, errors)) +
             f" (collapsed within {100 * COLLAPSE_TOLERANCE:.0f}% + 2 errors)",
             "points": [(lab, t, B, G) for lab, (t, B, G, _) in zip(labels, pts)]}
-
-
-def _area_fraction(scene) -> float:
-    try:
-        disks = np.pi / 4 * (scene["n_small"] * scene["d_s"] ** 2 + scene["n_large"] *
-                             scene["d_l"] ** 2) * (1 + scene.get("size_spread", 0.0) ** 2 / 3)
-        return float(disks / (np.pi * (scene["R_o"] ** 2 - scene["R_i"] ** 2)))
-    except (KeyError, TypeError):
-        return float("nan")
 
 
 def _angle_diff(a, b):

@@ -16,7 +16,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from granavg.analysis.claims import COMPONENTS, tensor  # noqa: E402
+from granavg.analysis.claims import tensor  # noqa: E402
+from granavg.engine.quantities import TENSOR  # noqa: E402
 from granavg.analysis.continuum import deviator_norm, trace  # noqa: E402
 
 OKABE_ITO = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000"]
@@ -77,7 +78,7 @@ def fig4(p20, p60, summary, axes=None):
     """Static stress, dynamic stress and the fluctuation part against r (Fig. 4)."""
     ax = _axes(axes, 3)
     ex = summary["numbers"]["stress_exponents"]
-    for k, comp in enumerate(COMPONENTS):
+    for k, comp in enumerate(TENSOR):
         _both(ax[0], p20, p60, lambda p, c=comp: p.values[f"sigma_{c}"], k, f"sigma_{comp}")
         r = p20.rings.centre
         y0 = p20.values[f"sigma_{comp}"]

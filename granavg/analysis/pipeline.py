@@ -6,7 +6,7 @@ import logging
 from pathlib import Path
 
 from granavg.analysis.claims import analyze
-from granavg.engine.average import RingProfiles
+from granavg.engine.profiles import Profiles
 from granavg.io.runs import average_run
 from granavg.errors import UserError
 from granavg.analysis.figures import save_all
@@ -16,7 +16,7 @@ from granavg.io.profiles_io import write_profiles
 log = logging.getLogger(__name__)
 
 
-def report_profiles(coarse: RingProfiles, fine: RingProfiles, out, title="granavg report",
+def report_profiles(coarse: Profiles, fine: Profiles, out, title="granavg report",
                     density_series=()) -> dict:
     """Analyse two ring profiles of one run (or ensemble) and write figures, summary.json,
     report.html; ``density_series``: coarse profiles of the scene at other area

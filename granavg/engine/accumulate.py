@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 
-class RingAccumulator:
+class CellAccumulator:
     """Sums of frames' ring sums, per time block.
 
     Parameters
@@ -49,12 +49,12 @@ class RingAccumulator:
         entry[1] += sums
         self._span(timestep, time, timestep, time)
 
-    def merge(self, other: "RingAccumulator") -> "RingAccumulator":
+    def merge(self, other: "CellAccumulator") -> "CellAccumulator":
         """A new accumulator holding the frames of both (same rings, t_min, blocks)."""
         if (other.shape, other.t_min, other.block_time) != (self.shape, self.t_min,
                                                             self.block_time):
             raise ValueError("can only merge accumulators of the same rings and blocks")
-        out = RingAccumulator(self.shape, self.t_min, self.block_time)
+        out = CellAccumulator(self.shape, self.t_min, self.block_time)
         for src in (self, other):
             for b, (n, s) in sorted(src.blocks.items()):
                 entry = out.blocks.setdefault(b, [0, np.zeros(self.shape)])
@@ -84,10 +84,6 @@ class RingAccumulator:
         for _, (_, s) in sorted(self.blocks.items()):
             total += s
         return total / n
-
-    def block_means(self) -> list:
-        """Mean ring sums of each block, in time order."""
-        return [s / n for _, (n, s) in sorted(self.blocks.items())]
 
     def block_sums(self):
         """Frame counts and summed ring sums of the blocks, in time order.

@@ -15,14 +15,16 @@ from __future__ import annotations
 
 import itertools
 
-from granavg.engine.average import RingAverage, RingProfiles, groups_for
+from granavg.engine.average import CellAverage
+from granavg.engine.profiles import Profiles
+from granavg.engine.quantities import groups_for
 from granavg.engine.units import SI, UnitSystem
-from granavg.errors import UserError
+from granavg.errors import ParameterError, UserError
 
 
 def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
             t_min: float = 0.0, block_time: float | None = None,
-            progress: bool | None = False, units: UnitSystem = SI) -> RingProfiles:
+            progress: bool | None = False, units: UnitSystem = SI) -> Profiles:
     """Time-averaged profiles of ``frames`` over the cells of ``geometry`` (Eqs. 1-7).
 
     Parameters
@@ -49,7 +51,7 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
 
     Returns
     -------
-    RingProfiles
+    Profiles
         Values, standard errors, flags and jackknife replicates per cell, in ``units``.
     """
     it = iter(frames)
@@ -62,14 +64,14 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
     massive = [g for g in groups if g in ("rho", "dsigma", "dsigma_fluct")]
     if rho_p is None and not has_mass:
         if quantities is not None and massive:
-            raise UserError(f"{massive[0]} needs masses: give the material density (rho_p, "
-                            "--density) or a mass column")
+            raise ParameterError("rho_p", f"{massive[0]} needs masses: give the material "
+                                 "density ({param}) or a mass column")
         groups = [g for g in groups if g not in massive]
     if block_time is None:
         block_time = head[1].time - head[0].time if len(head) == 2 else 1.0
         if not block_time > 0:
             raise UserError("frames must come in increasing time")
-    avg = RingAverage(itertools.chain(head, it), geometry, groups,
+    avg = CellAverage(itertools.chain(head, it), geometry, groups,
                       rho_p if rho_p is not None else 0.0, t_min, block_time)
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
                 "geometry": geometry.describe(),

@@ -15,11 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.weights import grid_weights, ring_weights, strip_weights
-from granavg.errors import UserError
-
-#: Component suffixes in the polar basis, in the engine's channel order.
-POLAR = {"r": "r", "phi": "phi"}
-
+from granavg.errors import ParameterError, UserError
 
 def _edges(values, what) -> np.ndarray:
     e = np.asarray(values, dtype=float)
@@ -47,7 +43,7 @@ class Rings:
               center=(0.0, 0.0)) -> "Rings":
         """``n`` equal-width rings between r_inner and r_outer (m)."""
         if n < 1:
-            raise UserError(f"--bins {n}: need at least one ring")
+            raise ParameterError("bins", f"{{param}} {n}: need at least one ring")
         return cls(np.linspace(r_inner, r_outer, n + 1), h, tuple(center))
 
     def __post_init__(self):

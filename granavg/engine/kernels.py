@@ -34,20 +34,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from granavg.engine.quantities import TENSOR
 from granavg.errors import UserError
 
-TENSOR = ("rr", "rphi", "phir", "phiphi")
 CHANNELS = ("vol", "mass", "mom_r", "mom_phi", "spin", "ncontact",
             *(f"fab_{c}" for c in TENSOR), *(f"sig_{c}" for c in TENSOR),
             *(f"kin_{c}" for c in TENSOR), *(f"def_{c}" for c in TENSOR))
 INDEX = {name: k for k, name in enumerate(CHANNELS)}
-
-
-def polar_basis(x, y):
-    """Unit vectors e_r and e_phi at (x, y); each of shape (P, 2)."""
-    r = np.hypot(x, y)
-    er = np.column_stack([x / r, y / r])
-    return er, np.column_stack([-er[:, 1], er[:, 0]])
 
 
 def _outer(u_r, u_phi, v_r, v_phi):
@@ -55,7 +48,7 @@ def _outer(u_r, u_phi, v_r, v_phi):
     return np.column_stack([u_r * v_r, u_r * v_phi, u_phi * v_r, u_phi * v_phi])
 
 
-def particle_channels(atoms, contacts, h, rho_p, channels, basis=None):
+def particle_channels(atoms, contacts, h, rho_p, channels, basis):
     """Per-particle channel values Q_p of one frame.
 
     Parameters
@@ -69,9 +62,9 @@ def particle_channels(atoms, contacts, h, rho_p, channels, basis=None):
         Disk height (m) and material density (kg/m^3).
     channels : sequence of str
         Which of :data:`CHANNELS` to fill; the others stay zero.
-    basis : (ndarray, ndarray), optional
+    basis : (ndarray, ndarray)
         Unit vectors (e_1, e_2) at each disk, shape (P, 2) each: the basis of vectors and
-        tensors (default the polar basis about the origin, e_r and e_phi). With a
+        tensors (the cells' ``basis(x, y)``: e_r, e_phi for rings). With a
         ``mass`` column (kg) among the atoms, masses are taken from it instead of
         rho_p V^p (e.g. spheres in a 2D simulation).
 
@@ -80,7 +73,7 @@ def particle_channels(atoms, contacts, h, rho_p, channels, basis=None):
     ndarray, shape (P, len(CHANNELS))
     """
     x, y, a = atoms["x"], atoms["y"], atoms["radius"]
-    er, ephi = polar_basis(x, y) if basis is None else basis
+    er, ephi = basis
     vol = np.pi * h * a * a
     mass = atoms["mass"] if "mass" in atoms else rho_p * vol
     q = np.zeros((len(x), len(CHANNELS)))

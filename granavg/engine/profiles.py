@@ -15,33 +15,65 @@ tensor components ``rr, rphi, phir, phiphi`` in each particle's polar basis.
 
 from __future__ import annotations
 
-import numpy as np
+from dataclasses import dataclass, field
 
-from granavg.engine.kernels import INDEX, TENSOR
+import numpy as np
+import pandas as pd
+
+from granavg.engine.kernels import INDEX
+from granavg.engine.quantities import TENSOR
+from granavg.engine.geometry import Rings
 from granavg.engine.uncertainty import Replicates, blocking_errors, jackknife_sums
 
-#: quantity group -> (profile columns, channels it needs, needs contacts)
-QUANTITIES = {
-    "nu": (["nu"], ["vol"], False),
-    "rho": (["rho"], ["vol", "mass"], False),
-    "v": (["v_r", "v_phi"], ["vol", "mom_r", "mom_phi"], False),
-    "omega": (["omega"], ["vol", "spin"], False),
-    "coordination": (["coordination"], ["vol", "ncontact"], True),
-    "F": ([f"F_{c}" for c in TENSOR], ["fab_rr"], True),
-    "sigma": ([f"sigma_{c}" for c in TENSOR], ["sig_rr"], True),
-    "dsigma": ([f"dsigma_{c}" for c in TENSOR], ["kin_rr"], False),
-    "dsigma_fluct": ([f"dsigma_fluct_{c}" for c in TENSOR],
-                     ["vol", "mass", "mom_r", "mom_phi", "kin_rr"], False),
-    "eps": ([f"eps_{c}" for c in TENSOR], ["fab_rr", "def_rr"], True),
-}
-#: the atom-dump and contact-dump columns each channel reads
-ATOM_COLUMNS = {"vol": ["x", "y", "radius"], "mom_r": ["vx", "vy"], "mom_phi": ["vx", "vy"],
-                "kin_rr": ["vx", "vy"], "spin": ["omegaz"], "ncontact": ["id"],
-                "fab_rr": ["id"], "sig_rr": ["id"], "def_rr": ["id"]}
-CONTACT_COLUMNS = {"ncontact": ["id1", "id2", "wall"],
-                   "fab_rr": ["id1", "id2", "wall", "nx", "ny"],
-                   "sig_rr": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny"],
-                   "def_rr": ["id1", "id2", "wall", "nx", "ny", "overlap"]}
+
+@dataclass
+class Profiles:
+    """Time-averaged profiles over cells (rings, slabs or a grid) and their standard errors,
+    in the frames' units (SI for granavg's runs).
+
+    Attributes
+    ----------
+    rings : Rings, Slabs or Grid
+        The cells (:mod:`granavg.engine.geometry`).
+    values, sem : dict of name -> ndarray, shape (n_rings,)
+        Values and standard errors (blocking analysis for one run, between-run for an
+        ensemble).
+    flags : ndarray of str, shape (n_rings,)
+    n_frames : int
+    meta : dict
+        The JSON sidecar (``meta["errors"]`` says how the errors were made and where
+        they are only lower bounds).
+    replicates : Replicates, optional
+        Profiles on parts of the data (jackknife blocks, or one per realisation): the
+        errors of derived numbers (fits, maxima) come from them.
+    n_runs : ndarray, optional
+        Realisations with a finite value per ring (ensembles only), shape (n_rings,).
+    timeseries : DataFrame, optional
+        The state of every frame read (:mod:`granavg.engine.timeseries`), written as
+        ``<path>.timeseries.csv``; ``meta["stationarity"]`` judges the averaging window.
+    """
+
+    rings: Rings
+    values: dict
+    sem: dict
+    flags: np.ndarray
+    n_frames: int
+    meta: dict = field(default_factory=dict)
+    replicates: Replicates | None = None
+    n_runs: np.ndarray | None = None
+    timeseries: pd.DataFrame | None = None
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per cell: its coordinates (r_lo, r_hi, r for rings), V, n_frames, each
+        value and ``<name>_sem``, flags."""
+        cols = {**self.rings.coordinates(), "V": self.rings.volume,
+                "n_frames": np.full(self.rings.n, self.n_frames)}
+        if self.n_runs is not None:
+            cols["n_runs"] = self.n_runs
+        for name, v in self.values.items():
+            cols[name], cols[f"{name}_sem"] = v, self.sem[name]
+        cols["flags"] = self.flags
+        return pd.DataFrame(cols)
 
 
 def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups) -> dict:
@@ -109,7 +141,7 @@ def _eps(S):
 
 def flags(S: np.ndarray, groups) -> np.ndarray:
     """Per-ring flags (';'-joined): ``empty`` (no disk), ``no_contacts``,
-    ``singular_fabric`` (eps undefined); :class:`~granavg.engine.average.RingAverage` adds
+    ``singular_fabric`` (eps undefined); :class:`~granavg.engine.average.CellAverage` adds
     ``one_block`` when the frames span a single time block (no standard errors)."""
     out = [[] for _ in range(S.shape[0])]
     vol = S[:, INDEX["vol"]]

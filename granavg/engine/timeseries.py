@@ -225,7 +225,7 @@ def ensemble_stationarity(judged: list) -> dict:
     window give changes that scatter about zero; a drift shared by the runs moves their
     mean. The error of the mean change is the between-run standard error
     std(d_k)/sqrt(n), never below the error from the runs' own errors (as in
-    :func:`granavg.engine.ensemble.combine_runs`): unlike a single run's blocking error, it
+    :func:`granavg.engine.combine.combine_runs`): unlike a single run's blocking error, it
     stays honest when fluctuations are as slow as the window. A quantity drifts when the
     mean change of either kind exceeds :data:`DRIFT_Z` errors; with n runs the error has
     n - 1 degrees of freedom, so one such test flags a steady window with probability

@@ -165,11 +165,6 @@ def _corner(X, Y, a):
     return area
 
 
-def disk_corner(X, Y, a):
-    """Area of a disk of radius a with x < X and y < Y (relative to its centre), m^2."""
-    return np.vectorize(_corner, otypes=[float])(X, Y, a)
-
-
 @njit(cache=True, nogil=True)
 def _grid_triplets(x, y, a, xe, ye):
     nx, ny = xe.shape[0] - 1, ye.shape[0] - 1

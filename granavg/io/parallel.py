@@ -12,8 +12,8 @@ import resource
 
 import numpy as np
 
-from granavg.engine.accumulate import RingAccumulator
-from granavg.engine.average import RingProfiles
+from granavg.engine.accumulate import CellAccumulator
+from granavg.engine.profiles import Profiles
 from granavg.io.runs import run_averager
 from granavg.io.rundir import read_manifest
 
@@ -29,7 +29,7 @@ def chunk_windows(manifest: dict, t_min: float, block_time: float, n_chunks: int
     steps = steps[steps * dt >= t_min]
     if len(steps) == 0:
         return []
-    acc = RingAccumulator((1, 1), t_min, block_time)
+    acc = CellAccumulator((1, 1), t_min, block_time)
     blocks = np.array([acc.block_of(s * dt) for s in steps])
     starts = np.flatnonzero(np.r_[True, blocks[1:] != blocks[:-1]])   # first frame of a block
     cuts = sorted({int(starts[np.argmin(np.abs(starts - k * len(steps) / n_chunks))])
@@ -62,7 +62,7 @@ def local_cluster(workers: int):
 
 
 def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
-                     chunks: int | None = None, client=None, **options) -> RingProfiles:
+                     chunks: int | None = None, client=None, **options) -> Profiles:
     """:func:`granavg.io.runs.average_run` on dask workers; identical profiles.
 
     Parameters

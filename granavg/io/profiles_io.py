@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granavg.engine.average import RingProfiles
+from granavg.engine.profiles import Profiles
 from granavg.engine.geometry import from_description
 from granavg.engine.uncertainty import Replicates
 from granavg.engine.units import SI, UnitSystem
@@ -24,7 +24,7 @@ REPLICATES = ".replicates.npz"
 TIMESERIES = ".timeseries.csv"
 
 
-def read_profiles(path) -> RingProfiles:
+def read_profiles(path) -> Profiles:
     """Profiles written by :func:`write_profiles` (CSV or Parquet, with its JSON sidecar),
     checked: a damaged table or sidecar is a one-line error naming the file."""
     path = Path(path)
@@ -74,7 +74,7 @@ def read_profiles(path) -> RingProfiles:
         except (OSError, ValueError, KeyError) as exc:
             raise UserError(f"{reps}: damaged replicates ({exc}); average again") from None
     series = path.with_name(path.name + TIMESERIES)
-    return RingProfiles(rings, {n: table[n].to_numpy() for n in names},
+    return Profiles(rings, {n: table[n].to_numpy() for n in names},
                {n: table[f"{n}_sem"].to_numpy() for n in names},
                np.array([f if isinstance(f, str) else "" for f in table["flags"]], dtype=object),
                int(table["n_frames"].iloc[0]), meta, replicates,
@@ -82,7 +82,7 @@ def read_profiles(path) -> RingProfiles:
                pd.read_csv(series) if series.exists() else None)
 
 
-def write_profiles(profiles: RingProfiles, path, parquet: bool = False) -> Path:
+def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
     """Write the table (CSV, or Parquet), a JSON sidecar ``<path>.json`` (with the unit
     of every column, ``columns``) and the replicates ``<path>.replicates.npz``: each to a
     temporary name first, renamed only when all are complete."""

@@ -1,5 +1,5 @@
 """Averaging runs from their files: a run directory's manifest and dumps -> a
-:class:`~granavg.engine.average.RingAverage` with granavg's defaults, and several
+:class:`~granavg.engine.average.CellAverage` with granavg's defaults, and several
 realisations -> ensemble profiles (SI units)."""
 
 from __future__ import annotations
@@ -11,10 +11,12 @@ from pathlib import Path
 import numpy as np
 
 from granavg import __version__
-from granavg.engine.average import (MAX_BLOCKS, RingAverage, RingProfiles, Rings, groups_for,
-                                    needed_columns, warn_if_drifting)
-from granavg.engine.ensemble import combine_runs
-from granavg.engine.profiles import QUANTITIES
+from granavg.engine.average import MAX_BLOCKS, CellAverage, warn_if_drifting
+from granavg.engine.geometry import Rings
+from granavg.engine.profiles import Profiles
+from granavg.engine.quantities import groups_for, needed_columns
+from granavg.engine.combine import combine_runs
+from granavg.engine.quantities import QUANTITIES
 from granavg.engine.timeseries import TimeSeries, ensemble_stationarity
 from granavg.engine.units import SI
 from granavg.errors import UserError
@@ -26,7 +28,7 @@ log = logging.getLogger(__name__)
 
 
 def average_run(run_dir=None, *, bins=None, edges=None, t_min=None, block_time=None,
-                quantities=None, atoms=None, contacts=None, progress=None) -> RingProfiles:
+                quantities=None, atoms=None, contacts=None, progress=None) -> Profiles:
     """Ring profiles of a run directory (or of dump files with a manifest beside them).
 
     Parameters
@@ -54,8 +56,8 @@ def average_run(run_dir=None, *, bins=None, edges=None, t_min=None, block_time=N
 
 
 def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
-                 quantities=None, atoms=None, contacts=None, steps=None) -> RingAverage:
-    """The :class:`RingAverage` of :func:`average_run`, its frames read lazily (only
+                 quantities=None, atoms=None, contacts=None, steps=None) -> CellAverage:
+    """The :class:`CellAverage` of :func:`average_run`, its frames read lazily (only
     those with time steps in ``steps = (first, last)`` if given)."""
     if run_dir is None:
         raise UserError("give the run directory: its manifest holds h, rho_p and the rings")
@@ -81,8 +83,8 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
 
 
 def ring_average(manifest: dict, groups, *, bins=None, edges=None, t_min=None,
-                 block_time=None, frames=None) -> RingAverage:
-    """A :class:`RingAverage` of a run (its manifest) with granavg's defaults: 20 equal
+                 block_time=None, frames=None) -> CellAverage:
+    """A :class:`CellAverage` of a run (its manifest) with granavg's defaults: 20 equal
     rings from R_i to R_o, t_min = the scene's discarded rotations, base blocks of one dump
     interval (at most 512). Its profiles' ``meta`` describe the average (SI units)."""
     scene, derived = manifest["scene"], manifest["derived"]
@@ -93,7 +95,7 @@ def ring_average(manifest: dict, groups, *, bins=None, edges=None, t_min=None,
     t_end = derived["t_end_s"]
     block_time = block_time or max(derived["dump_interval_s"], (t_end - t_min) / MAX_BLOCKS)
     series = TimeSeries(scene["R_i"], scene["R_o"], scene["h"], scene["rho_p"], scene["d_s"])
-    avg = RingAverage(frames, rings, groups, scene["rho_p"], t_min, block_time, series)
+    avg = CellAverage(frames, rings, groups, scene["rho_p"], t_min, block_time, series)
     avg.meta = {
         "granavg_version": __version__, "units": SI.label, "unit_system": SI.describe(),
         "quantities": list(groups), "rings": {"edges_m": list(rings.edges), "h_m": rings.h},

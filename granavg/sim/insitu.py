@@ -2,7 +2,7 @@
 
 At every dump step the driver hands the frame (atoms and contacts taken from LAMMPS
 through its Python module, gathered to rank 0 under MPI) to :class:`InSituAverage`,
-which feeds the same :class:`~granavg.engine.average.RingAverage` steps the file reader feeds:
+which feeds the same :class:`~granavg.engine.average.CellAverage` steps the file reader feeds:
 the profiles equal those of averaging the same run's dumps, up to the dumps' 12-digit
 rounding. SI units.
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from granavg.analysis.claims import warn_if_inertial
-from granavg.engine.average import groups_for
+from granavg.engine.quantities import groups_for
 from granavg.io.runs import ring_average
 from granavg.io.contacts import COLUMNS
 from granavg.sim.lammps_frames import atoms_by_id

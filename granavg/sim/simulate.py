@@ -26,9 +26,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from granavg import __version__
-from granavg.engine.profiles import QUANTITIES
+from granavg.engine.quantities import QUANTITIES, groups_for
 from granavg.errors import LammpsError, UserError
-from granavg.engine.average import groups_for
 from granavg.sim.insitu import profile_path
 from granavg.sim.lammps_session import lammps_version
 from granavg.sim.run_files import ATOMS, CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext

@@ -8,12 +8,12 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from granavg.engine.average import RingProfiles
+from granavg.engine.profiles import Profiles
 from granavg.engine.uncertainty import Replicates
 from granavg.errors import UserError
 
 
-def combine_runs(profiles: list, names: list) -> RingProfiles:
+def combine_runs(profiles: list, names: list) -> Profiles:
     """Ensemble profiles from the profiles of independent realisations.
 
     Each value is the mean over the runs with a finite value in that ring, its ``_sem``
@@ -26,7 +26,7 @@ def combine_runs(profiles: list, names: list) -> RingProfiles:
 
     Parameters
     ----------
-    profiles : list of RingProfiles
+    profiles : list of Profiles
         One per realisation, over the same rings and quantities.
     names : list of str
         The runs (for the sidecar).
@@ -38,7 +38,7 @@ def combine_runs(profiles: list, names: list) -> RingProfiles:
                             "runs of the same scene averaged over the same rings")
         if set(p.values) != set(first.values):
             raise UserError(f"{name}: its quantities differ from {names[0]}'s; average every "
-                            "run with the same --quantities")
+                            "run with the same quantities")
     stacked = {k: np.stack([p.values[k] for p in profiles]) for k in first.values}
     reps = Replicates("runs", stacked)
     with warnings.catch_warnings():
@@ -65,7 +65,7 @@ def combine_runs(profiles: list, names: list) -> RingProfiles:
                       "lower_bound": {}}
     meta["frames"] = {**first.meta.get("frames", {}),
                       "n": int(sum(p.n_frames for p in profiles))}
-    return RingProfiles(first.rings, values, sem, flags, int(sum(p.n_frames for p in profiles)),
+    return Profiles(first.rings, values, sem, flags, int(sum(p.n_frames for p in profiles)),
                         meta, reps, n_runs, pd.concat(series, ignore_index=True) if series
                         else None)
 

@@ -1,0 +1,67 @@
+"""What can be averaged: the quantity groups, the channels each needs and the dump
+columns each channel reads (Eqs. 2-7). A catalogue without numerics, so that a caller can
+decide what to read or simulate (e.g. whether contacts are needed) without the engine.
+
+Tensor components are named ``rr, rphi, phir, phiphi`` (first index the force or the
+deformation, second the branch vector) in the cells' basis; Cartesian cells rename them
+(``xx, xy, yx, yy``; :func:`granavg.engine.geometry.rename`).
+"""
+
+from __future__ import annotations
+
+from granavg.errors import ParameterError
+
+#: Tensor components in the engine's channel order.
+TENSOR = ("rr", "rphi", "phir", "phiphi")
+#: quantity group -> (profile columns, channels it needs, needs contacts)
+QUANTITIES = {
+    "nu": (["nu"], ["vol"], False),
+    "rho": (["rho"], ["vol", "mass"], False),
+    "v": (["v_r", "v_phi"], ["vol", "mom_r", "mom_phi"], False),
+    "omega": (["omega"], ["vol", "spin"], False),
+    "coordination": (["coordination"], ["vol", "ncontact"], True),
+    "F": ([f"F_{c}" for c in TENSOR], ["fab_rr"], True),
+    "sigma": ([f"sigma_{c}" for c in TENSOR], ["sig_rr"], True),
+    "dsigma": ([f"dsigma_{c}" for c in TENSOR], ["kin_rr"], False),
+    "dsigma_fluct": ([f"dsigma_fluct_{c}" for c in TENSOR],
+                     ["vol", "mass", "mom_r", "mom_phi", "kin_rr"], False),
+    "eps": ([f"eps_{c}" for c in TENSOR], ["fab_rr", "def_rr"], True),
+}
+#: the atom-dump and contact-dump columns each channel reads
+ATOM_COLUMNS = {"vol": ["x", "y", "radius"], "mom_r": ["vx", "vy"], "mom_phi": ["vx", "vy"],
+                "kin_rr": ["vx", "vy"], "spin": ["omegaz"], "ncontact": ["id"],
+                "fab_rr": ["id"], "sig_rr": ["id"], "def_rr": ["id"]}
+CONTACT_COLUMNS = {"ncontact": ["id1", "id2", "wall"],
+                   "fab_rr": ["id1", "id2", "wall", "nx", "ny"],
+                   "sig_rr": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny"],
+                   "def_rr": ["id1", "id2", "wall", "nx", "ny", "overlap"]}
+
+
+
+def needed_columns(groups):
+    """Atom-dump and contact-dump columns (with what needs each) for these groups."""
+    atoms, contacts = {}, {}
+    for g in groups:
+        for ch in QUANTITIES[g][1]:
+            for c in ATOM_COLUMNS.get(ch, []):
+                atoms.setdefault(c, g)
+            for c in CONTACT_COLUMNS.get(ch, []):
+                contacts.setdefault(c, g)
+    return atoms, contacts
+
+
+def groups_for(quantities, have_contacts: bool) -> list:
+    """The quantity groups to compute: the requested ones (checked), or all that the
+    data allow (without contacts, only those that need none)."""
+    if quantities is None:
+        return [g for g, (_, _, needs) in QUANTITIES.items() if have_contacts or not needs]
+    unknown = [q for q in quantities if q not in QUANTITIES]
+    if unknown:
+        raise ParameterError("quantities", f"{{param}}: unknown quantity {unknown[0]!r}; "
+                             f"choose from {', '.join(QUANTITIES)}")
+    lacking = [q for q in quantities if QUANTITIES[q][2] and not have_contacts]
+    if lacking:
+        raise ParameterError("contacts", f"{lacking[0]} needs the contact dump, and none was "
+                             "found; give the contacts ({param}) or run the simulation "
+                             "with contacts")
+    return list(quantities)
