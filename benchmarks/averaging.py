@@ -23,8 +23,10 @@ from granavg.engine.geometry import Rings
 from granavg.io.runs import average_run
 from granavg.engine.kernels import CHANNELS
 from granavg.engine.quantities import QUANTITIES
-from granavg.io.reader import DumpReader, Frame, FramePairs
-from granavg.io.rundir import read_manifest
+from granavg.io.frames import Frame
+from granavg.io.reader import DumpReader
+from granavg.io.run_dumps import RunDumps
+from granavg.io.run_directory import read_manifest
 
 
 def best_of(fn, repeat=3):
@@ -61,7 +63,7 @@ def reader_rows(run: Path, plain: Path):
 
 def engine_rows(run: Path, m):
     scene = m["scene"]
-    frames = list(itertools.islice(FramePairs(DumpReader(run / "atoms.dump.gz"),
+    frames = list(itertools.islice(RunDumps(DumpReader(run / "atoms.dump.gz"),
                                               DumpReader(run / "contacts.dump.gz"),
                                               dt=m["derived"]["dt_s"]), 40))
     rows = []

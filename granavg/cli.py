@@ -241,7 +241,7 @@ def _average_plain(args, out) -> int:
 
     from granavg.engine import Grid, Rings, Slabs, average
     from granavg.io import validate
-    from granavg.io.plain import PlainFrames, parse_map
+    from granavg.io.lammps_dumps import LammpsDumps, parse_map
     from granavg.io.profiles_io import write_profiles
     from granavg.io.reader import DumpReader
 
@@ -283,7 +283,7 @@ def _average_plain(args, out) -> int:
                             "--slabs or --grid")
         edges = args.edges or np.linspace(*args.r_range, (args.bins or 20) + 1)
         geometry = Rings(np.asarray(edges, float), h, tuple(args.center))
-    frames = PlainFrames(atoms, contacts, atom_map=parse_map(args.atom_columns),
+    frames = LammpsDumps(atoms, contacts, atom_map=parse_map(args.atom_columns),
                          contact_map=parse_map(args.contact_columns),
                          wall_types=args.wall_types, dt=args.dt, units=args.units)
     if frames.units.style == "unstated":

@@ -9,7 +9,7 @@ import numpy as np
 
 from granavg.io.runs import average_run
 from granavg.io.reader import DumpReader
-from granavg.io.rundir import read_manifest
+from granavg.io.run_directory import read_manifest
 
 
 def last_frame_time(run):

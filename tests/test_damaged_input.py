@@ -194,7 +194,7 @@ def _corrupt(raw, at):
 def test_resume_bookkeeping_keeps_the_frames_before_a_damaged_gzip(dumps, tmp_path, damage):
     """frame_steps / truncate_dump (what --resume uses to pick its restart and cut the
     dump) read a damaged gzip up to the damage: a prefix of the true frames, no error."""
-    from granavg.io.rundir import frame_steps, truncate_dump
+    from granavg.io.run_directory import frame_steps, truncate_dump
     frames = frames_of(dumps["atoms"])
     steps = [int(f[1]) for f in frames]
     path = tmp_path / "atoms.dump.gz"
@@ -210,7 +210,7 @@ def test_resume_bookkeeping_keeps_the_frames_before_a_damaged_gzip(dumps, tmp_pa
 def test_resume_bookkeeping_on_a_plain_dump_cut_anywhere(dumps, tmp_path, cut):
     """A plain dump cut inside a row, right after 'ITEM: TIMESTEP' or inside the atom
     count: every frame before the cut is complete, the cut one is not."""
-    from granavg.io.rundir import frame_steps
+    from granavg.io.run_directory import frame_steps
     frames = frames_of(dumps["atoms"])
     last = frames[3]
     head = "".join(ln for f in frames[:3] for ln in f)
@@ -220,14 +220,14 @@ def test_resume_bookkeeping_on_a_plain_dump_cut_anywhere(dumps, tmp_path, cut):
     path = write(tmp_path, "atoms.dump", [head + tail])
     assert frame_steps(path) == [int(f[1]) for f in frames[:3]]
     if cut == "mid ITEM":            # the cut piece is not kept with the last frame
-        from granavg.io.rundir import truncate_dump
+        from granavg.io.run_directory import truncate_dump
         assert truncate_dump(path, 10**12) == 3 and path.read_text() == head
 
 
 def test_resume_bookkeeping_keeps_a_whole_gzip_followed_by_garbage(dumps, tmp_path):
     """A complete gzip member then junk (an appended member cut at its header, zero
     padding): every frame of the complete member is kept."""
-    from granavg.io.rundir import frame_steps
+    from granavg.io.run_directory import frame_steps
     frames = frames_of(dumps["atoms"])
     path = tmp_path / "atoms.dump.gz"
     path.write_bytes(gzip.compress("".join(dumps["atoms"]).encode()) + b"\x1f\x8b\x08junk")

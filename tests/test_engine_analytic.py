@@ -8,7 +8,7 @@ from granavg.engine.average import CellAverage, frame_sums
 from granavg.engine.geometry import Rings
 from granavg.engine.kernels import CHANNELS
 from granavg.engine.quantities import QUANTITIES
-from granavg.io.reader import Frame
+from granavg.io.frames import Frame
 from granavg.engine.weights import ring_weights
 
 H, RHO_P = 0.006, 1060.0

@@ -9,9 +9,10 @@ from granavg.engine.average import CellAverage
 from granavg.engine.geometry import Rings
 from granavg.sim.lammps_session import lammps_session, load_lammps
 from granavg.engine.quantities import QUANTITIES
-from granavg.io.reader import DumpReader, FramePairs
+from granavg.io.reader import DumpReader
+from granavg.io.run_dumps import RunDumps
 from granavg.io.contacts import COLUMNS, contact_table
-from granavg.io.reader import Frame
+from granavg.io.frames import Frame
 from granavg.sim.scene import PAPER_HOOKE
 from granavg.io.contacts import radius_by_id
 from granavg.sim.run_files import DECK, cmdargs
@@ -22,7 +23,7 @@ from .conftest import SMALL_CELL
 
 def frames_of(run):
     m = json.loads((run / "manifest.json").read_text())
-    pairs = FramePairs(DumpReader(run / "atoms.dump.gz"), DumpReader(run / "contacts.dump.gz"),
+    pairs = RunDumps(DumpReader(run / "atoms.dump.gz"), DumpReader(run / "contacts.dump.gz"),
                        dt=m["derived"]["dt_s"])
     return m, list(pairs)
 

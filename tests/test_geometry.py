@@ -9,7 +9,8 @@ import pytest
 
 from granavg.engine import Grid, Rings, Slabs, average
 from granavg.engine.weights import grid_weights, strip_weights
-from granavg.io.reader import DumpReader, FramePairs
+from granavg.io.reader import DumpReader
+from granavg.io.run_dumps import RunDumps
 
 H = 0.006
 
@@ -74,7 +75,7 @@ def test_stress_trace_is_the_same_summed_over_rings_or_a_grid(small_run):
     """sum_k V_k tr sigma_k does not depend on the cells or their basis: rings (polar)
     and a grid (Cartesian) covering every disk agree to round-off on a LAMMPS frame."""
     m = json.loads((small_run / "manifest.json").read_text())
-    frames = list(FramePairs(DumpReader(small_run / "atoms.dump.gz"),
+    frames = list(RunDumps(DumpReader(small_run / "atoms.dump.gz"),
                              DumpReader(small_run / "contacts.dump.gz"),
                              dt=m["derived"]["dt_s"]))[-1:]
     a = frames[0].atoms

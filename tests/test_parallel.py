@@ -9,7 +9,7 @@ import pandas as pd
 from granavg.io.runs import average_run
 from granavg.io.parallel import average_run_dask, chunk_windows
 from granavg.io.reader import DumpReader
-from granavg.io.rundir import read_manifest
+from granavg.io.run_directory import read_manifest
 
 from .conftest import run_cli
 

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from granavg.io.rundir import frame_steps
+from granavg.io.run_directory import frame_steps
 
 from .conftest import run_cli, small_cell_args
 

@@ -101,7 +101,7 @@ def average_ensemble(run_dirs: list, out: str, t_end=None, every=1, bins=(20, 60
     from granavg.analysis.pipeline import report_profiles
     from granavg.engine.combine import combine_runs
     from granavg.io.profiles_io import write_profiles
-    from granavg.io.rundir import read_manifest
+    from granavg.io.run_directory import read_manifest
     from granavg.io.runs import run_averager
 
     c0, t0 = cpu_seconds(), time.perf_counter()

@@ -149,10 +149,25 @@ def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih,
             dfm[p, 3] += d * n_phi * n_phi
 
 
-def rows_of(ids, wanted):
-    """Row of each id in the atom ids; an unknown id is a user error."""
-    ids = ids.astype(np.int64)
-    wanted = wanted.astype(np.int64)
+def lookup(ids, wanted):
+    """Row of each wanted id among ``ids`` and whether it was found.
+
+    Parameters
+    ----------
+    ids : ndarray, shape (P,)
+        The frame's atom ids (unique integers, any order).
+    wanted : ndarray, shape (N,)
+
+    Returns
+    -------
+    rows : ndarray of int, shape (N,)
+        Meaningful where ``found``.
+    found : ndarray of bool, shape (N,)
+    """
+    ids = np.asarray(ids).astype(np.int64)
+    wanted = np.asarray(wanted).astype(np.int64)
+    if len(ids) == 0:
+        return np.zeros(len(wanted), np.int64), np.zeros(len(wanted), bool)
     top = int(ids.max(initial=0))
     if top < 8 * len(ids) + 1_000_000:               # a lookup table: O(P + N)
         table = np.full(top + 2, -1, dtype=np.int64)
@@ -164,6 +179,13 @@ def rows_of(ids, wanted):
         pos = np.minimum(np.searchsorted(ids[order], wanted), len(ids) - 1)
         rows = order[pos]
         bad = ids[rows] != wanted
+    return rows, ~bad
+
+
+def rows_of(ids, wanted):
+    """Row of each id in the atom ids (:func:`lookup`); an unknown id is a user error."""
+    rows, found = lookup(ids, wanted)
+    bad = ~found
     if np.any(bad):
         raise UserError(f"the contact dump names atom id {int(wanted[bad][0])}, which is not "
                         "in the atom dump of the same time step; use dumps of the same run")

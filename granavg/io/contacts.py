@@ -1,11 +1,12 @@
 """The per-contact table: from LAMMPS' pair/local output to granavg's contact dump.
 
-LAMMPS' ``compute pair/local ... cutoff radius`` lists every touching pair once
-(``dx = x_1 - x_2``, ``fx fy`` the normal and ``p1 p2`` the tangential force on atom 1)
-but not the overlap, which is ``r_1 + r_2 - dist``. :func:`contact_table` adds it, the
-unit normal and a wall flag, and puts the wall disk second so that for a wall contact
-the forces are those on the disk. Both the in-process writer and the converter of a
-LAMMPS-written ``contacts_raw`` dump use it.
+LAMMPS' ``compute pair/local`` lists atom pairs (``dx = x_1 - x_2``, ``fx fy`` the
+normal and ``p1 p2`` the tangential force on atom 1) but not the overlap, which is
+``r_1 + r_2 - dist``. :func:`contact_columns` adds it, the unit normal and a wall flag,
+and puts the wall atom second so that for a wall contact the forces are those on the
+disk. Every contact source goes through it: the in-process writer and the converter of a
+LAMMPS-written ``contacts_raw`` dump (:func:`contact_table`) and anyone's pair/local
+dumps (:mod:`granavg.io.lammps_dumps`).
 
 Columns of the contact dump (SI units; documented in docs/outputs.md):
 
@@ -30,8 +31,45 @@ RAW_COLUMNS = ["id1", "id2", "type1", "type2", "dx", "dy", "dist", "fnx", "fny",
 WALL_FLAG_OF_TYPE = np.array([0, 0, 0, 1, 2])
 
 
+def contact_columns(id1, id2, dx, dy, dist, fnx, fny, ftx, fty, wall1, wall2, r1, r2) -> dict:
+    """Pair/local quantities of atom pairs -> granavg's contact columns: the one
+    conversion every contact source goes through.
+
+    Parameters
+    ----------
+    id1, id2 : ndarray, shape (n,)
+        Atom ids of each pair.
+    dx, dy, dist : ndarray, shape (n,)
+        ``x_1 - x_2`` and the centre distance (as printed: they agree only to the
+        printed precision; the normal is (dx, dy) over its own length).
+    fnx, fny, ftx, fty : ndarray, shape (n,)
+        Normal and tangential force on atom 1.
+    wall1, wall2 : ndarray of int, shape (n,)
+        Wall code of each atom: 0 a disk of the packing, 1 or 2 a wall.
+    r1, r2 : ndarray, shape (n,)
+        Radii.
+
+    Returns
+    -------
+    dict of str -> ndarray, shape (n,)
+        :data:`COLUMNS` with the wall atom second (its forces and normal as seen by the
+        disk), plus ``packing`` (False for wall-wall pairs) and ``reach`` (r1 + r2).
+    """
+    swap = (wall1 > 0) & (wall2 == 0)                 # the disk goes first
+    sign = np.where(swap, -1.0, 1.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        length = np.hypot(dx, dy)
+        nx, ny = -dx / length, -dy / length           # from atom 1 towards atom 2
+    return {"id1": np.where(swap, id2, id1), "id2": np.where(swap, id1, id2),
+            "wall": np.where(swap, wall1, wall2).astype(float),
+            "fnx": sign * fnx, "fny": sign * fny, "ftx": sign * ftx, "fty": sign * fty,
+            "nx": sign * nx, "ny": sign * ny, "overlap": r1 + r2 - dist,
+            "packing": (wall1 == 0) | (wall2 == 0), "reach": r1 + r2}
+
+
 def contact_table(raw: np.ndarray, radius_of_id: np.ndarray) -> np.ndarray:
-    """Turn raw pair/local rows into contact-dump rows.
+    """Raw pair/local rows of granavg's deck -> contact-dump rows
+    (:func:`contact_columns`; wall codes from the atom types).
 
     Parameters
     ----------
@@ -48,18 +86,11 @@ def contact_table(raw: np.ndarray, radius_of_id: np.ndarray) -> np.ndarray:
     """
     raw = np.asarray(raw, dtype=float).reshape(-1, len(RAW_COLUMNS))
     id1, id2, t1, t2, dx, dy, dist, fnx, fny, ftx, fty = raw.T
-    t1, t2 = t1.astype(int), t2.astype(int)
-    swap = WALL_FLAG_OF_TYPE[t1] > 0          # put the wall disk second
-    sign = np.where(swap, -1.0, 1.0)
-    length = np.hypot(dx, dy)                 # = dist up to rounding; the normal is unit
-    out = np.column_stack([
-        np.where(swap, id2, id1), np.where(swap, id1, id2),
-        WALL_FLAG_OF_TYPE[np.where(swap, t1, t2)],
-        sign * fnx, sign * fny, sign * ftx, sign * fty,
-        -sign * dx / length, -sign * dy / length,
-        radius_of_id[id1.astype(int)] + radius_of_id[id2.astype(int)] - dist,
-    ])
-    return out[out[:, 9] > 0]
+    c = contact_columns(id1, id2, dx, dy, dist, fnx, fny, ftx, fty,
+                        WALL_FLAG_OF_TYPE[t1.astype(int)], WALL_FLAG_OF_TYPE[t2.astype(int)],
+                        radius_of_id[id1.astype(int)], radius_of_id[id2.astype(int)])
+    keep = c["packing"] & (c["overlap"] > 0)
+    return np.column_stack([c[k] for k in COLUMNS])[keep]
 
 
 def radius_by_id(ids, radius) -> np.ndarray:

@@ -15,7 +15,7 @@ import numpy as np
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.profiles import Profiles
 from granavg.io.runs import run_averager
-from granavg.io.rundir import read_manifest
+from granavg.io.run_directory import read_manifest
 
 log = logging.getLogger(__name__)
 

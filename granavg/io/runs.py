@@ -20,8 +20,9 @@ from granavg.engine.quantities import QUANTITIES
 from granavg.engine.timeseries import TimeSeries, ensemble_stationarity
 from granavg.engine.units import SI
 from granavg.errors import UserError
-from granavg.io.reader import DumpReader, FramePairs
-from granavg.io.rundir import read_manifest
+from granavg.io.reader import DumpReader
+from granavg.io.run_dumps import RunDumps
+from granavg.io.run_directory import read_manifest
 from granavg.io.validate import check_manifest, run_directory
 
 log = logging.getLogger(__name__)
@@ -76,7 +77,7 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
         if need_contacts else None
     averager = ring_average(manifest, groups, bins=bins, edges=edges, t_min=t_min,
                             block_time=block_time,
-                            frames=FramePairs(reader_a, reader_c, dt=derived["dt_s"]))
+                            frames=RunDumps(reader_a, reader_c, dt=derived["dt_s"]))
     averager.meta["files"] = {"atoms": str(atoms),
                               "contacts": str(reader_c.path) if reader_c else None}
     return averager

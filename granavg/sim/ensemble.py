@@ -21,7 +21,7 @@ from pathlib import Path
 
 
 from granavg.errors import UserError
-from granavg.io.rundir import claim_new
+from granavg.io.run_directory import claim_new
 from granavg.sim import packings, trade
 from granavg.sim.scene import Scene
 

@@ -19,7 +19,7 @@ from granavg.engine.quantities import groups_for
 from granavg.io.runs import ring_average
 from granavg.io.contacts import COLUMNS
 from granavg.sim.lammps_frames import atoms_by_id
-from granavg.io.reader import Frame
+from granavg.io.frames import Frame
 from granavg.io.profiles_io import write_profiles
 
 log = logging.getLogger(__name__)

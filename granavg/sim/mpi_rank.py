@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from granavg.sim.lammps_session import load_lammps
-from granavg.io.rundir import read_manifest
+from granavg.io.run_directory import read_manifest
 from granavg.sim.scene import Scene
 from granavg.sim.embedded import run_embedded
 from granavg.sim.simulate import _deck_variables

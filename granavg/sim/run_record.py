@@ -9,7 +9,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from granavg.io.contacts import COLUMNS
-from granavg.io.rundir import read_manifest, write_manifest
+from granavg.io.run_directory import read_manifest, write_manifest
 from granavg.sim.scene import Derived
 
 log = logging.getLogger(__name__)

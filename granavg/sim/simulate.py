@@ -33,7 +33,7 @@ from granavg.sim.lammps_session import lammps_version
 from granavg.sim.run_files import ATOMS, CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext
 from granavg.sim.embedded import run_embedded
 from granavg.sim.mpi import run_mpi, run_mpi_python
-from granavg.io.rundir import (claim_new, frame_steps, read_manifest, restart_files,
+from granavg.io.run_directory import (claim_new, frame_steps, read_manifest, restart_files,
                                truncate_dump, write_manifest)
 from granavg.sim import packings, trade
 from granavg.sim.scene import Derived, Scene

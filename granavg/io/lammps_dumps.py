@@ -1,6 +1,6 @@
 """Anyone's LAMMPS dumps, no manifest: column aliases, raw pair/local contacts, walls.
 
-:class:`PlainFrames` turns a per-atom ``dump custom`` and, optionally, a ``dump local``
+:class:`LammpsDumps` turns a per-atom ``dump custom`` and, optionally, a ``dump local``
 of contacts into the frames the engine averages (SI units):
 
 - atom columns by name or alias: ``x``/``xu``/``xs`` (scaled by the box), ``y`` likewise,
@@ -27,17 +27,16 @@ of contacts into the frames the engine averages (SI units):
 
 from __future__ import annotations
 
-import logging
-
 import numpy as np
 from isal import igzip
 
 from granavg.errors import UserError
-from granavg.io.reader import (CONSISTENCY, DumpReader, Frame, check_atoms, check_contacts,
-                               check_integers)
+from granavg.engine.kernels import lookup
+from granavg.io.contacts import contact_columns
+from granavg.io.frames import (CONSISTENCY, Columns, Frame, PairedDumps, check_atoms,
+                               check_contacts, check_integers)
+from granavg.io.reader import DumpReader
 from granavg.io.units import choose_units
-
-log = logging.getLogger(__name__)
 
 ATOM_ALIASES = {"x": ("x", "xu", "xs", "xsu"), "y": ("y", "yu", "ys", "ysu"),
                 "radius": ("radius", "diameter"), "vx": ("vx",), "vy": ("vy",),
@@ -123,8 +122,8 @@ def resolve_contacts(path, explicit: dict) -> dict:
     return out
 
 
-class PlainFrames:
-    """Frames of plain LAMMPS dumps for the engine (see the module docstring).
+class LammpsDumps(PairedDumps):
+    """Frames of anyone's LAMMPS dumps for the engine (see the module docstring).
 
     Parameters
     ----------
@@ -144,17 +143,18 @@ class PlainFrames:
     ----------
     units : UnitSystem
         The dumps' units (:func:`granavg.io.units.choose_units`).
+    amap, cmap : dict
+        The column maps used (our name -> the dump's column), for the sidecar.
     """
 
     def __init__(self, atoms, contacts=None, *, atom_map=None, contact_map=None,
                  wall_types=(), dt=None, units=None):
-        self.atoms_path, self.contacts_path = atoms, contacts
-        self.units = choose_units(dump_header(atoms)[1], units)
+        unit_system = choose_units(dump_header(atoms)[1], units)
         if contacts is not None and (said := dump_header(contacts)[1]) is not None:
-            if choose_units(said, None).style != self.units.style:
+            if choose_units(said, None).style != unit_system.style:
                 raise UserError(f"{said[1]}: the contact dump says 'units {said[0]}', the "
-                                f"atom dump's units are {self.units.style}; use the dumps of "
-                                "one run")
+                                f"atom dump's units are {unit_system.style}; use the dumps "
+                                "of one run")
         self.amap = resolve_atoms(atoms, atom_map or {})
         self.cmap = resolve_contacts(contacts, contact_map or {}) if contacts else None
         self.wall_types = np.asarray(list(wall_types), dtype=float)
@@ -162,34 +162,14 @@ class PlainFrames:
             raise UserError(f"{atoms}: --wall-types needs the atoms' type column")
         if self.cmap is not None and "id" not in self.amap:
             raise UserError(f"{atoms}: contacts need the atoms' id column")
-        self.dt = dt
-        self.dropped = {"contacts_not_touching": 0}
+        super().__init__(DumpReader(atoms, sorted(set(self.amap.values()))),
+                         DumpReader(contacts, sorted(set(self.cmap.values())))
+                         if self.cmap is not None else None, dt, unit_system)
 
-    def __iter__(self):
-        ra = DumpReader(self.atoms_path, sorted(set(self.amap.values())))
-        rc = DumpReader(self.contacts_path, sorted(set(self.cmap.values()))) \
-            if self.cmap is not None else None
-        c_iter = iter(rc) if rc is not None else None
-        for fa in ra:
-            time = fa.time if fa.time is not None else (
-                fa.timestep * self.dt if self.dt is not None else None)
-            if time is None:
-                raise UserError(f"{self.atoms_path}: frames have no ITEM: TIME; give --dt "
-                                "(the time step, in the dump's time unit)")
-            atoms, walls = self._atoms(fa)
-            contacts = None
-            if c_iter is not None:
-                fc = next(c_iter, None)
-                if fc is None:
-                    log.warning("%s ends before %s; later frames are not used",
-                                self.contacts_path, self.atoms_path)
-                    return
-                if fc.timestep != fa.timestep:
-                    raise UserError(f"time steps do not match: {fa.timestep} in "
-                                    f"{self.atoms_path} (line {fa.line}) but {fc.timestep} "
-                                    f"in {self.contacts_path} (line {fc.line})")
-                contacts = self._contacts(fc, atoms, walls)
-            yield Frame(fa.timestep, time, atoms, contacts)
+    def frame(self, fa, fc) -> Frame:
+        atoms, walls = self._atoms(fa)
+        contacts = self._contacts(fc, atoms, walls) if fc is not None else None
+        return Frame(fa.timestep, self.time(fa), atoms, contacts)
 
     def _atoms(self, fa):
         raw = fa.as_dict()
@@ -200,7 +180,7 @@ class PlainFrames:
                 col[axis] = lo + col[axis] * (hi - lo)
         if self.amap["radius"] == "diameter":
             col["radius"] = 0.5 * col["radius"]
-        col = check_atoms(self.atoms_path, _View(col, fa))
+        col = check_atoms(self.atoms.path, Columns(col, fa))
         wall = np.isin(col["type"], self.wall_types) if len(self.wall_types) else \
             np.zeros(len(col["x"]), bool)
         walls = {"id": col["id"][wall], "radius": col["radius"][wall]} if "id" in col else {}
@@ -210,12 +190,13 @@ class PlainFrames:
     def _contacts(self, fc, atoms, walls):
         raw = fc.as_dict()
         c = {ours: raw[theirs] for ours, theirs in self.cmap.items()}
-        check_integers(self.contacts_path, fc, c, ("id1", "id2"))
+        check_integers(self.contacts.path, fc, c, ("id1", "id2"))
         if "wall" in c and "overlap" in c:                      # granavg's own format
-            rows, packing = dict(c), np.ones(len(c["id1"]), bool)
+            rows = dict(c, packing=np.ones(len(c["id1"]), bool))
         else:
-            rows, packing = self._convert(c, fc, atoms, walls)
-        rows = check_contacts(self.contacts_path, _View(rows, fc))
+            rows = self._convert(c, fc, atoms, walls)
+        packing = rows.pop("packing")
+        rows = check_contacts(self.contacts.path, Columns(rows, fc))
         touching = self._touching(rows, fc)
         self.dropped["contacts_not_touching"] += int(np.sum(packing & ~touching))
         keep = packing & touching
@@ -228,74 +209,41 @@ class PlainFrames:
         overlap = rows["overlap"]
         force = (rows["fnx"] != 0) | (rows["fny"] != 0)
         gap = force & (overlap <= 0)
+        reach = rows.pop("reach", None)
         if gap.any():
-            reach = rows.get("reach")
             far = gap & (-overlap > CONSISTENCY * reach) if reach is not None else \
                 np.zeros_like(gap)
             if far.any():
                 k = int(np.flatnonzero(far)[0])
                 raise UserError(
-                    f"{self.contacts_path}:{fc.line + k}: atoms {int(rows['id1'][k])} and "
+                    f"{self.contacts.path}:{fc.line + k}: atoms {int(rows['id1'][k])} and "
                     f"{int(rows['id2'][k])} carry a normal force but are {-overlap[k]:.3g} "
                     f"apart by their radii (timestep {fc.timestep}); check the radius or "
-                    f"diameter column ({self.amap['radius']}) of {self.atoms_path}")
+                    f"diameter column ({self.amap['radius']}) of {self.atoms.path}")
             rows["overlap"] = overlap = np.where(gap, 0.0, overlap)
-        rows.pop("reach", None)
         return (overlap > 0) | force
 
     def _convert(self, c, fc, atoms, walls):
         ids = np.concatenate([atoms["id"], walls.get("id", np.zeros(0))])
         radii = np.concatenate([atoms["radius"], walls.get("radius", np.zeros(0))])
-        is_wall = np.concatenate([np.zeros(len(atoms["id"]), bool),
-                                  np.ones(len(walls.get("id", [])), bool)])
-        order = np.argsort(ids)
-
-        def rows_of(wanted):
-            pos = np.clip(np.searchsorted(ids[order], wanted), 0, len(ids) - 1)
-            found = ids[order][pos] == wanted
-            if not found.all():
-                k = int(np.argmin(found))
-                raise UserError(f"{self.contacts_path}:{fc.line + k}: atom id "
-                                f"{int(wanted[k])} is not in {self.atoms_path} at timestep "
-                                f"{fc.timestep}; use the dumps of one run")
-            return order[pos]
-        i1, i2 = rows_of(c["id1"]), rows_of(c["id2"])
+        is_wall = np.concatenate([np.zeros(len(atoms["id"]), int),
+                                  np.ones(len(walls.get("id", [])), int)])
+        (i1, found1), (i2, found2) = lookup(ids, c["id1"]), lookup(ids, c["id2"])
+        self.unknown_ids(fc, c, found1 & found2)
         dist = c["dist"]
         length = np.hypot(c["dx"], c["dy"])
         off = np.abs(length - dist) > CONSISTENCY * dist
         if off.any():
             k = int(np.flatnonzero(off)[0])
-            raise UserError(f"{self.contacts_path}:{fc.line + k}: |(dx, dy)| = {length[k]:g} "
+            raise UserError(f"{self.contacts.path}:{fc.line + k}: |(dx, dy)| = {length[k]:g} "
                             f"but dist = {dist[k]:g} (timestep {fc.timestep}), more apart "
                             "than printing's rounding; the dump is damaged or the column map "
                             "names the wrong columns")
-        with np.errstate(invalid="ignore", divide="ignore"):
-            nx, ny = -c["dx"] / length, -c["dy"] / length         # from atom 1 towards atom 2
         if "fnx" in c:
             fnx, fny = c["fnx"], c["fny"]
-        else:
-            fnx, fny = -c["force"] * nx, -c["force"] * ny         # repulsive along dx
-        ftx = c.get("ftx", np.zeros(len(dist)))
-        fty = c.get("fty", np.zeros(len(dist)))
-        overlap = radii[i1] + radii[i2] - dist
-        wall = np.zeros(len(dist))
-        w1, w2 = is_wall[i1], is_wall[i2]
-        swap = w1 & ~w2                                           # the disk goes first
-        sign = np.where(swap, -1.0, 1.0)
-        id1 = np.where(swap, c["id2"], c["id1"])
-        id2 = np.where(swap, c["id1"], c["id2"])
-        wall[w1 ^ w2] = 1.0
-        rows = {"id1": id1, "id2": id2, "wall": wall, "fnx": sign * fnx, "fny": sign * fny,
-                "ftx": sign * ftx, "fty": sign * fty, "nx": sign * nx, "ny": sign * ny,
-                "overlap": overlap, "reach": radii[i1] + radii[i2]}
-        return rows, ~(w1 & w2)                                   # wall-wall pairs are not packing
-
-
-class _View:
-    """Columns with the line and time step of their dump frame (for the checks)."""
-
-    def __init__(self, columns, frame):
-        self.columns, self.line, self.timestep = columns, frame.line, frame.timestep
-
-    def as_dict(self):
-        return dict(self.columns)
+        else:                                                 # repulsive along dx
+            fnx, fny = c["force"] * c["dx"] / length, c["force"] * c["dy"] / length
+        zero = np.zeros(len(dist))
+        return contact_columns(c["id1"], c["id2"], c["dx"], c["dy"], dist, fnx, fny,
+                               c.get("ftx", zero), c.get("fty", zero), is_wall[i1],
+                               is_wall[i2], radii[i1], radii[i2])

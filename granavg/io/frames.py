@@ -1,0 +1,190 @@
+"""The frames every input format hands the engine, the checks every format applies to
+them, and the pairing of a per-atom with a per-contact frame source by time step.
+
+A *frame source* is any iterable of :class:`Frame` (in increasing time) with an attribute
+``dropped`` (dict of counts of rows left out, for the sidecar) and ``units``
+(:class:`~granavg.engine.units.UnitSystem`); :mod:`granavg.io.formats` lists the formats
+that make them from files.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from granavg.engine.units import SI, UnitSystem
+from granavg.errors import UserError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class Frame:
+    """One time step: per-atom and (optionally) per-contact columns.
+
+    Attributes
+    ----------
+    timestep : int
+    time : float
+    atoms : dict of str -> ndarray, shape (P,)
+        ``x y radius`` and, as available, ``vx vy omegaz id mass``.
+    contacts : dict of str -> ndarray, shape (C,), or None
+        ``id1 id2 wall fnx fny ftx fty nx ny overlap`` (:mod:`granavg.io.contacts`).
+    """
+
+    timestep: int
+    time: float
+    atoms: dict
+    contacts: dict | None
+
+
+#: Largest relative disagreement accepted between numbers of one row that are equal in
+#: exact arithmetic: |n| and 1 for a stored normal; |(dx, dy)| and dist, and a pair's
+#: centre distance and the sum of its radii where it carries a force (the overlap's
+#: sign). A number printed with p significant digits is off by at most 5 x 10^-p of
+#: itself, so LAMMPS' default ``%g`` (p = 6) leaves at most about 1e-5 (9.4e-6 measured
+#: on a real dump); 1e-4 accepts every format with p >= 5 and refuses real damage.
+CONSISTENCY = 1e-4
+
+
+def check_integers(path, frame, cols, names):
+    """Refuse a value that should be an integer (an id, a type, a wall code) and is not."""
+    for name in names:
+        if name in cols:
+            v = cols[name]
+            bad = np.flatnonzero(v != np.round(v))
+            if len(bad):
+                raise UserError(f"{path}:{frame.line + bad[0]}: {name} {v[bad[0]]:g} is not "
+                                f"an integer (timestep {frame.timestep}); the dump is "
+                                "damaged, or the column map names the wrong column")
+
+
+def check_atoms(path, frame) -> dict:
+    """The frame's atom columns, after refusing ids or types that are not integers,
+    duplicate ids and radii that are not positive (one line naming file, line and
+    timestep). ``frame`` has ``as_dict()``, ``line`` and ``timestep``."""
+    cols = frame.as_dict()
+    check_integers(path, frame, cols, ("id", "type"))
+    if "id" in cols:
+        ids = cols["id"]
+        uniq, first, counts = np.unique(ids, return_index=True, return_counts=True)
+        if len(uniq) < len(ids):
+            dup = uniq[counts > 1][0]
+            rows = np.flatnonzero(ids == dup)
+            raise UserError(f"{path}:{frame.line + rows[1]}: atom id {int(dup)} appears twice "
+                            f"in timestep {frame.timestep} (also line {frame.line + rows[0]}); "
+                            "the dump is damaged")
+    if "radius" in cols:
+        bad = np.flatnonzero(~(cols["radius"] > 0))
+        if len(bad):
+            raise UserError(f"{path}:{frame.line + bad[0]}: radius {cols['radius'][bad[0]]:g} "
+                            f"is not positive (timestep {frame.timestep}); disks need a radius "
+                            "> 0")
+    return cols
+
+
+def check_contacts(path, frame) -> dict:
+    """The frame's contact columns, after refusing rows that make no sense: an id that is
+    not an integer, a disk in contact with itself, an unknown wall code, a normal that is
+    not a unit vector within :data:`CONSISTENCY`. Normals are returned normalised."""
+    cols = frame.as_dict()
+
+    def fail(row, what):
+        raise UserError(f"{path}:{frame.line + row}: {what} (timestep {frame.timestep}); "
+                        "the contact dump is damaged or not in granavg's format")
+    check_integers(path, frame, cols, ("id1", "id2", "wall"))
+    if "wall" in cols:
+        bad = np.flatnonzero(~np.isin(cols["wall"], (0, 1, 2)))
+        if len(bad):
+            fail(bad[0], f"wall code {cols['wall'][bad[0]]:g} is not 0, 1 or 2")
+    if "id1" in cols and "id2" in cols:
+        same = (cols["id1"] == cols["id2"])
+        if "wall" in cols:
+            same &= cols["wall"] == 0
+        if same.any():
+            fail(np.flatnonzero(same)[0], f"atom {int(cols['id1'][same][0])} is in contact "
+                 "with itself")
+    if "nx" in cols and "ny" in cols:
+        norm = np.hypot(cols["nx"], cols["ny"])
+        off = np.abs(norm - 1.0)
+        if np.any(off > CONSISTENCY):
+            k = int(np.argmax(off))
+            fail(k, f"the contact normal ({cols['nx'][k]:g}, {cols['ny'][k]:g}) is not a unit "
+                 f"vector (|n| - 1 = {norm[k] - 1:.2g}, more than printing's rounding)")
+        cols = {**cols, "nx": cols["nx"] / norm, "ny": cols["ny"] / norm}
+    return cols
+
+
+class Columns:
+    """Columns with the line and time step of the dump frame they came from (what the
+    checks need to name file:line)."""
+
+    def __init__(self, columns: dict, frame):
+        self.columns, self.line, self.timestep = columns, frame.line, frame.timestep
+
+    def as_dict(self) -> dict:
+        return dict(self.columns)
+
+
+class PairedDumps:
+    """Frames of a per-atom dump paired by time step with those of a per-contact dump;
+    a format adapter subclasses it and turns each pair into a :class:`Frame`
+    (:meth:`frame`).
+
+    Parameters
+    ----------
+    atoms : DumpReader
+    contacts : DumpReader or None
+        Without it, frames carry ``contacts=None`` (density and velocity need none).
+    dt : float, optional
+        Time step, for dumps without ``ITEM: TIME``.
+    units : UnitSystem
+        The dumps' units.
+    """
+
+    def __init__(self, atoms, contacts=None, dt=None, units: UnitSystem = SI):
+        self.atoms, self.contacts, self.dt, self.units = atoms, contacts, dt, units
+        #: rows dropped because they do not touch, for the sidecar
+        self.dropped = {"contacts_not_touching": 0}
+
+    def __iter__(self):
+        c_iter = iter(self.contacts) if self.contacts is not None else None
+        for k, fa in enumerate(self.atoms):
+            fc = None
+            if c_iter is not None:
+                fc = next(c_iter, None)
+                if fc is None:
+                    log.warning("%s ends at frame %d; the %d-th and later frames of %s are "
+                                "not used", self.contacts.path, k, k + 1, self.atoms.path)
+                    return
+                if fc.timestep != fa.timestep:
+                    raise UserError(
+                        f"time steps do not match: frame {k + 1} is timestep {fa.timestep} in "
+                        f"{self.atoms.path} (line {fa.line}) but {fc.timestep} in "
+                        f"{self.contacts.path} (line {fc.line}); use dumps of the same run")
+            yield self.frame(fa, fc)
+
+    def frame(self, fa, fc) -> Frame:
+        """The engine's frame of one atom-dump frame and its contact-dump frame (or None)."""
+        raise NotImplementedError
+
+    def time(self, frame) -> float:
+        """The frame's time: ``ITEM: TIME``, else timestep x ``dt``."""
+        if frame.time is not None:
+            return frame.time
+        if self.dt is None:
+            raise UserError(f"{self.atoms.path}: frames have no ITEM: TIME and no time step "
+                            "is known; give the time step (--dt, or the run directory whose "
+                            "manifest has it)")
+        return frame.timestep * self.dt
+
+    def unknown_ids(self, fc, rows, known):
+        """Refuse contact rows whose atom ids are not among the frame's atoms."""
+        if not known.all():
+            k = int(np.argmin(known))
+            raise UserError(f"{self.contacts.path}:{fc.line + k}: atom id "
+                            f"{int(rows['id1'][k]) if 'id1' in rows else '?'} (or its partner)"
+                            f" is not in {self.atoms.path} at timestep {fc.timestep}; use the "
+                            "atom and contact dumps of one run")
