@@ -20,7 +20,7 @@ from pathlib import Path
 
 from granavg.engine.average import CellAverage, frame_sums
 from granavg.engine.geometry import Rings
-from granavg.io.runs import average_run
+from granavg.pipeline.runs import average_run
 from granavg.engine.kernels import CHANNELS
 from granavg.engine.quantities import QUANTITIES
 from granavg.io.frames import Frame

@@ -16,8 +16,9 @@ import time
 
 import numpy as np
 
-from granavg.io.runs import average_run
-from granavg.io.parallel import average_run_dask, local_cluster
+from granavg.pipeline.runs import average_run
+from granavg.dask_cluster import local_cluster
+from granavg.pipeline.on_dask import average_run_dask
 
 
 def identical(a, b) -> bool:

@@ -127,7 +127,7 @@ def test_mismatched_time_steps_are_listed(small_run, plain_dumps, tmp_path):
     (["--edges", "0.08", "0.05"], "increasing"),
     (["--bins", "0"], "give between 1 and"),
     (["--quantities", "nu,vorticity"], "unknown quantity"),
-    (["--t-min", "1000"], "no frame at t >= t_min"),
+    (["--t-min", "1000"], "no frame at t >= 1000, the start of the average (--t-min)"),
 ])
 def test_bad_options_are_refused(small_run, tmp_path, args, message):
     proc = run_cli("average", small_run, "--out", tmp_path / "p.csv", "--no-progress", *args)
@@ -137,7 +137,7 @@ def test_bad_options_are_refused(small_run, tmp_path, args, message):
 def test_coordination_alone_reads_no_forces_and_agrees_with_the_full_average(small_run):
     """Asked for coordination only, the reader skips the force columns; the profile is
     the one of the full average (the forces enter no coordination channel)."""
-    from granavg.io.runs import average_run
+    from granavg.pipeline.runs import average_run
 
     alone = average_run(small_run, bins=5, t_min=1.0, quantities=["coordination"])
     full = average_run(small_run, bins=5, t_min=1.0)

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from granavg.io.runs import average_run
+from granavg.pipeline.runs import average_run
 from granavg.io.reader import DumpReader
 from granavg.io.run_directory import read_manifest
 

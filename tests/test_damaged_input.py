@@ -471,14 +471,14 @@ def test_an_error_after_a_signal_counts_as_the_interrupt():
     # a signal landing inside numba's compiler or a ctypes callback comes out as another
     # error (SystemError, numba's RuntimeError): that is still Ctrl-C, not a bug to show
     # as a traceback; without a signal the same error is a bug and is raised
-    import granavg.cli as cli
+    import granavg.pipeline.session as session
     try:
-        assert cli._interrupt_code(RuntimeError("no compiled object yet")) is None
-        assert cli._interrupt_code(KeyboardInterrupt()) == 130
-        assert cli._interrupt_code(cli.Terminated()) == 143
-        cli._signalled.append(signal.SIGINT)
-        assert cli._interrupt_code(SystemError("returned a result with an exception set")) == 130
-        cli._signalled.append(signal.SIGTERM)
-        assert cli._interrupt_code(RuntimeError("no compiled object yet")) == 143
+        assert session.interrupt_code(RuntimeError("no compiled object yet")) is None
+        assert session.interrupt_code(KeyboardInterrupt()) == 130
+        assert session.interrupt_code(session.Terminated()) == 143
+        session._signalled.append(signal.SIGINT)
+        assert session.interrupt_code(SystemError("returned a result with an exception set")) == 130
+        session._signalled.append(signal.SIGTERM)
+        assert session.interrupt_code(RuntimeError("no compiled object yet")) == 143
     finally:
-        cli._signalled.clear()
+        session._signalled.clear()

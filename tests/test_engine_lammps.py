@@ -15,8 +15,8 @@ from granavg.io.contacts import COLUMNS, contact_table
 from granavg.io.frames import Frame
 from granavg.sim.scene import PAPER_HOOKE
 from granavg.io.contacts import radius_by_id
-from granavg.sim.run_files import DECK, cmdargs
-from granavg.sim.simulate import _deck_variables
+from granavg.sim.run_layout import DECK, cmdargs
+from granavg.sim.simulate import deck_variables
 
 from .conftest import SMALL_CELL
 
@@ -84,7 +84,7 @@ def live_frame_and_virial(out, *sets):
     scene = PAPER_HOOKE.with_overrides([*SMALL_CELL, *sets])
     derived = scene.derive()
     out.mkdir()
-    variables = _deck_variables(out, derived, embedded=True, resume=None, start=None)
+    variables = deck_variables(out, derived, embedded=True, resume=None, start=None)
     with lammps_session(cmdargs(out, variables, 1)) as lmp:
         lmp.file(str(DECK))
         lmp.commands_string("""

@@ -9,7 +9,7 @@ import pytest
 
 from granavg.analysis.claims import analyze
 from granavg.analysis.report import stationarity_table
-from granavg.io.runs import average_run
+from granavg.pipeline.runs import average_run
 from granavg.engine.combine import combine_runs
 from granavg.engine.timeseries import ensemble_stationarity
 from granavg.errors import UserError

@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 
-from granavg.io.runs import average_run
+from granavg.pipeline.runs import average_run
 from granavg.io.profiles_io import read_profiles
 
 from .conftest import SMALL_CELL, run_cli, small_cell_args

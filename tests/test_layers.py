@@ -1,13 +1,26 @@
-"""The package's layers: the engine (geometry, weights, channels, accumulators,
-profiles, errors) imports nothing from io, sim or analysis, and no module imports its
-way back into a circle with the LAMMPS driver."""
+"""The package's layers and which may import which, read from the code's own imports
+(top level or inside functions). Data flow one way: sim (runs) -> io (formats -> frames)
+-> engine (frames -> profiles) -> analysis (profiles -> checks, figures); only the
+pipeline wires them, and the CLI is a shell around the pipeline."""
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent / "granavg"
+#: layer -> the granavg modules or packages it may import (besides itself)
+ALLOWED = {
+    "engine": ("granavg.errors",),
+    "io": ("granavg.errors", "granavg.engine"),
+    "sim": ("granavg.errors", "granavg.dask_cluster", "granavg.io", "granavg.engine.quantities",
+            "granavg.engine.units", "granavg.__init__"),
+    "analysis": ("granavg.errors", "granavg.engine"),
+    "pipeline": ("granavg.errors", "granavg.dask_cluster", "granavg.engine", "granavg.io",
+                 "granavg.sim", "granavg.analysis", "granavg.__init__"),
+}
 
 
 def imports(path: Path) -> set:
@@ -15,7 +28,10 @@ def imports(path: Path) -> set:
     found = set()
     for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            if node.module.startswith("granavg"):
+            if node.module == "granavg":
+                found.update(f"granavg.{a.name}" if a.name != "__version__" else
+                             "granavg.__init__" for a in node.names)
+            elif node.module.startswith("granavg"):
                 found.add(node.module)
         elif isinstance(node, ast.ImportFrom) and node.level > 0:
             found.add("relative:" + (node.module or ""))
@@ -24,15 +40,49 @@ def imports(path: Path) -> set:
     return found
 
 
-@pytest.mark.parametrize("path", sorted((ROOT / "engine").glob("*.py")), ids=lambda p: p.name)
-def test_the_engine_imports_no_other_layer(path):
-    bad = {m for m in imports(path)
-           if m.startswith(("granavg.io", "granavg.sim", "granavg.analysis", "relative:"))}
+def within(module: str, allowed) -> bool:
+    return any(module == a or module.startswith(a + ".") for a in allowed)
+
+
+@pytest.mark.parametrize("layer", sorted(ALLOWED))
+def test_each_layer_imports_only_what_it_may(layer):
+    bad = {}
+    for path in sorted((ROOT / layer).rglob("*.py")):
+        wrong = {m for m in imports(path)
+                 if not within(m, (f"granavg.{layer}", *ALLOWED[layer]))}
+        if wrong:
+            bad[path.name] = sorted(wrong)
     assert not bad, bad
 
 
+def test_the_cli_only_calls_the_pipeline():
+    wrong = {m for m in imports(ROOT / "cli.py")
+             if not within(m, ("granavg.pipeline", "granavg.errors", "granavg.__init__",
+                               "granavg.io.lammps_dumps"))}
+    assert not wrong, wrong
+
+
+def test_the_rules_can_fail(tmp_path):
+    """The check sees a forbidden import where there is one (sim importing analysis,
+    inside a function)."""
+    path = tmp_path / "probe.py"
+    path.write_text("def f():\n    from granavg.analysis.claims import analyze\n")
+    assert imports(path) == {"granavg.analysis.claims"}
+    assert not within("granavg.analysis.claims", ("granavg.sim", *ALLOWED["sim"]))
+
+
 def test_no_module_imports_the_driver_that_imports_it():
-    """refdem_run shares the run's file names and progress bar through run_files, not
+    """refdem_run shares the run's file names and progress bar through run_layout, not
     through the driver that starts it."""
-    for job in ("refdem_run", "run_files", "embedded", "mpi"):
+    for job in ("refdem_run", "run_layout", "embedded", "mpi"):
         assert "granavg.sim.simulate" not in imports(ROOT / "sim" / f"{job}.py"), job
+
+
+def test_importing_the_engine_and_the_cli_loads_no_lammps_no_mpi_no_analysis():
+    code = ("import sys, granavg.engine, granavg.cli; "
+            "maps = open('/proc/self/maps').read(); "
+            "print('lammps' in sys.modules, 'libmpi' in maps, "
+            "any(m.startswith('granavg.analysis') for m in sys.modules))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["False", "False", "False"]

@@ -12,7 +12,7 @@ import pytest
 from granavg.errors import UserError
 from granavg.io.dumpfile import open_text
 from granavg.io.lammps_data import read_data
-from granavg.io.runs import ring_average
+from granavg.pipeline.description import RunAverage
 from granavg.sim import packings
 from granavg.sim.scene import PRESETS, preset
 from tests.conftest import run_cli
@@ -98,16 +98,20 @@ def test_a_run_from_a_shipped_packing_starts_exactly_there(tmp_path):
 
 
 def test_the_window_starts_after_the_scenes_discarded_rotations():
-    """average's default t_min is discard_rotations x 2 pi / Omega of the run's scene;
-    manifests from before the setting keep two rotations."""
+    """average's default t_min is the transient the run recorded (derived.t_discard_s,
+    discard_rotations x 2 pi / Omega of its scene); manifests without it fall back to
+    their scene's discard_rotations, and from before the setting to two rotations."""
+    derived = {"t_end_s": 250.0, "dump_interval_s": 2.0}
     for rotations in (0.25, 2.0, 3.5):
         scene = preset(PRESET).with_overrides([f"discard_rotations={rotations}"])
-        manifest = {"scene": scene.to_dict(), "derived": {"t_end_s": 250.0,
-                                                          "dump_interval_s": 2.0}}
-        avg = ring_average(manifest, ["nu"], frames=[])
-        assert avg.meta["frames"]["t_min_s"] == pytest.approx(rotations * 2 * math.pi / 0.1)
+        t = scene.derive().t_discard
+        assert t == pytest.approx(rotations * 2 * math.pi / 0.1)
+        recorded = RunAverage.of({"scene": scene.to_dict(),
+                                  "derived": {**derived, "t_discard_s": t}}, ["nu"])
+        older = RunAverage.of({"scene": scene.to_dict(), "derived": derived}, ["nu"])
+        assert recorded.t_min == older.t_min == pytest.approx(t)
+        assert recorded.averager().meta["frames"]["t_min_s"] == pytest.approx(t)
     old = preset(PRESET).to_dict()
     del old["discard_rotations"]
-    avg = ring_average({"scene": old, "derived": {"t_end_s": 250.0, "dump_interval_s": 2.0}},
-                       ["nu"], frames=[])
-    assert avg.meta["frames"]["t_min_s"] == pytest.approx(4 * math.pi / 0.1)
+    assert RunAverage.of({"scene": old, "derived": derived}, ["nu"]).t_min == \
+        pytest.approx(4 * math.pi / 0.1)

@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pandas as pd
 
-from granavg.io.runs import average_run
-from granavg.io.parallel import average_run_dask, chunk_windows
+from granavg.pipeline.runs import average_run
+from granavg.pipeline.on_dask import average_run_dask, chunk_windows
 from granavg.io.reader import DumpReader
 from granavg.io.run_directory import read_manifest
 

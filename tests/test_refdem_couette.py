@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from granavg.io.runs import average_run
+from granavg.pipeline.runs import average_run
 from granavg.io.reader import DumpReader
 
 from .conftest import SMALL_CELL, run_cli, small_cell_args

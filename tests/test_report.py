@@ -124,7 +124,7 @@ def test_the_time_series_figure_shows_every_frame_and_the_window(profiles):
 def test_fig1_draws_every_disk_and_every_contact_in_thirds(small_run, tmp_path):
     """Fig. 1 from the run's dumps: one patch per disk, coloured by its stripe at the
     first frame; one segment per disk-disk contact, a third of them in each colour."""
-    from granavg.io.runs import run_averager
+    from granavg.pipeline.runs import run_averager
     from granavg.analysis.figures import fig1
 
     frames = list(run_averager(small_run, quantities=["nu", "sigma"]).frames)

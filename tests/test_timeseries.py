@@ -106,7 +106,7 @@ def test_random_disks_have_no_hexatic_order():
 
 
 def test_a_real_run_writes_its_time_series(small_run, tmp_path):
-    from granavg.io.runs import average_run
+    from granavg.pipeline.runs import average_run
 
     p = average_run(small_run, bins=6, t_min=1.5, progress=False)
     write_profiles(p, tmp_path / "p.csv")

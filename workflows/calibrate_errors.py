@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granavg.io.runs import run_averager
+from granavg.pipeline.runs import run_averager
 from granavg.engine.profiles import block_values
 from granavg.engine.uncertainty import spread_error
 

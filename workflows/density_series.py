@@ -33,7 +33,7 @@ def counts_for(fraction: float, base_fraction: float = 0.8134, n_small=2538, n_l
 def simulate_all(out: Path, fractions, t_end, sets):
     from dask.distributed import Client, as_completed
 
-    from granavg.io.parallel import local_cluster
+    from granavg.dask_cluster import local_cluster
     from granavg.sim.scene import area_fraction, preset
     from granavg.sim.simulate import simulate
 

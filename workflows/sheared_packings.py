@@ -34,7 +34,7 @@ END_STATE = ["C_bulk", "rattler_fraction", "P_bulk_Pa", "psi6_bulk_ordered"]
 
 def end_state(run: Path, age: float) -> dict:
     """Means over the last 100 s of the run's time series (SI units)."""
-    from granavg.io.runs import average_run
+    from granavg.pipeline.runs import average_run
 
     t0 = max(0.0, age - 100.0)
     ts = average_run(run, bins=20, t_min=t0, quantities=["coordination", "sigma"]).timeseries
@@ -59,7 +59,7 @@ def done(run: Path, scene) -> bool:
 def simulate_missing(out: Path, scenes: dict, preset: str) -> None:
     from dask.distributed import Client, as_completed
 
-    from granavg.io.parallel import local_cluster
+    from granavg.dask_cluster import local_cluster
     from granavg.sim.simulate import simulate
 
     todo = {run: s for run, s in scenes.items() if not done(run, s)}
@@ -90,8 +90,8 @@ def main(argv=None) -> int:
     import dataclasses
 
     from granavg.sim import packings
-    from granavg.sim.ensemble import seeds_for
-    from granavg.sim.run_files import SHEARED
+    from granavg.sim.realisations import seeds_for
+    from granavg.sim.run_layout import SHEARED
     from granavg.sim.scene import preset
 
     if args.start:

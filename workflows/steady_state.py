@@ -48,7 +48,7 @@ def slug(name: str) -> str:
 
 
 def run_candidate(out: Path, overrides, seeds: int, t_end: float) -> list:
-    from granavg.sim.ensemble import simulate_ensemble
+    from granavg.sim.realisations import simulate_ensemble
     from granavg.sim.scene import preset
 
     scene = preset("paper-hooke").with_overrides([*overrides, f"t_end={t_end}", "dump_dt=5",
@@ -60,7 +60,7 @@ def score(runs, t_min=None) -> dict:
     """The targets measured on the runs (window: t_min, default the scene's discarded
     rotations, to the end)."""
     from granavg.analysis.claims import analyze, bulk, dynamic_over_static
-    from granavg.io.runs import average_run
+    from granavg.pipeline.runs import average_run
     from granavg.engine.combine import combine_runs
 
     p20s, p60s = ([average_run(r, bins=n, t_min=t_min, progress=False) for r in runs]

@@ -98,11 +98,11 @@ def simulate_one(scene_dict: dict, out: str) -> dict:
 def average_ensemble(run_dirs: list, out: str, t_end=None, every=1, bins=(20, 60)) -> dict:
     """One dask task: average the realisations over both ring counts (the frames up to
     ``t_end``, every ``every``-th), combine them, analyse; returns the averaging cost."""
-    from granavg.analysis.pipeline import report_profiles
+    from granavg.pipeline.reporting import report_profiles
     from granavg.engine.combine import combine_runs
     from granavg.io.profiles_io import write_profiles
     from granavg.io.run_directory import read_manifest
-    from granavg.io.runs import run_averager
+    from granavg.pipeline.runs import run_averager
 
     c0, t0 = cpu_seconds(), time.perf_counter()
     profiles = []
@@ -290,8 +290,8 @@ def run_missing(out: Path, have: set, args) -> dict:
     realisation: the mean over its runs; averaging: the ensemble's over its runs)."""
     from dask.distributed import Client, as_completed
 
-    from granavg.io.parallel import local_cluster
-    from granavg.sim.ensemble import seeds_for
+    from granavg.dask_cluster import local_cluster
+    from granavg.sim.realisations import seeds_for
     from granavg.sim.scene import preset
 
     seeds = seeds_for(preset(PRESET), args.seeds)

@@ -4,7 +4,7 @@
 ``add`` for every frame and ``conclude``; the results are one :class:`Profiles`.
 Frames are in-memory arrays (:class:`~granavg.io.reader.Frame`-like: ``timestep``,
 ``time``, ``atoms``, ``contacts``) from any source: a dump reader
-(:mod:`granavg.io.runs`), a running LAMMPS (:mod:`granavg.sim.insitu`) or dask workers.
+(:mod:`granavg.pipeline.averaging`), a running LAMMPS (:mod:`granavg.pipeline.insitu`) or dask workers.
 """
 
 from __future__ import annotations
@@ -85,8 +85,8 @@ class CellAverage:
         """Profiles of the frames added so far."""
         acc, V = self.acc, self.rings.volume
         if acc.n_frames == 0:
-            raise ParameterError("t_min", f"no frame at t >= {{param}} = {self.t_min:g}; lower "
-                                 "{param}")
+            raise ParameterError("t_min", f"no frame at t >= {self.t_min:g}, the start of "
+                                 "the average ({param}); lower it")
         S = acc.mean()
         vals = values(S, V, self.rho_p, self.groups)
         counts, sums = acc.block_sums()

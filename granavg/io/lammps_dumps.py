@@ -33,6 +33,8 @@ from isal import igzip
 from granavg.errors import UserError
 from granavg.engine.kernels import lookup
 from granavg.io.contacts import contact_columns
+from granavg.io.dumpfile import open_text
+from granavg.io.formats import Format
 from granavg.io.frames import (CONSISTENCY, Columns, Frame, PairedDumps, check_atoms,
                                check_contacts, check_integers)
 from granavg.io.reader import DumpReader
@@ -166,6 +168,19 @@ class LammpsDumps(PairedDumps):
                          DumpReader(contacts, sorted(set(self.cmap.values())))
                          if self.cmap is not None else None, dt, unit_system)
 
+    format_name = "lammps"
+
+    def describe(self) -> dict:
+        """The options the frames were read with, for the sidecar."""
+        return {"atom_columns": self.amap, "contact_columns": self.cmap,
+                "wall_types": [int(t) for t in self.wall_types], "dt": self.dt}
+
+    def box(self):
+        """The box bounds (x, y) of the atom dump's first frame."""
+        for frame in DumpReader(self.atoms.path, []):
+            return frame.box[0], frame.box[1]
+        raise UserError(f"{self.atoms.path}: holds no frame")
+
     def frame(self, fa, fc) -> Frame:
         atoms, walls = self._atoms(fa)
         contacts = self._contacts(fc, atoms, walls) if fc is not None else None
@@ -247,3 +262,17 @@ class LammpsDumps(PairedDumps):
         return contact_columns(c["id1"], c["id2"], c["dx"], c["dy"], dist, fnx, fny,
                                c.get("ftx", zero), c.get("fty", zero), is_wall[i1],
                                is_wall[i2], radii[i1], radii[i2])
+
+
+def _claims(path) -> bool:
+    """A LAMMPS text dump (plain or gzip) starts with an ``ITEM:`` line."""
+    try:
+        with open_text(path) as fh:
+            return fh.read(5) == "ITEM:"
+    except (OSError, EOFError, UnicodeDecodeError):
+        return False
+
+
+FORMAT = Format("lammps", "LAMMPS text dumps: dump custom (atoms) and dump local (contacts: "
+                "pair/local + property/local, or granavg's own columns)", _claims, LammpsDumps,
+                ("atom_map", "contact_map", "wall_types", "dt", "units"))

@@ -1,2 +1,3 @@
-"""Simulation: the scene and contact law, the LAMMPS deck driver (embedded, MPI, in situ),
-ensembles of realisations and the reference DEM."""
+"""Simulation: the scene and contact law, the LAMMPS deck driver (embedded, MPI; a
+running LAMMPS hands its frames to a sink it is given), realisations on dask and the
+reference DEM. It averages nothing itself."""

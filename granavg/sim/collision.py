@@ -17,7 +17,7 @@ import numpy as np
 from granavg.sim.contact_law import ContactLaw, effective_mass, to_lammps
 from granavg.sim.lammps_session import lammps_session, load_lammps
 from granavg.sim.refdem import Disks, ReferenceDEM
-from granavg.sim.run_files import DECK
+from granavg.sim.run_layout import DECK
 
 #: the paper's small disk: diameter (m) and areal density rho_p h (kg/m^2)
 D, RHO_AREA = 0.00742, 1060 * 0.006

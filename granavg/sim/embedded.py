@@ -12,27 +12,33 @@ import numpy as np
 from granavg.errors import UserError
 from granavg.io.contacts import COLUMNS, FORMAT, contact_table, radius_by_id
 from granavg.io.dumpfile import open_text, write_frame
-from granavg.sim.insitu import InSituAverage
 from granavg.sim.lammps_frames import gather, local_atoms, local_contacts, local_radii
 from granavg.sim.lammps_session import lammps_session, load_lammps
-from granavg.sim.run_files import (CONTACTS, DECK, SHEARED, cmdargs, dump_ext, is_dump_step,
+from granavg.sim.run_layout import (CONTACTS, DECK, SHEARED, cmdargs, dump_ext, is_dump_step,
                                    shear_bar)
-from granavg.sim.run_record import Overlaps, Timing
+from granavg.sim.run_monitor import Overlaps, Timing
 from granavg.sim.scene import Derived, Scene
 
 
-def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm=None):
+def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm=None,
+                 insitu=None):
     """Run the deck through the LAMMPS Python module and drive the shear in chunks; at
     every dump step write the contact dump and/or feed the in-situ averages. Under MPI
-    (``comm``, an mpi4py communicator) every rank calls this; rank 0 gathers and writes."""
+    (``comm``, an mpi4py communicator) every rank calls this; rank 0 gathers and writes.
+
+    ``insitu`` is the frame sink of a run with ``manifest["average"]``: a class whose
+    instance ``insitu(manifest)`` takes every frame (``add(step, atoms, table)``, rows of
+    :func:`~granavg.sim.lammps_frames.local_atoms` and
+    :func:`~granavg.io.contacts.contact_table`) and finally ``write(out)``; the pipeline
+    gives it (:class:`granavg.pipeline.insitu.InSituAverage`)."""
     lammps = load_lammps()
     scene = derived.scene
     root = comm is None or comm.rank == 0
     contacts_needed = scene.contacts and (scene.dumps or bool(manifest.get("average")))
     writer = _ContactWriter(out / CONTACTS.format(ext=dump_ext(scene)), derived) \
         if scene.contacts and scene.dumps and root else None
-    insitu = InSituAverage(manifest, manifest["average"]["bins"]) \
-        if manifest.get("average") and root else None
+    sink = insitu(manifest) if insitu is not None and manifest.get("average") and root \
+        else None
     frames_needed = contacts_needed or bool(manifest.get("average"))
     overlaps = Overlaps(derived)
     with lammps_session(cmdargs(out, variables, omp), log_hint=str(out / "log.lammps"),
@@ -51,14 +57,14 @@ def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm
                 if frames_needed and is_dump_step(step, derived):
                     timing.start_frame()
                     raw = gather(comm, local_contacts(lmp, lammps)) if contacts_needed else None
-                    atoms = gather(comm, local_atoms(lmp)) if insitu or comm else None
+                    atoms = gather(comm, local_atoms(lmp)) if sink or comm else None
                     table = contact_table(raw, radius) if raw is not None else None
                     if table is not None:
                         overlaps.add(table)
                     if writer is not None:
                         writer.write(step, table, box)
-                    if insitu is not None:
-                        insitu.add(step, atoms, table)
+                    if sink is not None:
+                        sink.add(step, atoms, table)
                     timing.end_frame()
                 if step >= derived.n_shear:
                     break
@@ -69,8 +75,8 @@ def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm
                 bar.update((target - step) * derived.dt)
                 step = target
         lmp.command(f"write_data {out / SHEARED} nocoeff")
-    if insitu is not None:
-        insitu.write(out)
+    if sink is not None:
+        sink.write(out)
     if root:
         overlaps.record(out)
         timing.record(out)

@@ -16,19 +16,20 @@ from granavg.io.dumpfile import open_text, write_frame
 from granavg.io.lammps_data import read_data
 from granavg.io.reader import DumpReader
 from granavg.sim.lammps_session import executable, lammps_env
-from granavg.sim.run_files import (CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext,
+from granavg.sim.run_layout import (CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext,
                                    shear_bar)
-from granavg.sim.run_record import Overlaps
+from granavg.sim.run_monitor import Overlaps
 from granavg.sim.scene import Derived
 
 log = logging.getLogger(__name__)
 
 
-def run_mpi_python(out, derived: Derived, np_ranks, progress):
-    """``mpirun -np N python -m granavg.sim.mpi_rank OUT``: LAMMPS and granavg on every rank
-    (in-situ averaging gathers each frame to rank 0)."""
-    cmd = [executable("mpirun"), "-np", str(np_ranks), sys.executable, "-m",
-           "granavg.sim.mpi_rank", str(out), "--no-progress" if progress is False else "--progress"]
+def run_mpi_python(out, derived: Derived, np_ranks, progress, module):
+    """``mpirun -np N python -m MODULE OUT``: LAMMPS and granavg on every rank (the
+    in-situ sink's rank entry, e.g. :mod:`granavg.pipeline.mpi_rank`, gathers each frame
+    to rank 0)."""
+    cmd = [executable("mpirun"), "-np", str(np_ranks), sys.executable, "-m", module,
+           str(out), "--no-progress" if progress is False else "--progress"]
     log.info("running %s", shlex.join(cmd))
     proc = subprocess.run(cmd, env=lammps_env(), stdout=subprocess.DEVNULL,
                           stderr=subprocess.PIPE, text=True)

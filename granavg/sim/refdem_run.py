@@ -1,7 +1,7 @@
 """Shear a prepared packing with the reference DEM and write a granavg run directory.
 
 The same dumps as a LAMMPS run (per-atom and per-contact, granavg's formats, SI units),
-so :func:`granavg.io.runs.average_run` and the analysis read both. Used through
+so :func:`granavg.pipeline.averaging.average_run` and the analysis read both. Used through
 ``granavg simulate --engine reference --start RUN/prepared.data``; see docs/refdem.md.
 """
 
@@ -18,7 +18,7 @@ from granavg.io.dumpfile import open_text, write_frame
 from granavg.io.lammps_data import read_data
 from granavg.sim.refdem import Disks, ReferenceDEM
 from granavg.sim.scene import Derived
-from granavg.sim.run_files import ATOMS, CONTACTS, dump_ext, is_dump_step, shear_bar
+from granavg.sim.run_layout import ATOMS, CONTACTS, dump_ext, is_dump_step, shear_bar
 
 ATOM_COLUMNS = ["id", "type", "x", "y", "z", "vx", "vy", "vz", "omegaz", "radius", "mass"]
 ATOM_FORMAT = ["%d", "%d"] + ["%.12g"] * 9

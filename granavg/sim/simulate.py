@@ -28,9 +28,8 @@ from pathlib import Path
 from granavg import __version__
 from granavg.engine.quantities import QUANTITIES, groups_for
 from granavg.errors import LammpsError, UserError
-from granavg.sim.insitu import profile_path
 from granavg.sim.lammps_session import lammps_version
-from granavg.sim.run_files import ATOMS, CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext
+from granavg.sim.run_layout import ATOMS, CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext
 from granavg.sim.embedded import run_embedded
 from granavg.sim.mpi import run_mpi, run_mpi_python
 from granavg.io.run_directory import (claim_new, frame_steps, read_manifest, restart_files,
@@ -62,7 +61,7 @@ ENGINES = ("lammps", "reference")
 def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
              progress: bool | None = None, preset: str | None = None, start=None,
              engine: str = "lammps", average=None, t_min: float | None = None,
-             block_time: float | None = None, quantities=None) -> Path:
+             block_time: float | None = None, quantities=None, insitu=None) -> Path:
     """Run a new Couette simulation into the empty directory ``out``.
 
     Parameters
@@ -100,6 +99,12 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         The quantities the run is for (names of :data:`granavg.engine.profiles.QUANTITIES`);
         if none of them needs contact forces, LAMMPS computes and writes no contact
         output (``contacts`` off), and the in-situ averages compute only these.
+    insitu : class, optional
+        The frame sink that averages in situ (needed with ``average``): built as
+        ``insitu(manifest)`` on the process that gathers the frames, fed
+        ``add(step, atoms, table)`` and ``write(out)``; ``insitu.files(bins)`` names
+        what it writes and ``insitu.RANK_MODULE`` is started on every MPI rank. The
+        pipeline gives :class:`granavg.pipeline.insitu.InSituAverage`.
 
     Returns
     -------
@@ -113,6 +118,9 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         packings.check(scene.packing, scene.seed)
     start = _check_start(start, engine, np_ranks, omp_threads, shipped)
     average = _check_average(derived, average, engine, t_min)
+    if average and insitu is None:
+        raise UserError("in-situ averages need a frame sink (granavg.pipeline.simulation."
+                        "simulate_run gives it)")
     if np_ranks > 1 and derived.coeffs.mu_roll > 0:
         log.warning("with rolling resistance under MPI, a disk that changes processor can "
                     "swap a contact's order in LAMMPS' neighbour list, and LAMMPS then "
@@ -134,11 +142,11 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         log.info("%s", trade.describe(manifest["forecast"]))
     manifest["average"] = {"bins": average, "t_min_s": t_min, "block_time_s": block_time,
                            "quantities": quantities} if average else None
-    for n in average:
-        manifest["files"][profile_path(Path("."), n).name] = \
-            f"ring profiles over {n} rings, averaged in situ (docs/profiles.md)"
+    if average:
+        manifest["files"].update(insitu.files(average))
     write_manifest(out, manifest)
-    return _execute(out, derived, manifest, resume_from=None, progress=progress)
+    return _execute(out, derived, manifest, resume_from=None, progress=progress,
+                    insitu=insitu)
 
 
 def scene_for(scene: Scene, quantities) -> Scene:
@@ -248,13 +256,13 @@ def resume(out, *, np_ranks: int | None = None, omp_threads: int | None = None,
     return _execute(out, derived, manifest, resume_from=restart_path, progress=progress)
 
 
-def _execute(out, derived, manifest, resume_from, progress):
+def _execute(out, derived, manifest, resume_from, progress, insitu=None):
     manifest["status"] = "running"
     write_manifest(out, manifest)
     ex = manifest["execution"]
     start = manifest.get("start")
     if ex.get("engine") != "reference":
-        variables = _deck_variables(out, derived, embedded=ex["np"] == 1 or bool(
+        variables = deck_variables(out, derived, embedded=ex["np"] == 1 or bool(
             manifest.get("average")), resume=resume_from, start=start)
         (out / "run.sh").write_text(_command_script(variables, ex))
     try:
@@ -263,9 +271,10 @@ def _execute(out, derived, manifest, resume_from, progress):
                 from granavg.sim.refdem_run import run_reference
                 run_reference(out, derived, Path(start), progress)
             elif ex["np"] == 1:
-                run_embedded(out, derived, manifest, variables, ex["omp"], progress)
+                run_embedded(out, derived, manifest, variables, ex["omp"], progress,
+                             insitu=insitu)
             elif manifest.get("average"):
-                run_mpi_python(out, derived, ex["np"], progress)
+                run_mpi_python(out, derived, ex["np"], progress, insitu.RANK_MODULE)
             else:
                 run_mpi(out, derived, variables, ex["np"], ex["omp"], progress)
     except (Interrupted, KeyboardInterrupt):
@@ -301,7 +310,7 @@ def _usable_restart(out, derived):
     return max(ok), restarts[max(ok)]
 
 
-def _deck_variables(out, derived: Derived, embedded: bool, resume, start) -> dict:
+def deck_variables(out, derived: Derived, embedded: bool, resume, start) -> dict:
     s = derived.scene
     v = {k: repr(x) if isinstance(x, float) else str(x)
          for k, x in derived.lammps_variables().items()}
@@ -353,6 +362,7 @@ def _new_manifest(d: Derived, preset, np_ranks, omp, start=None, engine="lammps"
         "derived": {
             "t_c_s": c.t_c, "dt_s": d.dt, "dt_safe_max_s": d.dt_safe,
             "steps_per_contact": s.n_per_tc, "period_T_s": d.period,
+            "t_discard_s": d.t_discard,
             "area_fraction": d.area_fraction, "mass_small_kg": d.m_small,
             "mass_large_kg": d.m_large, "wall_d_m": d.wall_d, "n_grow": d.n_grow, "n_relax": d.n_relax,
             "n_shear_steps": d.n_shear, "t_end_s": d.n_shear * d.dt,

@@ -16,11 +16,11 @@ import numpy as np
 
 from granavg.analysis.claims import warn_if_inertial
 from granavg.engine.quantities import groups_for
-from granavg.io.runs import ring_average
 from granavg.io.contacts import COLUMNS
-from granavg.sim.lammps_frames import atoms_by_id
 from granavg.io.frames import Frame
 from granavg.io.profiles_io import write_profiles
+from granavg.pipeline.description import RunAverage
+from granavg.sim.lammps_frames import atoms_by_id
 
 log = logging.getLogger(__name__)
 
@@ -30,28 +30,40 @@ def profile_path(out: Path, bins: int) -> Path:
     return Path(out) / f"profiles_{bins}.csv"
 
 
+
 class InSituAverage:
-    """Ring averages over several ring counts, fed frame by frame.
+    """Ring averages over several ring counts, fed frame by frame: the frame sink
+    :func:`granavg.sim.simulate.simulate` feeds (``insitu=InSituAverage``).
 
     Parameters
     ----------
     manifest : dict
-        The run's manifest (geometry, rho_p, dt, Omega, t_end; ``average.t_min_s``).
-    bins : sequence of int
-        Ring counts (equal rings from R_i to R_o), e.g. (20, 60).
+        The run's manifest (geometry, rho_p, dt, Omega, t_end) with ``average``: ``bins``
+        (ring counts, equal rings from R_i to R_o, e.g. (20, 60)), ``t_min_s``,
+        ``block_time_s``, ``quantities``.
     """
 
-    def __init__(self, manifest: dict, bins):
+    #: The module ``mpirun`` starts on every rank when the run is averaged in situ
+    #: under MPI.
+    RANK_MODULE = "granavg.pipeline.mpi_rank"
+
+    @staticmethod
+    def files(bins) -> dict:
+        """The manifest's ``files`` entries of the profiles over each ring count."""
+        return {profile_path(Path("."), n).name:
+                f"ring profiles over {n} rings, averaged in situ (docs/profiles.md)"
+                for n in bins}
+
+    def __init__(self, manifest: dict):
         contacts = manifest["scene"].get("contacts", True)
         opts = manifest["average"]
         self.groups = groups_for(opts.get("quantities"), contacts)
-        self.averages = {n: ring_average(manifest, self.groups, bins=n,
-                                         t_min=opts.get("t_min_s"),
-                                         block_time=opts.get("block_time_s"))
-                         for n in bins}
-        for k, avg in enumerate(self.averages.values()):
-            if k:
-                avg.series = None                 # one time series serves every ring count
+        self.averages = {n: RunAverage.of(manifest, self.groups, bins=n,
+                                          t_min=opts.get("t_min_s"),
+                                          block_time=opts.get("block_time_s"))
+                         .averager(series=k == 0)  # one time series serves every count
+                         for k, n in enumerate(opts["bins"])}
+        for avg in self.averages.values():
             avg.prepare()
         self.dt, self.contacts = manifest["derived"]["dt_s"], contacts
 

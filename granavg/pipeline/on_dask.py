@@ -14,8 +14,8 @@ import numpy as np
 
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.profiles import Profiles
-from granavg.io.runs import run_averager
-from granavg.io.run_directory import read_manifest
+from granavg.dask_cluster import local_cluster
+from granavg.pipeline.runs import run_averager
 
 log = logging.getLogger(__name__)
 
@@ -48,22 +48,9 @@ def _chunk(run_dir, window, options):
     return avg.acc, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, avg.series.rows
 
 
-def local_cluster(workers: int):
-    """A local dask cluster of ``workers`` single-threaded processes. glibc's default
-    malloc trim threshold is kept (dask lowers it to 64 kB, which made a worker's frames
-    1.2x slower here: the reader's 8 MB buffers went back to the OS every time)."""
-    import dask
-    from dask.distributed import LocalCluster
-
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_":
-                          128 << 20}):
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                            dashboard_address=None)
-
-
 def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
                      chunks: int | None = None, client=None, **options) -> Profiles:
-    """:func:`granavg.io.runs.average_run` on dask workers; identical profiles.
+    """:func:`granavg.pipeline.averaging.average_run` on dask workers; identical profiles.
 
     Parameters
     ----------
@@ -84,8 +71,7 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     from dask.distributed import Client
 
     base = run_averager(run_dir, **options)          # validates; reads no frame
-    manifest = read_manifest(run_dir)
-    windows = chunk_windows(manifest, base.t_min, base.block_time, chunks or 2 * workers)
+    windows = chunk_windows(base.meta["run_manifest"], base.t_min, base.block_time, chunks or 2 * workers)
     own = client is None
     if own:
         cluster = None if scheduler else local_cluster(workers)

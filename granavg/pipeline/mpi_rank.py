@@ -1,8 +1,9 @@
-"""One MPI rank of an in-situ run: ``mpirun -np N python -m granavg.sim.mpi_rank RUN_DIR``.
+"""One MPI rank of an in-situ run: ``mpirun -np N python -m granavg.pipeline.mpi_rank RUN_DIR``.
 
-Started by :func:`granavg.sim.simulate.simulate` (``--np N --average ...``); every rank runs
-LAMMPS through its Python module on the shared communicator, rank 0 gathers each frame,
-writes the contact dump and the profiles. The run directory's manifest says what to run.
+Started by :func:`granavg.sim.simulate.simulate` (``--np N --average ...``, module
+:attr:`InSituAverage.RANK_MODULE`); every rank runs LAMMPS through its Python module on
+the shared communicator, rank 0 gathers each frame, writes the contact dump and feeds
+the in-situ averages. The run directory's manifest says what to run.
 """
 
 from __future__ import annotations
@@ -10,11 +11,12 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from granavg.sim.lammps_session import load_lammps
 from granavg.io.run_directory import read_manifest
-from granavg.sim.scene import Scene
+from granavg.pipeline.insitu import InSituAverage
 from granavg.sim.embedded import run_embedded
-from granavg.sim.simulate import _deck_variables
+from granavg.sim.lammps_session import load_lammps
+from granavg.sim.scene import Scene
+from granavg.sim.simulate import deck_variables
 
 
 def main(argv=None) -> int:
@@ -25,11 +27,11 @@ def main(argv=None) -> int:
 
     manifest = read_manifest(out)
     derived = Scene.from_dict(manifest["scene"]).derive()
-    variables = _deck_variables(out, derived, embedded=True, resume=None,
+    variables = deck_variables(out, derived, embedded=True, resume=None,
                                 start=manifest.get("start"))
     progress = None if "--progress" in argv else False
     run_embedded(out, derived, manifest, variables, manifest["execution"]["omp"], progress,
-                 comm=MPI.COMM_WORLD)
+                 comm=MPI.COMM_WORLD, insitu=InSituAverage)
     return 0
 
 

@@ -73,7 +73,7 @@ def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
     """
     from dask.distributed import Client, as_completed
 
-    from granavg.io.parallel import local_cluster
+    from granavg.dask_cluster import local_cluster
 
     seeds = seeds_for(scene, k)
     for s in seeds:

@@ -1,17 +1,22 @@
-"""End to end: profiles -> analysis -> figures -> report, and the demo (SI units)."""
+"""End to end: profiles -> analysis -> figures -> report (the ``analyze`` command), and
+the demo (simulate, average, report; SI units)."""
 
 from __future__ import annotations
 
 import logging
+import os
+import shutil
+import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 from granavg.analysis.claims import analyze
-from granavg.engine.profiles import Profiles
-from granavg.io.runs import average_run
-from granavg.errors import UserError
 from granavg.analysis.figures import save_all
 from granavg.analysis.report import write_report, write_summary
-from granavg.io.profiles_io import write_profiles
+from granavg.engine.profiles import Profiles
+from granavg.errors import UserError
+from granavg.io.profiles_io import read_profiles, write_profiles
+from granavg.pipeline.runs import average_run, run_averager
 
 log = logging.getLogger(__name__)
 
@@ -63,7 +68,6 @@ def fig1_of_run(run_dir, out, t=None, progress=None) -> Path:
 
     import matplotlib.pyplot as plt
 
-    from granavg.io.runs import run_averager
     from granavg.analysis.figures import fig1
 
     avg = run_averager(run_dir, quantities=["nu", "sigma"])
@@ -98,3 +102,63 @@ def report_run(run_dir, out, bins=(20, 60), t_min=None, progress=None, title="gr
         write_profiles(p, out / f"profiles{n}.csv")
         profiles.append(p)
     return report_profiles(*profiles, out, title)
+
+
+#: Profile columns the analysis needs.
+ANALYSED = ("nu", "rho", "v_phi", "omega", "F_rr", "sigma_rr", "dsigma_rr", "eps_rr")
+
+
+def analyze_command(profiles, out, density_series=()) -> Path:
+    """The ``analyze`` command: two ring profiles of one run (and coarse profiles at
+    other area fractions) -> ``out/report.html`` and its companions; ``out`` must be new
+    or empty, and is written only when complete."""
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise UserError(f"--out {out}: exists and is not an empty directory; choose a new "
+                        "--out (reports are never overwritten)")
+    inputs = [read_profiles(p) for p in profiles]
+    series = [read_profiles(p) for p in density_series]
+    for p, name in zip([*inputs, *series], [*profiles, *density_series]):
+        if not (p.meta or {}).get("run_manifest"):
+            raise UserError(f"{name}.json: carries no run manifest; make the profiles with "
+                            "'granavg average'")
+        missing = [q for q in ANALYSED if q not in p.values]
+        if missing:
+            raise UserError(f"{name}: the profiles lack {missing[0]}; average with all "
+                            "quantities (the contact dump is needed)")
+    with staged_directory(out) as tmp:
+        report_profiles(*inputs, tmp, density_series=series)
+    log.info("report: %s", out / "report.html")
+    return out / "report.html"
+
+
+def demo_command(out, omp=2, t_min=None) -> Path:
+    """The ``demo`` command: simulate the demo preset, average over 20 and 60 rings and
+    write the report into the new directory ``out``."""
+    from granavg.pipeline.simulation import simulate_run
+    from granavg.sim.scene import preset
+
+    out = Path(out)
+    if out.exists() and any(out.iterdir()):
+        raise UserError(f"{out} is not empty; choose a new --out")
+    run = simulate_run(preset("demo"), out / "run", omp_threads=omp, preset="demo")
+    report_run(run, out, t_min=t_min, title="granavg demo (the paper preset's scene: "
+               "rolling resistance and base-plate friction, 30 s of shear, one realisation)")
+    log.info("demo complete: open %s", out / "report.html")
+    return out / "report.html"
+
+
+@contextmanager
+def staged_directory(out):
+    """A temporary directory beside ``out``, renamed to ``out`` only when the block
+    completes; removed otherwise (a refused or interrupted report leaves nothing)."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        yield tmp
+        if out.exists():
+            out.rmdir()                  # empty (checked before)
+        os.replace(tmp, out)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)

@@ -1,0 +1,79 @@
+"""The input formats: each module of :mod:`granavg.io` that defines ``FORMAT`` (a
+:class:`Format`) is one, found here without being listed anywhere else, so a new format
+is one new file in ``granavg/io``.
+
+A format turns an atoms file and, optionally, a contacts file into a *frame source*
+(:mod:`granavg.io.frames`): an iterable of :class:`~granavg.io.frames.Frame` with
+``units``, ``dropped``, ``format_name``, ``describe()`` (the options it was opened with,
+for the sidecar) and ``box()`` (x and y bounds of the first frame, for cells that default
+to it).
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from granavg.errors import UserError
+
+
+@dataclass(frozen=True)
+class Format:
+    """One input format.
+
+    Attributes
+    ----------
+    name : str
+        What ``--format`` calls it.
+    description : str
+    claims : callable
+        ``claims(path) -> bool``: whether a file looks like this format.
+    open : callable
+        ``open(atoms, contacts=None, **options)`` -> frame source.
+    options : tuple of str
+        The keyword options ``open`` takes (others given are refused).
+    """
+
+    name: str
+    description: str
+    claims: Callable
+    open: Callable
+    options: tuple = ()
+
+
+def available() -> dict:
+    """Every format, by name (modules of granavg.io that define ``FORMAT``)."""
+    import granavg.io as package
+
+    found = {}
+    for info in pkgutil.iter_modules(package.__path__):
+        module = importlib.import_module(f"{package.__name__}.{info.name}")
+        fmt = getattr(module, "FORMAT", None)
+        if isinstance(fmt, Format):
+            found[fmt.name] = fmt
+    return found
+
+
+def open_frames(atoms, contacts=None, *, fmt: str | None = None, **options):
+    """The frame source of ``atoms`` (and ``contacts``) in format ``fmt``, or in the
+    first format that claims the atoms file; options left at None are not passed."""
+    known = available()
+    if fmt is not None:
+        if fmt not in known:
+            raise UserError(f"--format {fmt}: unknown; choose from {', '.join(sorted(known))}")
+        chosen = known[fmt]
+    else:
+        claiming = [f for f in known.values() if f.claims(Path(atoms))]
+        if not claiming:
+            raise UserError(f"{atoms}: not a format granavg reads ({', '.join(sorted(known))}); "
+                            "give --format NAME, or a LAMMPS dump")
+        chosen = claiming[0]
+    given = {k: v for k, v in options.items() if v not in (None, (), [], {})}
+    foreign = [k for k in given if k not in chosen.options]
+    if foreign:
+        raise UserError(f"{atoms}: the {chosen.name} format takes no {foreign[0]} option "
+                        f"(it takes: {', '.join(chosen.options) or 'none'})")
+    return chosen.open(atoms, contacts, **given)

@@ -1,0 +1,131 @@
+"""Profiles from files: run directories (one run, or several realisations: an
+ensemble; :mod:`granavg.pipeline.runs`), or anyone's dumps in any format
+:mod:`granavg.io.formats` knows; and the ``average`` command that writes them."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from granavg.analysis.claims import warn_if_inertial
+from granavg.engine import average
+from granavg.engine.average import warn_if_drifting
+from granavg.engine.combine import combine_runs
+from granavg.engine.profiles import Profiles
+from granavg.engine.timeseries import ensemble_stationarity
+from granavg.errors import UserError
+from granavg.io import formats, validate
+from granavg.io.profiles_io import REPLICATES, TIMESERIES, write_profiles
+from granavg.pipeline.description import DumpAverage
+from granavg.pipeline.on_dask import average_run_dask
+from granavg.pipeline.runs import average_run
+
+log = logging.getLogger(__name__)
+
+
+def average_runs(run_dirs, average_one=average_run, **options) -> Profiles:
+    """Average several runs with ``average_one(run_dir, **options)``, combine them
+    (:func:`~granavg.engine.combine.combine_runs`) and judge the ensemble's window
+    (:func:`~granavg.engine.timeseries.ensemble_stationarity`); one run gives its own
+    profiles unchanged."""
+    profiles = [average_one(d, **options) for d in run_dirs]
+    if len(profiles) == 1:
+        return profiles[0]
+    seeds = [(p.meta.get("run_manifest") or {}).get("scene", {}).get("seed") for p in profiles]
+    if len(set(seeds)) < len(seeds):
+        log.warning("some runs share a seed (%s): they are not independent realisations "
+                    "unless their packings differ otherwise", seeds)
+    combined = combine_runs(profiles, [str(d) for d in run_dirs])
+    warn_if_drifting(ensemble_stationarity([r["stationarity"] for r in combined.meta["runs"]]),
+                     combined.meta.get("frames", {}).get("t_min_s", float("nan")))
+    return combined
+
+
+def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
+                  quantities=None, t_min=None, block_time=None, progress=None,
+                  **source_options) -> Profiles:
+    """Profiles of anyone's dumps (no run directory), in their own units.
+
+    Parameters
+    ----------
+    atoms, contacts : path
+        Per-atom file; per-contact file or None.
+    cells : dict
+        Options of :meth:`~granavg.pipeline.description.DumpAverage.of` (``thickness``,
+        rings, ``slabs`` or ``grid``).
+    fmt : str, optional
+        Input format (:func:`granavg.io.formats.available`); default the one that claims
+        the files.
+    density : float, optional
+        Material density (masses rho pi h a^2), unless the atoms carry masses.
+    **source_options
+        Options of the format (e.g. ``atom_map``, ``contact_map``, ``wall_types``,
+        ``dt``, ``units`` for LAMMPS dumps).
+    """
+    validate.positive("--density", density)
+    validate.positive("--block-time", block_time)
+    validate.finite("--t-min", t_min)
+    frames = formats.open_frames(atoms, contacts, fmt=fmt, **source_options)
+    spec = DumpAverage.of(frames.box, **cells)
+    if frames.units.style == "unstated":
+        log.info("%s does not say its units: the outputs are labelled 'unstated'; --units "
+                 "STYLE names them", atoms)
+    profiles = average(frames, spec.geometry, rho_p=density, quantities=quantities,
+                       t_min=t_min or 0.0, block_time=block_time, progress=progress,
+                       units=frames.units)
+    profiles.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
+                                    else None},
+                          "inputs": {"format": frames.format_name,
+                                     "thickness": cells["thickness"], "density": density,
+                                     **frames.describe()}})
+    if any(frames.dropped.values()):
+        profiles.meta["dropped"] = dict(frames.dropped)
+    return profiles
+
+
+def average_to_file(run_dirs, out, *, parquet=False, workers=None, scheduler=None,
+                    atoms=None, contacts=None, progress=None, **options) -> Path:
+    """The ``average`` command: profiles of run directories (one run, or an ensemble;
+    on dask with ``workers`` or ``scheduler``) or, without any, of the dumps ``atoms``
+    and ``contacts`` (``options`` as :func:`average_dumps` takes them), written to ``out``
+    (never over an existing result)."""
+    out = validate.free_output(Path(out), ("", ".json", REPLICATES, TIMESERIES))
+    if run_dirs:
+        profiles = _average_run_dirs(run_dirs, atoms, contacts, workers, scheduler,
+                                     progress, options)
+        warn_if_inertial(profiles)
+    else:
+        if not atoms:
+            raise UserError("give a run directory, or a LAMMPS dump with --atoms (and "
+                            "--contacts)")
+        if workers is not None or scheduler:
+            raise UserError("--workers and --scheduler average run directories; plain "
+                            "dumps are averaged in this process")
+        profiles = average_dumps(validate.existing_file("--atoms", atoms),
+                                 validate.existing_file("--contacts", contacts),
+                                 progress=progress, **options)
+    write_profiles(profiles, out, parquet=parquet)
+    log.info("%d %s x %d frames -> %s (+ %s.json)", profiles.rings.n, profiles.rings.kind,
+             profiles.n_frames, out, out.name)
+    return out
+
+
+def _average_run_dirs(run_dirs, atoms, contacts, workers, scheduler, progress, options):
+    for run in run_dirs:
+        validate.run_directory(run)
+    validate.positive("--block-time", options.get("block_time"))
+    validate.finite("--t-min", options.get("t_min"))
+    validate.existing_file("--atoms", atoms)
+    if contacts and Path(contacts).is_dir():                 # read only if needed
+        validate.existing_file("--contacts", contacts)
+    if len(run_dirs) > 1 and (atoms or contacts):
+        raise UserError("--atoms and --contacts name the dumps of one run; give one run "
+                        "directory with them")
+    if workers is not None and workers < 1:
+        raise UserError(f"--workers {workers}: must be >= 1 (leave it out to average "
+                        "in this process)")
+    options = dict(options, atoms=atoms, contacts=contacts)
+    if workers is not None or scheduler:
+        return average_runs(run_dirs, average_run_dask, workers=workers or 2,
+                            scheduler=scheduler, **options)
+    return average_runs(run_dirs, average_run, progress=progress, **options)

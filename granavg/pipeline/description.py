@@ -1,0 +1,146 @@
+"""One typed description of an average, built from a run's manifest or from a user's
+options, with every default computed here and nowhere else.
+
+- :class:`RunAverage`: a granavg run (SI units): rings from R_i to R_o (default
+  :data:`DEFAULT_BINS`), t_min the scene's discarded transient (:func:`discard_time`),
+  base time blocks of one dump interval (at most :data:`~granavg.engine.average.MAX_BLOCKS`),
+  the per-frame state of the Couette cell;
+- :class:`DumpAverage`: anyone's dumps (their own units): rings about a centre, slabs or a
+  grid, from the options and, where they say nothing, the dump's box.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from granavg import __version__
+from granavg.engine.average import MAX_BLOCKS, CellAverage
+from granavg.engine.geometry import Grid, Rings, Slabs
+from granavg.engine.timeseries import TimeSeries
+from granavg.engine.units import SI
+from granavg.errors import UserError
+from granavg.io import validate
+
+#: Equal rings (or slabs) when neither a count nor edges are given.
+DEFAULT_BINS = 20
+#: Inner-ring rotations discarded by manifests older than ``derived.t_discard_s``.
+OLD_DISCARD_ROTATIONS = 2.0
+
+
+def discard_time(manifest: dict) -> float:
+    """The run's default start of the averages, s: the scene's discarded transient as
+    the run recorded it (``derived.t_discard_s``), else ``discard_rotations`` x 2 pi /
+    Omega of its scene."""
+    derived, scene = manifest["derived"], manifest["scene"]
+    if "t_discard_s" in derived:
+        return float(derived["t_discard_s"])
+    return scene.get("discard_rotations", OLD_DISCARD_ROTATIONS) * 2 * math.pi / scene["Omega"]
+
+
+def equal_edges(lo: float, hi: float, bins: int | None) -> np.ndarray:
+    """Edges of ``bins`` (default :data:`DEFAULT_BINS`) equal cells from lo to hi."""
+    return np.linspace(lo, hi, (DEFAULT_BINS if bins is None else bins) + 1)
+
+
+@dataclass
+class RunAverage:
+    """An average of a granavg run: its rings, quantities, window and time blocks.
+
+    Attributes
+    ----------
+    manifest : dict
+        The run's manifest (its scene: geometry, h, rho_p, Omega, d_s).
+    geometry : Rings
+    groups : list of str
+        Quantity groups (:data:`granavg.engine.quantities.QUANTITIES`).
+    t_min, block_time : float
+        Start of the average and base block length, s.
+    """
+
+    manifest: dict
+    geometry: Rings
+    groups: list
+    t_min: float
+    block_time: float
+    files: dict = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, manifest: dict, groups, *, bins=None, edges=None, t_min=None,
+           block_time=None) -> "RunAverage":
+        """The average of the run ``manifest`` describes, options resolved."""
+        scene, derived = manifest["scene"], manifest["derived"]
+        validate.ring_options(bins, edges)
+        rings = Rings(np.asarray(edges, float), scene["h"]) if edges is not None else \
+            Rings(equal_edges(scene["R_i"], scene["R_o"], bins), scene["h"])
+        t_min = discard_time(manifest) if t_min is None else float(t_min)
+        block_time = block_time or max(derived["dump_interval_s"],
+                                       (derived["t_end_s"] - t_min) / MAX_BLOCKS)
+        return cls(manifest, rings, list(groups), t_min, block_time)
+
+    @property
+    def meta(self) -> dict:
+        """The sidecar's description of this average."""
+        return {"granavg_version": __version__, "units": SI.label,
+                "unit_system": SI.describe(), "quantities": list(self.groups),
+                "rings": {"edges_m": list(self.geometry.edges), "h_m": self.geometry.h},
+                "geometry": self.geometry.describe(),
+                "frames": {"t_min_s": self.t_min, "block_time_s": self.block_time},
+                "run_manifest": self.manifest, **({"files": self.files} if self.files else {})}
+
+    def averager(self, frames=None, series: bool = True) -> CellAverage:
+        """A :class:`CellAverage` of ``frames`` with the Couette cell's per-frame state
+        (``series``; one is enough where several ring counts see the same frames)."""
+        scene = self.manifest["scene"]
+        state = TimeSeries(scene["R_i"], scene["R_o"], scene["h"], scene["rho_p"],
+                           scene["d_s"]) if series else None
+        avg = CellAverage(frames, self.geometry, self.groups, scene["rho_p"], self.t_min,
+                          self.block_time, state)
+        avg.meta = self.meta
+        return avg
+
+
+@dataclass
+class DumpAverage:
+    """The cells of an average of anyone's dumps, from the options (lengths in the
+    dumps' units).
+
+    Parameters of :meth:`of`: ``thickness`` (the disks' height h), ``bins`` or ``edges``;
+    rings: ``r_range`` (or ``edges``) and ``center``; ``slabs`` ("x" or "y") with
+    ``range`` (default the box) and ``length`` (default the box's other side); ``grid``
+    (nx, ny) over ``x_range``, ``y_range`` (default the box). ``box`` is called for the
+    first frame's box bounds only where an option leaves a length to it.
+    """
+
+    geometry: object
+
+    @classmethod
+    def of(cls, box, *, thickness, bins=None, edges=None, center=(0.0, 0.0), r_range=None,
+           slabs=None, range=None, length=None, grid=None, x_range=None,
+           y_range=None) -> "DumpAverage":
+        if thickness is None:
+            raise UserError("--thickness H: give the disks' height, in the dump's length "
+                            "unit (2D disks have volume pi h a^2)")
+        validate.positive("--thickness", thickness)
+        validate.ring_options(bins, edges)
+        h = thickness
+        if grid:
+            if min(grid) < 1 or grid[0] * grid[1] > validate.MAX_BINS:
+                raise UserError(f"--grid {grid[0]} {grid[1]}: give between 1 and "
+                                f"{validate.MAX_BINS} cells")
+            bx = box() if not (x_range and y_range) else None
+            xr, yr = x_range or bx[0], y_range or bx[1]
+            return cls(Grid(np.linspace(*xr, grid[0] + 1), np.linspace(*yr, grid[1] + 1), h))
+        if slabs:
+            k = "xy".index(slabs)
+            bx = box() if not (edges or range) or not length else None
+            lo_hi = range or bx[k]
+            cuts = np.asarray(edges, float) if edges else equal_edges(*lo_hi, bins)
+            return cls(Slabs(cuts, h, slabs, length or (bx[1 - k][1] - bx[1 - k][0])))
+        if edges is None and r_range is None:
+            raise UserError("rings need --r-range R1 R2 (with --bins) or --edges; or choose "
+                            "--slabs or --grid")
+        cuts = np.asarray(edges, float) if edges else equal_edges(*r_range, bins)
+        return cls(Rings(cuts, h, tuple(center)))

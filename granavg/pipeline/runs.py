@@ -1,0 +1,60 @@
+"""One run directory (manifest + dumps) -> its :class:`~granavg.engine.average.CellAverage`
+and profiles, with granavg's defaults (:class:`~granavg.pipeline.description.RunAverage`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from granavg.engine.profiles import Profiles
+from granavg.engine.quantities import QUANTITIES, groups_for, needed_columns
+from granavg.errors import UserError
+from granavg.io import validate
+from granavg.io.reader import DumpReader
+from granavg.io.run_directory import read_manifest
+from granavg.io.run_dumps import RunDumps
+from granavg.pipeline.description import RunAverage
+
+
+def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
+                 quantities=None, atoms=None, contacts=None, steps=None):
+    """The :class:`~granavg.engine.average.CellAverage` of a run directory, its frames
+    read lazily (only those with time steps in ``steps = (first, last)`` if given).
+
+    Parameters
+    ----------
+    run_dir : path
+        A ``granavg simulate`` directory: manifest (geometry, h, rho_p, dt, Omega) and
+        dumps.
+    bins, edges : optional
+        Number of equal rings between R_i and R_o, or their edges (m).
+    t_min, block_time : float, optional
+        Start of the average and base block length (s); defaults in
+        :class:`~granavg.pipeline.description.RunAverage`.
+    quantities : sequence of str, optional
+        Keys of :data:`~granavg.engine.quantities.QUANTITIES`; default all the files allow.
+    atoms, contacts : path, optional
+        Dump files to use instead of the run directory's.
+    """
+    if run_dir is None:
+        raise UserError("give the run directory: its manifest holds h, rho_p and the rings")
+    run_dir = validate.run_directory(run_dir)
+    manifest = validate.check_manifest(read_manifest(run_dir), run_dir / "manifest.json")
+    ext = "dump.gz" if manifest["scene"].get("gzip", True) else "dump"
+    atoms = Path(atoms) if atoms else run_dir / f"atoms.{ext}"
+    if contacts is None and (run_dir / f"contacts.{ext}").exists():
+        contacts = run_dir / f"contacts.{ext}"
+    groups = groups_for(quantities, contacts is not None)
+    atom_cols, contact_cols = needed_columns(groups)
+    need_contacts = any(QUANTITIES[g][2] for g in groups)
+    reader_a = DumpReader(atoms, list(atom_cols), atom_cols, steps)
+    reader_c = DumpReader(contacts, list(contact_cols), contact_cols, steps) \
+        if need_contacts else None
+    spec = RunAverage.of(manifest, groups, bins=bins, edges=edges, t_min=t_min,
+                         block_time=block_time)
+    spec.files = {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None}
+    return spec.averager(RunDumps(reader_a, reader_c, dt=manifest["derived"]["dt_s"]))
+
+
+def average_run(run_dir=None, *, progress=None, **options) -> Profiles:
+    """Ring profiles of a run directory (options as for :func:`run_averager`)."""
+    return run_averager(run_dir, **options).run(progress)

@@ -1,0 +1,76 @@
+"""How one command runs as a process: logging (dask's own chatter kept quiet), and
+Ctrl-C or SIGTERM turned into a clean stop with exit code 130 or 143."""
+
+from __future__ import annotations
+
+import logging
+import signal
+import sys
+import threading
+from contextlib import contextmanager
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, turned into an exception like Ctrl-C's."""
+
+
+_signalled: list[int] = []          # the signals received during this command
+
+
+def _on_signal(signum, frame):
+    _signalled.append(signum)
+    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+def interrupt_code(raised: BaseException) -> int | None:
+    """Exit code when ``raised`` is (the aftermath of) Ctrl-C or SIGTERM, else None.
+
+    A signal can land inside a compiled (numba) call or a ctypes callback; there the
+    interrupt is swallowed or turned into another error (``SystemError``, numba's
+    ``RuntimeError``), so any error raised after a signal arrived counts as the signal's.
+    """
+    if isinstance(raised, Terminated) or signal.SIGTERM in _signalled:
+        return 143
+    if isinstance(raised, KeyboardInterrupt) or _signalled:
+        return 130
+    return None
+
+
+def _unraisable(previous):
+    """``sys.unraisablehook`` that keeps an interrupt inside a callback quiet (the
+    command reports it)."""
+    def hook(unraisable):
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            previous(unraisable)
+    return hook
+
+
+def configure_logging(verbose: bool) -> None:
+    """granavg's log lines on stderr; dask's INFO chatter (and its shutdown tracebacks)
+    only with ``verbose``."""
+    logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
+                        format="granavg: %(message)s")
+    quiet = "debug" if verbose else "warning"
+    for noisy in ("distributed", "tornado", "bokeh"):     # dask's own chatter
+        logging.getLogger(noisy).setLevel(quiet.upper())
+    import dask                      # distributed resets its loggers from this on import
+    dask.config.set({"logging.distributed": quiet})
+
+
+@contextmanager
+def signals_as_interrupts():
+    """Within the block, SIGTERM and SIGINT raise :class:`Terminated` or
+    KeyboardInterrupt (the previous handlers come back after it)."""
+    _signalled.clear()
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, _on_signal)
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:   # not if ignored
+            previous[signal.SIGINT] = signal.signal(signal.SIGINT, _on_signal)
+    unraisable, sys.unraisablehook = sys.unraisablehook, _unraisable(sys.unraisablehook)
+    try:
+        yield
+    finally:
+        sys.unraisablehook = unraisable
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
