@@ -15,7 +15,7 @@ FLAGS = {"t_min": "--t-min", "block_time": "--block-time", "rho_p": "--density",
          "bins": "--bins", "quantities": "--quantities", "contacts": "--contacts"}
 #: Options that only plain dumps take (a run directory's manifest says them).
 PLAIN_ONLY = ("thickness", "density", "dt", "r_range", "slabs", "grid", "wall_types",
-              "atom_columns", "contact_columns", "units", "format")
+              "atom_columns", "contact_columns", "units", "format", "gravity")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -105,6 +105,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="a grid of NX x NY rectangles over --x-range, --y-range")
     plain.add_argument("--x-range", type=float, nargs=2, metavar=("X1", "X2"))
     plain.add_argument("--y-range", type=float, nargs=2, metavar=("Y1", "Y2"))
+    plain.add_argument("--gravity", type=float, nargs=2, metavar=("GX", "GY"),
+                       help="gravitational acceleration: a body force m g on every disk "
+                       "(the body force density and the balance of forces use it)")
     plain.add_argument("--wall-types", type=int, nargs="+", metavar="T", default=[],
                        help="atom types that are walls: left out of the packing, their "
                        "contacts with disks kept")
@@ -121,7 +124,13 @@ def _parser() -> argparse.ArgumentParser:
                      "behind the standard errors (default: one dump interval, at most 512 "
                      "blocks)")
     avg.add_argument("--quantities", help="comma-separated subset of: nu, rho, v, omega, "
-                     "coordination, F, sigma, dsigma, dsigma_fluct, eps (default: all)")
+                     "coordination, F, sigma, dsigma, dsigma_fluct, eps, boundary, body "
+                     "(default: all the data allow)")
+    avg.add_argument("--branch", choices=["contact", "paper"], default="contact",
+                     help="where the branch vectors of Eqs. 5 and 7 end: at the middle of "
+                     "the overlap (default; the stress carries the contact forces exactly) "
+                     "or at the disk's surface as printed in the paper (too large by about "
+                     "overlap / d)")
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
     avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
@@ -132,9 +141,13 @@ def _parser() -> argparse.ArgumentParser:
     avg.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
     ana = sub.add_parser("analyze", help="figures 2-9, summary.json and report.html from "
-                         "two ring profiles of one run")
-    ana.add_argument("profiles", nargs=2, help="two profiles of 'granavg average' (e.g. 20 "
-                     "and 60 rings)")
+                         "two ring profiles of one run; for profiles of any other cells "
+                         "(slabs, grids, plain dumps) the fields and the balance of forces")
+    ana.add_argument("profiles", nargs="+", help="profiles of 'granavg average' (two ring "
+                     "profiles of a run, e.g. 20 and 60 rings, for the paper's analysis)")
+    ana.add_argument("--closed", action="store_true", help="the cells' outer faces are "
+                     "walls or empty space (no stress beyond them), so the edge cells' "
+                     "balance is judged too (granavg's own rings always are)")
     ana.add_argument("--out", required=True, help="directory for the report (must be new)")
     ana.add_argument("--density-series", nargs="+", metavar="PROFILES", default=[],
                      help="coarse profiles of the same scene at other area fractions: "
@@ -180,7 +193,7 @@ def _average(args):
         raise UserError(f"{flag} is for plain LAMMPS dumps; a run directory's manifest "
                         "already says it (drop the option or the run directory)")
     common = dict(t_min=args.t_min, block_time=args.block_time,
-                  quantities=_names(args.quantities))
+                  quantities=_names(args.quantities), branch=args.branch)
     if args.run_dir:
         options = dict(common, bins=args.bins, edges=args.edges)
     else:
@@ -190,6 +203,7 @@ def _average(args):
                      x_range=args.x_range, y_range=args.y_range)
         options = dict(common, cells=cells, fmt=args.format, density=args.density,
                        dt=args.dt, units=args.units, wall_types=args.wall_types,
+                       gravity=args.gravity,
                        atom_map=parse_map(args.atom_columns),
                        contact_map=parse_map(args.contact_columns))
     return average_to_file(args.run_dir, args.out, parquet=args.parquet, workers=args.workers,
@@ -200,7 +214,7 @@ def _average(args):
 def _analyze(args):
     from granavg.pipeline.reporting import analyze_command
 
-    return analyze_command(args.profiles, args.out, args.density_series)
+    return analyze_command(args.profiles, args.out, args.density_series, args.closed)
 
 
 def _demo(args):

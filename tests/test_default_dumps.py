@@ -30,12 +30,13 @@ H = 1.0                         # disk height (sigma): the user's choice for a 2
 PRINTED = 3 * 5e-6
 
 
-def run_deck(out, units_header="no", floor="wall"):
+def run_deck(out, units_header="no", floor="wall", kn=2000.0):
     """The user's deck in-process; LAMMPS' summed pair virial (xx + yy) of the last
     dumped frame."""
     out.mkdir(parents=True, exist_ok=True)
     with lammps_session(["-log", str(out / "log.lammps"), "-var", "out", str(out),
-                         "-var", "units_header", units_header, "-var", "floor", floor]) as lmp:
+                         "-var", "units_header", units_header, "-var", "floor", floor,
+                         "-var", "kn", str(kn)]) as lmp:
         lmp.file(str(DECK))
         last = lmp.last_thermo()
     return last["c_t[1]"] + last["c_t[2]"]

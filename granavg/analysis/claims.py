@@ -28,9 +28,10 @@ from types import SimpleNamespace
 import numpy as np
 
 from granavg.analysis import continuum as c
+from granavg.analysis.balance import FORCE_DENSITIES, residuals
 from granavg.errors import UserError
 from granavg.engine.quantities import TENSOR
-from granavg.engine.timeseries import ensemble_stationarity
+from granavg.engine.timeseries import ensemble_stationarity, window_mean
 
 log = logging.getLogger(__name__)
 
@@ -314,7 +315,25 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
                 above=False),
         f"median |residual of div(sigma - dsigma)| / mean |sigma_rr| in the bulk = "
         f"{eo['bulk_median_residual']:.3f} +- {eo['bulk_median_residual_err']:.3f} "
-        f"({p20.rings.n} rings; reproduced below {EOM_LIMIT})"))
+        f"({p20.rings.n} rings; reproduced below {EOM_LIMIT}). Each ring's net force over "
+        f"its face's with the body and boundary force densities, walls closed: median "
+        f"{eo['balance_bulk_median_residual']:.3f} +- "
+        f"{eo['balance_bulk_median_residual_err']:.3f} in the bulk, at most "
+        f"{eo['balance_max_residual']:.3f} +- {eo['balance_max_residual_err']:.3f} in any "
+        f"ring, wall rings {eo['balance_wall_residual_max']:.3f} +- "
+        f"{eo['balance_wall_residual_max_err']:.3f} ({eo['balance_wall_residual_max_without_forces']:.2f}"
+        " without the force densities)"))
+
+    # the shear cell's torque (what the experiments measure), and its balance with the
+    # base plate's: the packing passes the inner wall's torque on to the outer wall and
+    # the plate
+    t0 = (p20.meta.get("frames") or {}).get("t_min_s", 0.0)
+    num["wall_loads"] = {}
+    for q in ("torque_in_Nm", "torque_out_Nm"):
+        m = window_mean(p20.timeseries, q, t0)
+        if m is not None:
+            num["wall_loads"].update({q: m["mean"], f"{q}_err": m["err"],
+                                      f"{q}_error": m.get("error", "")})
 
     # Figs. 8-9: deformation rate, spin, eigen-rotation
     for p in (p20, p60):
@@ -524,13 +543,25 @@ def _eom(p):
 
 
 def _eom_numbers(p):
+    """The paper's check (div(sigma - dsigma) alone, one-sided at the walls) and the
+    balance of forces with the body and boundary force densities, the walls closed
+    (:mod:`granavg.analysis.balance`), relative to the bulk's mean |sigma_rr|."""
     st, tot, scale = _eom(p)
     b = bulk(p.rings.n)
+    terms = [t for t in FORCE_DENSITIES if f"{t}_r" in p.values]
+    full = np.abs(np.array(residuals(p.values, p.rings, terms, closed=True))) / scale
+    bare = np.abs(np.array(residuals(p.values, p.rings, (), closed=True))) / scale
     return {"stress_scale_Pa": scale,
             "bulk_median_residual": float(np.nanmedian(np.abs(np.concatenate(
                 [tot[0][b], tot[1][b]])))) / scale,
             "wall_residual_max": float(np.nanmax(np.abs(np.concatenate(
-                [tot[0][[0, -1]], tot[1][[0, -1]]])))) / scale}
+                [tot[0][[0, -1]], tot[1][[0, -1]]])))) / scale,
+            "balance_bulk_median_residual": float(np.nanmedian(full[:, b])),
+            "balance_wall_residual_max": float(np.nanmax(full[:, [0, -1]])),
+            "balance_near_wall_residual_max": float(np.nanmax(full[:, [1, -2]])),
+            "balance_max_residual": float(np.nanmax(full)),
+            "balance_wall_residual_max_without_forces": float(np.nanmax(bare[:, [0, -1]])),
+            "balance_terms": len(terms)}
 
 
 def _layers(p, geo):

@@ -40,6 +40,11 @@ _NUMBERS = [  # (section, key, label, unit, paper key)
     ("orientation", "band_mean_angle_sigma_eps", "mean angle sigma to eps, band", "deg", None),
     ("equations_of_motion", "bulk_median_residual", "median EoM residual / stress scale, bulk", "-", None),
     ("equations_of_motion", "wall_residual_max", "largest EoM residual / stress scale, walls", "-", None),
+    ("equations_of_motion", "balance_bulk_median_residual", "median balance residual with body and boundary forces, bulk", "-", None),
+    ("equations_of_motion", "balance_wall_residual_max", "largest balance residual with body and boundary forces, wall rings", "-", None),
+    ("equations_of_motion", "balance_near_wall_residual_max", "largest balance residual, rings next to the wall rings", "-", None),
+    ("wall_loads", "torque_in_Nm", "torque of the packing on the inner wall", "N m", None),
+    ("wall_loads", "torque_out_Nm", "torque of the packing on the outer wall", "N m", None),
     ("eigen_rotation", "layer1_per_s", "omega*, first layer", "1/s", None),
     ("eigen_rotation", "layer2_per_s", "omega*, second layer", "1/s", None),
 ]
@@ -57,7 +62,9 @@ def headline_rows(summary):
     """(label, value +- error, unit, paper value) of every headline number."""
     rows = []
     for section, key, label, unit, paper in _NUMBERS:
-        block = summary["numbers"][section]
+        block = summary["numbers"].get(section) or {}
+        if key not in block:
+            continue
         err = block.get(f"{key}_err")
         value = f"{block[key]:.4g}" + (f" &plusmn; {err:.2g}" if err is not None and
                                        math.isfinite(err) else "")

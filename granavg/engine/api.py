@@ -7,7 +7,8 @@
 
 ``frames`` is any iterable of objects with ``timestep``, ``time`` (s), ``atoms`` (dict of
 arrays: ``x y radius`` and, as the quantities need, ``vx vy omegaz id mass``) and
-``contacts`` (dict of arrays ``id1 id2 wall fnx fny ftx fty nx ny overlap``, or None):
+``contacts`` (dict of arrays ``id1 id2 wall fnx fny ftx fty nx ny overlap``, or None;
+body forces on the disks as atoms' ``bx by``):
 what the dump reader, a running LAMMPS or a dask worker produce alike.
 """
 
@@ -24,7 +25,8 @@ from granavg.errors import ParameterError, UserError
 
 def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
             t_min: float = 0.0, block_time: float | None = None,
-            progress: bool | None = False, units: UnitSystem = SI) -> Profiles:
+            progress: bool | None = False, units: UnitSystem = SI,
+            branch: str = "contact") -> Profiles:
     """Time-averaged profiles of ``frames`` over the cells of ``geometry`` (Eqs. 1-7).
 
     Parameters
@@ -48,6 +50,10 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
         The units the frames are in (:mod:`granavg.engine.units`); only named in the
         sidecar (``meta["units"]``, ``meta["unit_system"]``), nothing is converted. The
         parameters above are in the same units (the SI names are those of SI frames).
+    branch : {"contact", "paper"}
+        Where the branch vectors of Eqs. 5 and 7 end: at the middle of the overlap (the
+        stress balances the contact forces) or, as printed in the paper, at the disk's
+        surface (:data:`granavg.engine.kernels.BRANCHES`).
 
     Returns
     -------
@@ -60,7 +66,7 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
         raise UserError("no frame to average")
     has_contacts = head[0].contacts is not None
     has_mass = "mass" in head[0].atoms
-    groups = groups_for(quantities, has_contacts)
+    groups = groups_for(quantities, has_contacts, "bx" in head[0].atoms)
     massive = [g for g in groups if g in ("rho", "dsigma", "dsigma_fluct")]
     if rho_p is None and not has_mass:
         if quantities is not None and massive:
@@ -72,7 +78,7 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
         if not block_time > 0:
             raise UserError("frames must come in increasing time")
     avg = CellAverage(itertools.chain(head, it), geometry, groups,
-                      rho_p if rho_p is not None else 0.0, t_min, block_time)
+                      rho_p if rho_p is not None else 0.0, t_min, block_time, branch=branch)
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
                 "geometry": geometry.describe(),
                 "frames": {"t_min_s": t_min, "block_time_s": block_time}}

@@ -48,11 +48,16 @@ class CellAverage:
         Length (s) of the base time blocks of the blocking analysis.
     series : TimeSeries, optional
         Records the state of every frame (also those before t_min).
+    branch : {"contact", "paper"}
+        Where the branch vectors of Eqs. 5 and 7 end
+        (:data:`granavg.engine.kernels.BRANCHES`).
     """
 
     def __init__(self, frames, rings: Rings, groups, rho_p: float, t_min: float,
-                 block_time: float, series: TimeSeries | None = None):
+                 block_time: float, series: TimeSeries | None = None,
+                 branch: str = "contact"):
         self.frames, self.rings, self.groups = frames, rings, list(groups)
+        self.branch = branch
         self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
         self.channels = sorted({c for g in self.groups for c in QUANTITIES[g][1]})
         self.series = series
@@ -79,7 +84,7 @@ class CellAverage:
             self.series.add(frame)
         if frame.time >= self.t_min:
             self.acc.add(frame.timestep, frame.time, frame_sums(
-                frame, self.rings, self.rho_p, self.channels))
+                frame, self.rings, self.rho_p, self.channels, self.branch))
 
     def conclude(self) -> Profiles:
         """Profiles of the frames added so far."""
@@ -92,6 +97,8 @@ class CellAverage:
         counts, sums = acc.block_sums()
         sem, lower, replicates = standard_errors(counts, sums, V, self.rho_p, self.groups)
         meta = {**self.meta, "frames": {**self.meta.get("frames", {}), "n": acc.n_frames}}
+        if {"sigma", "eps"} & set(self.groups):
+            meta["branch"] = self.branch
         ring_flags = flags(S, self.groups)
         extra = [[] for _ in ring_flags]
         if len(counts) < 2:
@@ -164,11 +171,11 @@ def warn_if_drifting(judged: dict, t_min: float) -> list:
     return drifting
 
 
-def frame_sums(frame, rings, rho_p: float, channels) -> np.ndarray:
+def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact") -> np.ndarray:
     """Cell sums of one frame, shape (n_cells, n_channels), for any geometry of
     :mod:`granavg.engine.geometry`."""
     a = frame.atoms
     q = particle_channels(a, frame.contacts, rings.h, rho_p, channels,
-                          basis=rings.basis(a["x"], a["y"]))
+                          basis=rings.basis(a["x"], a["y"]), branch=branch)
     particle, ring, w = rings.weights(a["x"], a["y"], a["radius"])
     return ring_sums(particle, ring, w, q, rings.n)

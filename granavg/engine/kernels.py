@@ -15,10 +15,16 @@ mom_r/phi    V^p v_r, V^p v_phi                            v = <nu v>/<nu> (Eq. 
 spin         V^p omega                                     omega
 ncontact     V^p C^p                                       coordination C
 fab_ij       V^p sum_c n_i n_j                             F (Eq. 4)
-sig_ij       sum_c f_i l_j,  l = a n                       sigma (Eq. 5)
+sig_ij       sum_c f_i l_j,  l = (a - s delta) n           sigma (Eq. 5)
 kin_ij       m^p v_i v_j                                   dynamic stress (Eq. 6)
 def_ij       pi h sum_c Delta_i l_j,  Delta = -delta n     eps numerator (Eq. 7)
+wall_i       sum_(wall c) f_i                              boundary force density
+body_i       b^p (the atoms' ``bx by``: gravity, ...)      body force density
 ===========  ==========================================  =========================
+
+The branch vector l ends at the contact point: s = 1/2 (``branch="contact"``, the default,
+l_1 - l_2 = r_12) or at the disk's surface, s = 0 (``branch="paper"``, Eq. 5 as printed);
+:data:`BRANCHES`.
 
 Eq. 5 as printed carries a factor V^p; with it sigma would not be a stress (N m rather
 than Pa). The particle stress is (1/V^p) sum_c f (x) l, so V^p cancels: sigma =
@@ -39,7 +45,14 @@ from granavg.errors import UserError
 
 CHANNELS = ("vol", "mass", "mom_r", "mom_phi", "spin", "ncontact",
             *(f"fab_{c}" for c in TENSOR), *(f"sig_{c}" for c in TENSOR),
-            *(f"kin_{c}" for c in TENSOR), *(f"def_{c}" for c in TENSOR))
+            *(f"kin_{c}" for c in TENSOR), *(f"def_{c}" for c in TENSOR),
+            "wall_r", "wall_phi", "body_r", "body_phi")
+#: How far each branch vector reaches, as the overlap it gives up: ``contact`` ends at
+#: the middle of the overlap, l_p = (a_p - delta / 2) n, so that l_1 - l_2 = r_12 for
+#: any two radii (the pair's centre distance: the stress then balances the forces);
+#: ``paper`` is Eq. 5 as printed, l_p = a_p n, which reaches past the contact point by
+#: delta / 2 and makes sigma too large by about delta / d.
+BRANCHES = {"contact": 0.5, "paper": 0.0}
 INDEX = {name: k for k, name in enumerate(CHANNELS)}
 
 
@@ -48,7 +61,7 @@ def _outer(u_r, u_phi, v_r, v_phi):
     return np.column_stack([u_r * v_r, u_r * v_phi, u_phi * v_r, u_phi * v_phi])
 
 
-def particle_channels(atoms, contacts, h, rho_p, channels, basis):
+def particle_channels(atoms, contacts, h, rho_p, channels, basis, branch="contact"):
     """Per-particle channel values Q_p of one frame.
 
     Parameters
@@ -61,7 +74,10 @@ def particle_channels(atoms, contacts, h, rho_p, channels, basis):
     h, rho_p : float
         Disk height (m) and material density (kg/m^3).
     channels : sequence of str
-        Which of :data:`CHANNELS` to fill; the others stay zero.
+        Which of :data:`CHANNELS` to fill; the others stay zero (``body_r``/``body_phi``
+        read the atoms' ``bx by``, the body force on each disk).
+    branch : {"contact", "paper"}
+        Where the branch vectors of Eqs. 5 and 7 end (:data:`BRANCHES`).
     basis : (ndarray, ndarray)
         Unit vectors (e_1, e_2) at each disk, shape (P, 2) each: the basis of vectors and
         tensors (the cells' ``basis(x, y)``: e_r, e_phi for rings). With a
@@ -89,12 +105,18 @@ def particle_channels(atoms, contacts, h, rho_p, channels, basis):
                 mass[:, None] * _outer(v_r, v_phi, v_r, v_phi)
     if "spin" in want:
         q[:, INDEX["spin"]] = vol * atoms["omegaz"]
-    if want & {"ncontact", "fab_rr", "sig_rr", "def_rr"}:
-        _contact_channels(q, atoms, contacts, er, ephi, vol, h, want)
+    if want & {"body_r", "body_phi"}:
+        b = np.column_stack([atoms["bx"], atoms["by"]])
+        q[:, INDEX["body_r"]] = np.einsum("ij,ij->i", b, er)
+        q[:, INDEX["body_phi"]] = np.einsum("ij,ij->i", b, ephi)
+    if want & {"ncontact", "fab_rr", "sig_rr", "def_rr", "wall_r"}:
+        if branch not in BRANCHES:
+            raise UserError(f"branch {branch!r}: choose from {', '.join(BRANCHES)}")
+        _contact_channels(q, atoms, contacts, er, ephi, vol, h, want, BRANCHES[branch])
     return q
 
 
-def _contact_channels(q, atoms, contacts, er, ephi, vol, h, want):
+def _contact_channels(q, atoms, contacts, er, ephi, vol, h, want, shorten):
     """Add each contact to both of its disks (only the disk of a wall contact)."""
     ids = atoms["id"]
     pair = contacts["wall"] == 0
@@ -103,26 +125,29 @@ def _contact_channels(q, atoms, contacts, er, ephi, vol, h, want):
     i2[pair] = rows_of(ids, contacts["id2"][pair])
     nc = np.zeros(len(vol))
     fab, sig, dfm = (np.zeros((len(vol), 4)) for _ in range(3))
+    wall = np.zeros((len(vol), 2))
     # columns the wanted channels do not need (e.g. forces for coordination alone) may be
     # absent: they enter only channels that are not kept
     col = {k: contacts[k] if k in contacts else np.zeros(len(i1))
            for k in ("fnx", "ftx", "fny", "fty", "nx", "ny", "overlap")}
     _accumulate_contacts(i1, i2, col["fnx"] + col["ftx"], col["fny"] + col["fty"],
                          col["nx"], col["ny"], col["overlap"], er, ephi, atoms["radius"],
-                         np.pi * h, nc, fab, sig, dfm)
+                         np.pi * h, shorten, nc, fab, sig, dfm, wall)
     if "ncontact" in want:
         q[:, INDEX["ncontact"]] = vol * nc
-    for name, values in (("fab_rr", vol[:, None] * fab), ("sig_rr", sig), ("def_rr", dfm)):
+    for name, values in (("fab_rr", vol[:, None] * fab), ("sig_rr", sig), ("def_rr", dfm),
+                         ("wall_r", wall)):
         if name in want:
-            q[:, INDEX[name]:INDEX[name] + 4] = values
+            q[:, INDEX[name]:INDEX[name] + values.shape[1]] = values
 
 
 @njit(cache=True, nogil=True)
-def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih,
-                         nc, fab, sig, dfm):
+def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih, shorten,
+                         nc, fab, sig, dfm, wall):
     """Per-disk sums over its contacts (side 2 sees -f and -n; i2 < 0: wall contact):
-    count, sum n (x) n, sum f (x) l with l = a n, and pi h sum Delta (x) l with
-    Delta = -overlap n; tensors in the disk's polar basis (rr, rphi, phir, phiphi)."""
+    count, sum n (x) n, sum f (x) l with l = (a - shorten overlap) n, pi h sum
+    Delta (x) l with Delta = -overlap n, and the force of its wall contacts; tensors in
+    the disk's polar basis (rr, rphi, phir, phiphi)."""
     for c in range(i1.shape[0]):
         for side in range(2):
             p = i1[c] if side == 0 else i2[c]
@@ -133,16 +158,20 @@ def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih,
             n_phi = s * (nx[c] * ephi[p, 0] + ny[c] * ephi[p, 1])
             f_r = s * (fx[c] * er[p, 0] + fy[c] * er[p, 1])
             f_phi = s * (fx[c] * ephi[p, 0] + fy[c] * ephi[p, 1])
-            d = -pih * overlap[c] * a[p]
+            length = a[p] - shorten * overlap[c]
+            d = -pih * overlap[c] * length
+            if i2[c] < 0:
+                wall[p, 0] += f_r
+                wall[p, 1] += f_phi
             nc[p] += 1.0
             fab[p, 0] += n_r * n_r
             fab[p, 1] += n_r * n_phi
             fab[p, 2] += n_phi * n_r
             fab[p, 3] += n_phi * n_phi
-            sig[p, 0] += a[p] * f_r * n_r
-            sig[p, 1] += a[p] * f_r * n_phi
-            sig[p, 2] += a[p] * f_phi * n_r
-            sig[p, 3] += a[p] * f_phi * n_phi
+            sig[p, 0] += length * f_r * n_r
+            sig[p, 1] += length * f_r * n_phi
+            sig[p, 2] += length * f_phi * n_r
+            sig[p, 3] += length * f_phi * n_phi
             dfm[p, 0] += d * n_r * n_r
             dfm[p, 1] += d * n_r * n_phi
             dfm[p, 2] += d * n_phi * n_r

@@ -9,8 +9,11 @@ reached the error is flagged as a lower bound.
 
 Columns (SI units; docs/profiles.md): ``nu`` (-), ``rho`` (kg/m^3), ``v_r``, ``v_phi``
 (m/s), ``omega`` (rad/s), ``coordination`` (-), ``F_*`` (-), ``sigma_*`` (Pa),
-``dsigma_*`` (Pa), ``dsigma_fluct_*`` (Pa), ``eps_*`` (-), each with ``<name>_sem``;
-tensor components ``rr, rphi, phir, phiphi`` in each particle's polar basis.
+``dsigma_*`` (Pa), ``dsigma_fluct_*`` (Pa), ``eps_*`` (-), ``boundary_r``,
+``boundary_phi`` (the force density that walls exert on the packing, N/m^3),
+``body_r``, ``body_phi`` (body forces: gravity, base-plate friction, ..., N/m^3), each
+with ``<name>_sem``; tensor components ``rr, rphi, phir, phiphi`` in each particle's
+polar basis.
 """
 
 from __future__ import annotations
@@ -123,6 +126,10 @@ def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups) -> dict:
                     out[f"dsigma_fluct_{c}"] = (S[:, INDEX["kin_rr"] + i] - mean_flow) / V
             elif g == "eps":
                 out.update(_eps(S))
+            elif g in ("boundary", "body"):
+                first = "wall_r" if g == "boundary" else "body_r"
+                out[f"{g}_r"] = S[:, INDEX[first]] / V
+                out[f"{g}_phi"] = S[:, INDEX[first] + 1] / V
     return out
 
 

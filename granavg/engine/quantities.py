@@ -26,15 +26,19 @@ QUANTITIES = {
     "dsigma_fluct": ([f"dsigma_fluct_{c}" for c in TENSOR],
                      ["vol", "mass", "mom_r", "mom_phi", "kin_rr"], False),
     "eps": ([f"eps_{c}" for c in TENSOR], ["fab_rr", "def_rr"], True),
+    "boundary": (["boundary_r", "boundary_phi"], ["wall_r"], True),
+    "body": (["body_r", "body_phi"], ["body_r"], False),
 }
 #: the atom-dump and contact-dump columns each channel reads
 ATOM_COLUMNS = {"vol": ["x", "y", "radius"], "mom_r": ["vx", "vy"], "mom_phi": ["vx", "vy"],
                 "kin_rr": ["vx", "vy"], "spin": ["omegaz"], "ncontact": ["id"],
-                "fab_rr": ["id"], "sig_rr": ["id"], "def_rr": ["id"]}
+                "fab_rr": ["id"], "sig_rr": ["id"], "def_rr": ["id"], "wall_r": ["id"],
+                "body_r": ["bx", "by"]}
 CONTACT_COLUMNS = {"ncontact": ["id1", "id2", "wall"],
                    "fab_rr": ["id1", "id2", "wall", "nx", "ny"],
                    "sig_rr": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny"],
-                   "def_rr": ["id1", "id2", "wall", "nx", "ny", "overlap"]}
+                   "def_rr": ["id1", "id2", "wall", "nx", "ny", "overlap"],
+                   "wall_r": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty"]}
 
 
 
@@ -50,11 +54,13 @@ def needed_columns(groups):
     return atoms, contacts
 
 
-def groups_for(quantities, have_contacts: bool) -> list:
+def groups_for(quantities, have_contacts: bool, have_body: bool = False) -> list:
     """The quantity groups to compute: the requested ones (checked), or all that the
-    data allow (without contacts, only those that need none)."""
+    data allow (without contacts, only those that need none; ``body`` only where the
+    frames carry body forces)."""
     if quantities is None:
-        return [g for g, (_, _, needs) in QUANTITIES.items() if have_contacts or not needs]
+        return [g for g, (_, _, needs) in QUANTITIES.items()
+                if (have_contacts or not needs) and (have_body or g != "body")]
     unknown = [q for q in quantities if q not in QUANTITIES]
     if unknown:
         raise ParameterError("quantities", f"{{param}}: unknown quantity {unknown[0]!r}; "
@@ -64,4 +70,7 @@ def groups_for(quantities, have_contacts: bool) -> list:
         raise ParameterError("contacts", f"{lacking[0]} needs the contact dump, and none was "
                              "found; give the contacts ({param}) or run the simulation "
                              "with contacts")
+    if "body" in quantities and not have_body:
+        raise ParameterError("quantities", "body needs body forces: none acts in this scene "
+                             "or was given (gravity, base-plate friction, a force column)")
     return list(quantities)

@@ -57,7 +57,8 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
         ``C``, ``C_in``, ``C_bulk``, ``C_out`` (contacts per disk), ``rattler_fraction``,
         ``P_bulk_Pa`` (-tr sigma / 2 of the bulk zone), ``overlap_mean_over_d``,
         ``overlap_max_over_d``, ``ke_J`` (translational + rotational), ``wall_contacts_in``,
-        ``wall_contacts_out``, ``nu_bulk``, ``psi6_bulk`` (mean |psi_6|) and
+        ``wall_contacts_out``, ``torque_in_Nm``, ``torque_out_Nm``
+        (:func:`wall_torques`), ``nu_bulk``, ``psi6_bulk`` (mean |psi_6|) and
         ``psi6_bulk_ordered`` (share with |psi_6| > 0.8).
     """
     x, y, a = atoms["x"], atoms["y"], atoms["radius"]
@@ -97,6 +98,26 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
         out["overlap_max_over_d"] = float(ov.max()) if len(ov) else 0.0
     out["wall_contacts_in"] = int(np.sum(contacts["wall"] == 1))
     out["wall_contacts_out"] = int(np.sum(contacts["wall"] == 2))
+    if "fnx" in contacts and "overlap" in contacts:
+        out.update(wall_torques(atoms, contacts, i1))
+    return out
+
+
+def wall_torques(atoms, contacts, i1) -> dict:
+    """Torque about the centre (N m) that the packing exerts on each wall: minus the
+    wall contacts' forces on the disks, at their contact points x + (a - delta/2) n.
+    The shear cell's torque, which the experiments measure (``torque_in_Nm`` on the
+    turning inner ring, ``torque_out_Nm`` on the outer)."""
+    out = {}
+    for name, code in (("torque_in_Nm", 1), ("torque_out_Nm", 2)):
+        k = contacts["wall"] == code
+        p = i1[k]
+        reach = atoms["radius"][p] - 0.5 * contacts["overlap"][k]
+        cx = atoms["x"][p] + reach * contacts["nx"][k]
+        cy = atoms["y"][p] + reach * contacts["ny"][k]
+        fx = contacts["fnx"][k] + contacts["ftx"][k]
+        fy = contacts["fny"][k] + contacts["fty"][k]
+        out[name] = float(np.sum(-(cx * fy - cy * fx)))
     return out
 
 
@@ -128,6 +149,28 @@ class TimeSeries:
 
     def frame(self) -> pd.DataFrame:
         return pd.DataFrame(self.rows)
+
+
+def window_mean(series: pd.DataFrame, column: str, t_min: float) -> dict:
+    """Mean of a per-frame quantity over t >= t_min with its standard error: between
+    realisations for an ensemble's series (a ``run`` column), else by blocking analysis
+    of the frames (``lower_bound`` where no plateau was reached); None if absent."""
+    if series is None or column not in series:
+        return None
+    w = series[series.t_s >= t_min]
+    if "run" in w:
+        means = w.groupby("run")[column].mean().to_numpy(float)
+        err = float(np.std(means, ddof=1) / np.sqrt(len(means))) if len(means) > 1 else np.nan
+        return {"mean": float(np.mean(means)), "err": err, "n_runs": int(len(means)),
+                "error": "between realisations"}
+    x = w[column].to_numpy(float)
+    x = x[np.isfinite(x)]
+    if len(x) < 2:
+        return {"mean": float(np.mean(x)) if len(x) else np.nan, "err": np.nan}
+    sem, lower = blocking_errors(np.ones(len(x)), x[:, None, None],
+                                 lambda m: {"x": m[:, :, 0]})
+    return {"mean": float(np.mean(x)), "err": float(sem["x"][0]),
+            "lower_bound": bool(lower["x"][0]), "error": "blocking over frames"}
 
 
 def _fluctuation_error(t, x):

@@ -56,6 +56,8 @@ class UnitSystem:
         head = name.split("_")[0]
         if head in ("sigma", "dsigma"):
             return self.stress
+        if head in ("boundary", "body"):
+            return f"{self.force}/{self.length}^3"
         if head == "rho":
             return f"{self.mass}/{self.length}^3"
         if head == "v":

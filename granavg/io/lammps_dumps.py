@@ -42,7 +42,8 @@ from granavg.io.units import choose_units
 
 ATOM_ALIASES = {"x": ("x", "xu", "xs", "xsu"), "y": ("y", "yu", "ys", "ysu"),
                 "radius": ("radius", "diameter"), "vx": ("vx",), "vy": ("vy",),
-                "omegaz": ("omegaz",), "id": ("id",), "type": ("type",), "mass": ("mass",)}
+                "omegaz": ("omegaz",), "id": ("id",), "type": ("type",), "mass": ("mass",),
+                "bx": (), "by": ()}             # a body force on each atom: named only
 GRANAVG = ("id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny", "overlap")
 
 

@@ -16,7 +16,8 @@ from granavg.engine.timeseries import ensemble_stationarity
 from granavg.errors import UserError
 from granavg.io import formats, validate
 from granavg.io.profiles_io import REPLICATES, TIMESERIES, write_profiles
-from granavg.pipeline.description import DumpAverage
+from granavg.engine import body_forces
+from granavg.pipeline.description import DumpAverage, WithBodyForces
 from granavg.pipeline.on_dask import average_run_dask
 from granavg.pipeline.runs import average_run
 
@@ -43,7 +44,7 @@ def average_runs(run_dirs, average_one=average_run, **options) -> Profiles:
 
 def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
                   quantities=None, t_min=None, block_time=None, progress=None,
-                  **source_options) -> Profiles:
+                  gravity=None, branch="contact", **source_options) -> Profiles:
     """Profiles of anyone's dumps (no run directory), in their own units.
 
     Parameters
@@ -58,6 +59,10 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
         the files.
     density : float, optional
         Material density (masses rho pi h a^2), unless the atoms carry masses.
+    gravity : (float, float), optional
+        Gravitational acceleration (gx, gy): a body force m g on every disk.
+    branch : {"contact", "paper"}
+        Where the branch vectors of Eqs. 5 and 7 end.
     **source_options
         Options of the format (e.g. ``atom_map``, ``contact_map``, ``wall_types``,
         ``dt``, ``units`` for LAMMPS dumps).
@@ -67,17 +72,21 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     validate.finite("--t-min", t_min)
     frames = formats.open_frames(atoms, contacts, fmt=fmt, **source_options)
     spec = DumpAverage.of(frames.box, **cells)
+    terms = [body_forces.gravity(*gravity)] if gravity else []
+    if terms:
+        frames = WithBodyForces(frames, terms, cells["thickness"], density)
     if frames.units.style == "unstated":
         log.info("%s does not say its units: the outputs are labelled 'unstated'; --units "
                  "STYLE names them", atoms)
     profiles = average(frames, spec.geometry, rho_p=density, quantities=quantities,
                        t_min=t_min or 0.0, block_time=block_time, progress=progress,
-                       units=frames.units)
+                       units=frames.units, branch=branch)
     profiles.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
                                     else None},
                           "inputs": {"format": frames.format_name,
                                      "thickness": cells["thickness"], "density": density,
-                                     **frames.describe()}})
+                                     **frames.describe()},
+                          "body_forces": [t.describe for t in terms]})
     if any(frames.dropped.values()):
         profiles.meta["dropped"] = dict(frames.dropped)
     return profiles

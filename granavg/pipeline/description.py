@@ -18,11 +18,13 @@ import numpy as np
 
 from granavg import __version__
 from granavg.engine.average import MAX_BLOCKS, CellAverage
+from granavg.engine.body_forces import add_body_forces, base_plate
 from granavg.engine.geometry import Grid, Rings, Slabs
 from granavg.engine.timeseries import TimeSeries
 from granavg.engine.units import SI
 from granavg.errors import UserError
 from granavg.io import validate
+from granavg.io.frames import Frame
 
 #: Equal rings (or slabs) when neither a count nor edges are given.
 DEFAULT_BINS = 20
@@ -38,6 +40,35 @@ def discard_time(manifest: dict) -> float:
     if "t_discard_s" in derived:
         return float(derived["t_discard_s"])
     return scene.get("discard_rotations", OLD_DISCARD_ROTATIONS) * 2 * math.pi / scene["Omega"]
+
+
+def scene_body_forces(manifest: dict) -> list:
+    """The body force terms of a run's scene: its base-plate friction (where mu_base > 0;
+    the deck's law, :func:`~granavg.engine.body_forces.base_plate`)."""
+    scene = manifest["scene"]
+    if scene.get("mu_base", 0.0) > 0:
+        return [base_plate(scene["mu_base"], scene["v_base"])]
+    return []
+
+
+class WithBodyForces:
+    """A frame source whose frames carry the body forces of ``terms`` (atoms' ``bx by``);
+    every other attribute is the source's."""
+
+    def __init__(self, source, terms, h: float, rho_p: float | None):
+        self.source, self.terms, self.h, self.rho_p = source, list(terms), h, rho_p
+
+    def frame(self, f) -> Frame:
+        if not self.terms:
+            return f
+        return Frame(f.timestep, f.time, add_body_forces(f.atoms, self.terms, self.h,
+                                                         self.rho_p), f.contacts)
+
+    def __iter__(self):
+        return (self.frame(f) for f in self.source)
+
+    def __getattr__(self, name):
+        return getattr(self.source, name)
 
 
 def equal_edges(lo: float, hi: float, bins: int | None) -> np.ndarray:
@@ -66,10 +97,12 @@ class RunAverage:
     t_min: float
     block_time: float
     files: dict = field(default_factory=dict)
+    branch: str = "contact"
+    body_forces: list = field(default_factory=list)
 
     @classmethod
     def of(cls, manifest: dict, groups, *, bins=None, edges=None, t_min=None,
-           block_time=None) -> "RunAverage":
+           block_time=None, branch="contact") -> "RunAverage":
         """The average of the run ``manifest`` describes, options resolved."""
         scene, derived = manifest["scene"], manifest["derived"]
         validate.ring_options(bins, edges)
@@ -78,7 +111,8 @@ class RunAverage:
         t_min = discard_time(manifest) if t_min is None else float(t_min)
         block_time = block_time or max(derived["dump_interval_s"],
                                        (derived["t_end_s"] - t_min) / MAX_BLOCKS)
-        return cls(manifest, rings, list(groups), t_min, block_time)
+        return cls(manifest, rings, list(groups), t_min, block_time, branch=branch,
+                   body_forces=scene_body_forces(manifest))
 
     @property
     def meta(self) -> dict:
@@ -88,7 +122,8 @@ class RunAverage:
                 "rings": {"edges_m": list(self.geometry.edges), "h_m": self.geometry.h},
                 "geometry": self.geometry.describe(),
                 "frames": {"t_min_s": self.t_min, "block_time_s": self.block_time},
-                "run_manifest": self.manifest, **({"files": self.files} if self.files else {})}
+                "run_manifest": self.manifest, **({"files": self.files} if self.files else {}),
+                "body_forces": [t.describe for t in self.body_forces]}
 
     def averager(self, frames=None, series: bool = True) -> CellAverage:
         """A :class:`CellAverage` of ``frames`` with the Couette cell's per-frame state
@@ -96,8 +131,10 @@ class RunAverage:
         scene = self.manifest["scene"]
         state = TimeSeries(scene["R_i"], scene["R_o"], scene["h"], scene["rho_p"],
                            scene["d_s"]) if series else None
+        if frames is not None and self.body_forces and "body" in self.groups:
+            frames = WithBodyForces(frames, self.body_forces, scene["h"], scene["rho_p"])
         avg = CellAverage(frames, self.geometry, self.groups, scene["rho_p"], self.t_min,
-                          self.block_time, state)
+                          self.block_time, state, branch=self.branch)
         avg.meta = self.meta
         return avg
 

@@ -19,7 +19,7 @@ from granavg.engine.quantities import groups_for
 from granavg.io.contacts import COLUMNS
 from granavg.io.frames import Frame
 from granavg.io.profiles_io import write_profiles
-from granavg.pipeline.description import RunAverage
+from granavg.pipeline.description import RunAverage, WithBodyForces, scene_body_forces
 from granavg.sim.lammps_frames import atoms_by_id
 
 log = logging.getLogger(__name__)
@@ -57,12 +57,15 @@ class InSituAverage:
     def __init__(self, manifest: dict):
         contacts = manifest["scene"].get("contacts", True)
         opts = manifest["average"]
-        self.groups = groups_for(opts.get("quantities"), contacts)
-        self.averages = {n: RunAverage.of(manifest, self.groups, bins=n,
-                                          t_min=opts.get("t_min_s"),
-                                          block_time=opts.get("block_time_s"))
-                         .averager(series=k == 0)  # one time series serves every count
-                         for k, n in enumerate(opts["bins"])}
+        self.groups = groups_for(opts.get("quantities"), contacts,
+                                 bool(scene_body_forces(manifest)))
+        specs = [RunAverage.of(manifest, self.groups, bins=n, t_min=opts.get("t_min_s"),
+                               block_time=opts.get("block_time_s"),
+                               branch=opts.get("branch", "contact")) for n in opts["bins"]]
+        self.body = WithBodyForces((), specs[0].body_forces if "body" in self.groups else [],
+                                   manifest["scene"]["h"], manifest["scene"]["rho_p"])
+        self.averages = {n: spec.averager(series=k == 0)  # one time series serves all
+                         for k, (n, spec) in enumerate(zip(opts["bins"], specs))}
         for avg in self.averages.values():
             avg.prepare()
         self.dt, self.contacts = manifest["derived"]["dt_s"], contacts
@@ -70,8 +73,9 @@ class InSituAverage:
     def add(self, step: int, atoms: np.ndarray, table: np.ndarray | None) -> None:
         """Accumulate one frame: rows of :func:`granavg.sim.lammps_frames.local_atoms` of all
         ranks and their contacts (:func:`~granavg.io.contacts.contact_table` rows)."""
-        frame = Frame(step, step * self.dt, atoms_by_id(atoms),
-                      dict(zip(COLUMNS, table.T)) if table is not None else None)
+        frame = self.body.frame(Frame(step, step * self.dt, atoms_by_id(atoms),
+                                      dict(zip(COLUMNS, table.T)) if table is not None
+                                      else None))
         for avg in self.averages.values():
             avg.add(frame)
 

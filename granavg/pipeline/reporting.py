@@ -11,6 +11,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from granavg.analysis.claims import analyze
+from granavg.analysis.fields import analyze_fields, write_field_report
 from granavg.analysis.figures import save_all
 from granavg.analysis.report import write_report, write_summary
 from granavg.engine.profiles import Profiles
@@ -108,15 +109,28 @@ def report_run(run_dir, out, bins=(20, 60), t_min=None, progress=None, title="gr
 ANALYSED = ("nu", "rho", "v_phi", "omega", "F_rr", "sigma_rr", "dsigma_rr", "eps_rr")
 
 
-def analyze_command(profiles, out, density_series=()) -> Path:
-    """The ``analyze`` command: two ring profiles of one run (and coarse profiles at
-    other area fractions) -> ``out/report.html`` and its companions; ``out`` must be new
-    or empty, and is written only when complete."""
+def analyze_command(profiles, out, density_series=(), closed=None) -> Path:
+    """The ``analyze`` command -> ``out/report.html`` and its companions (``out`` must be
+    new or empty, and is written only when complete): two ring profiles of one granavg
+    run or ensemble (and coarse profiles at other area fractions) get the paper's
+    analysis; profiles of any other cells, or without a run manifest, the fields and the
+    balance of forces (:mod:`granavg.analysis.fields`; ``closed``: their outer faces
+    are walls or empty space)."""
     out = Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise UserError(f"--out {out}: exists and is not an empty directory; choose a new "
                         "--out (reports are never overwritten)")
     inputs = [read_profiles(p) for p in profiles]
+    paper = len(inputs) == 2 and all(p.rings.kind == "rings" and (p.meta or {}).get(
+        "run_manifest") for p in inputs)
+    if not paper:
+        if density_series:
+            raise UserError("--density-series needs two ring profiles of a granavg run")
+        with staged_directory(out) as tmp:
+            summary = analyze_fields(inputs, profiles, closed=bool(closed))
+            write_field_report(summary, inputs, tmp)
+        log.info("report: %s", out / "report.html")
+        return out / "report.html"
     series = [read_profiles(p) for p in density_series]
     for p, name in zip([*inputs, *series], [*profiles, *density_series]):
         if not (p.meta or {}).get("run_manifest"):

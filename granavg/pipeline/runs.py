@@ -12,11 +12,11 @@ from granavg.io import validate
 from granavg.io.reader import DumpReader
 from granavg.io.run_directory import read_manifest
 from granavg.io.run_dumps import RunDumps
-from granavg.pipeline.description import RunAverage
+from granavg.pipeline.description import RunAverage, scene_body_forces
 
 
 def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
-                 quantities=None, atoms=None, contacts=None, steps=None):
+                 quantities=None, atoms=None, contacts=None, steps=None, branch="contact"):
     """The :class:`~granavg.engine.average.CellAverage` of a run directory, its frames
     read lazily (only those with time steps in ``steps = (first, last)`` if given).
 
@@ -34,6 +34,9 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
         Keys of :data:`~granavg.engine.quantities.QUANTITIES`; default all the files allow.
     atoms, contacts : path, optional
         Dump files to use instead of the run directory's.
+    branch : {"contact", "paper"}
+        Where the branch vectors of Eqs. 5 and 7 end
+        (:data:`granavg.engine.kernels.BRANCHES`).
     """
     if run_dir is None:
         raise UserError("give the run directory: its manifest holds h, rho_p and the rings")
@@ -43,14 +46,18 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
     atoms = Path(atoms) if atoms else run_dir / f"atoms.{ext}"
     if contacts is None and (run_dir / f"contacts.{ext}").exists():
         contacts = run_dir / f"contacts.{ext}"
-    groups = groups_for(quantities, contacts is not None)
+    body = scene_body_forces(manifest)
+    groups = groups_for(quantities, contacts is not None, bool(body))
     atom_cols, contact_cols = needed_columns(groups)
+    if "body" in groups:                  # computed from the disks' velocities, not read
+        atom_cols = {**{c: g for c, g in atom_cols.items() if c not in ("bx", "by")},
+                     "vx": "body", "vy": "body"}
     need_contacts = any(QUANTITIES[g][2] for g in groups)
     reader_a = DumpReader(atoms, list(atom_cols), atom_cols, steps)
     reader_c = DumpReader(contacts, list(contact_cols), contact_cols, steps) \
         if need_contacts else None
     spec = RunAverage.of(manifest, groups, bins=bins, edges=edges, t_min=t_min,
-                         block_time=block_time)
+                         block_time=block_time, branch=branch)
     spec.files = {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None}
     return spec.averager(RunDumps(reader_a, reader_c, dt=manifest["derived"]["dt_s"]))
 

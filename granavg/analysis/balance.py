@@ -1,0 +1,142 @@
+"""The balance of forces on profiles of any cells: div(sigma - dsigma) + b + t = 0,
+with b the body force density (gravity, base-plate friction; ``body_*``) and t the
+boundary force density (what walls exert on the packing; ``boundary_*``).
+
+Conventions as :mod:`granavg.analysis.continuum`: tension-positive stress, first index
+the force's, divergence on the second index, (div T)_i = d_j T_ij.
+
+- rings, steady and axisymmetric (Eqs. 11-12 with the force densities), in r-form:
+  radial d(r T_rr)/dr - T_phiphi + r f_r (= r dT_rr/dr + T_rr - T_phiphi + r f_r),
+  tangential d(r^2 T_phir)/dr / r + T_rphi - T_phir + r f_phi (= r dT_phir/dr + T_rphi
+  + T_phir + r f_phi);
+- slabs across u (x or y): dT_xu/du + f_x and dT_yu/du + f_y, times the cell width;
+- a grid: dT_ix/dx + dT_iy/dy + f_i, times the mean cell width (interior cells).
+
+At a wall the stress ends: the flux through the wall is nil and the wall's action is the
+boundary force density, so the cells next to it are balanced in finite-volume form with
+no flux through their outer face (``closed``).
+
+Each residual is made the net force on the cell over the area of its face (rings: the
+r-form times dr / r; slabs: times the width), a stress (Pa in SI) that does not grow
+with the number of cells, and compared with the stress scale (the mean |trace sigma|
+/ 2 of the cells with disks): "the cell's forces balance to x of the stress on its
+face". (The paper's Fig. 7 plots the r-form itself, r/dr times larger.) Errors come from
+the profiles' replicates (jackknife blocks or realisations), the same way as every
+derived number.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Force densities that enter the balance, in the order added.
+FORCE_DENSITIES = ("body", "boundary")
+
+
+def _component(values, name, n):
+    return np.asarray(values[name], float) if name in values else np.zeros(n)
+
+
+def _axes(geometry):
+    return ("r", "phi") if geometry.axes == ("r", "phi") else ("x", "y")
+
+
+def tensor_total(values, geometry, dynamic=True):
+    """T = sigma - dsigma (or sigma alone) as a dict of components (rr, rphi, ... or
+    xx, xy, ...)."""
+    a, b = _axes(geometry)
+    n = geometry.n
+    out = {}
+    for i in (a, b):
+        for j in (a, b):
+            s = _component(values, f"sigma_{i}{j}", n)
+            d = _component(values, f"dsigma_{i}{j}", n) if dynamic else 0.0
+            out[i + j] = s - d
+    return out
+
+
+def force_density(values, geometry, terms=FORCE_DENSITIES):
+    """f = the sum of the force densities present (``body``, ``boundary``), per
+    component, shape (n_cells,) each."""
+    a, b = _axes(geometry)
+    n = geometry.n
+    return {c: sum((_component(values, f"{t}_{c}", n) for t in terms), np.zeros(n))
+            for c in (a, b)}
+
+
+def _faces(T, closed):
+    """Face values between neighbouring cells, (T_k + T_k+1) / 2, with the outer faces
+    0 where ``closed`` (nothing of the packing beyond: a wall, whose action is the
+    boundary force density, or empty space) and NaN otherwise; shape (n + 1,)."""
+    outer = 0.0 if closed else np.nan
+    return np.concatenate([[outer], 0.5 * (T[1:] + T[:-1]), [outer]])
+
+
+def residuals(values, geometry, terms=FORCE_DENSITIES, dynamic=True, closed=False):
+    """The two components of the balance residual per cell (see the module docstring),
+    a stress, in finite-volume form: the flux of T through each face from the mean of
+    the two cells beside it, and through the outer faces none where ``closed`` (else
+    the edge cells are NaN: their outer flux is unknown). Interior cells get the
+    central difference. Grids: interior cells only."""
+    T = tensor_total(values, geometry, dynamic)
+    f = force_density(values, geometry, terms)
+    if geometry.kind == "rings":
+        e, r = geometry.edges, geometry.centre
+        dr = np.diff(e)
+        flux_rr = np.diff(e * _faces(T["rr"], closed)) / dr            # d(r T_rr)/dr
+        flux_pr = np.diff(e * e * _faces(T["phir"], closed)) / dr / r  # d(r^2 T_phir)/dr / r
+        per_cell = dr / r                                # r (div T + f) -> per cell
+        return (per_cell * (flux_rr - T["phiphi"] + r * f["r"]),
+                per_cell * (flux_pr + T["rphi"] - T["phir"] + r * f["phi"]))
+    if geometry.kind == "slabs":
+        k = geometry.axis
+        return tuple(np.diff(_faces(T[c + k], closed)) + np.diff(geometry.edges) * f[c]
+                     for c in ("x", "y"))
+    nx, ny = len(geometry.xedges) - 1, len(geometry.yedges) - 1
+    xc = 0.5 * (geometry.xedges[1:] + geometry.xedges[:-1])
+    yc = 0.5 * (geometry.yedges[1:] + geometry.yedges[:-1])
+    width = 0.5 * (np.mean(np.diff(geometry.xedges)) + np.mean(np.diff(geometry.yedges)))
+    inner = np.zeros((nx, ny), bool)
+    inner[1:-1, 1:-1] = True
+
+    def div(c):
+        tx, ty = T[c + "x"].reshape(nx, ny), T[c + "y"].reshape(nx, ny)
+        d = np.full((nx, ny), np.nan)
+        if nx > 2 and ny > 2:
+            d = np.gradient(tx, xc, axis=0) + np.gradient(ty, yc, axis=1)
+        return np.where(inner, d, np.nan).ravel()
+    return (width * (div("x") + f["x"]), width * (div("y") + f["y"]))
+
+
+def stress_scale(values, geometry) -> float:
+    """Mean |trace sigma| / 2 over the cells with disks (the residuals' yardstick)."""
+    a, b = _axes(geometry)
+    tr = 0.5 * np.abs(_component(values, f"sigma_{a}{a}", geometry.n) +
+                      _component(values, f"sigma_{b}{b}", geometry.n))
+    full = np.asarray(values.get("nu", np.ones(geometry.n))) > 0
+    return float(np.nanmean(tr[full])) if np.any(full) else float("nan")
+
+
+def balance(profiles, terms=FORCE_DENSITIES, dynamic=True, closed=False) -> dict:
+    """The balance residual of a profile, relative to its stress scale, per cell and
+    component, with errors from the replicates.
+
+    Returns
+    -------
+    dict
+        ``scale``; ``residual`` and ``residual_err`` (2, n_cells) relative to it;
+        ``terms`` (the force densities present and used).
+    """
+    geo = profiles.rings
+    used = [t for t in terms if any(k.startswith(t + "_") for k in profiles.values)]
+    scale = stress_scale(profiles.values, geo)
+    res = np.array(residuals(profiles.values, geo, used, dynamic, closed)) / scale
+    err = np.full(res.shape, np.nan)
+    reps = profiles.replicates
+    if reps is not None and reps.n >= 2:
+        each = np.array([np.array(residuals({k: v[i] for k, v in reps.values.items()}, geo,
+                                            used, dynamic, closed)) / scale
+                         for i in range(reps.n)])
+        err = np.array([[reps.error(each[:, c, k]) for k in range(geo.n)] for c in range(2)])
+    return {"scale": scale, "residual": res, "residual_err": err, "terms": used,
+            "closed": bool(closed)}

@@ -1,0 +1,136 @@
+"""Profiles of any cells (rings, slabs, grids; anyone's dumps, no run manifest): the
+fields plotted against position, the balance of forces (:mod:`granavg.analysis.balance`)
+per cell with its errors, and a summary. The paper's ring-specific checks
+(:mod:`granavg.analysis.claims`) are not made here.
+
+Plotting functions take ``ax=None`` (a new figure) and return the axes.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from granavg.analysis.balance import balance  # noqa: E402
+
+OKABE_ITO = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000"]
+#: Groups of columns drawn together, by prefix.
+PANELS = [("volume fraction and density", ("nu",)), ("velocity", ("v_",)),
+          ("stress", ("sigma_",)), ("dynamic stress", ("dsigma_",)),
+          ("force densities", ("body_", "boundary_"))]
+
+
+def position(p):
+    """(name, coordinate per cell) of a 1D profile; None for a grid."""
+    coords = p.rings.coordinates()
+    for name in ("r", "x", "y"):
+        if name in coords and p.rings.kind != "grid":
+            return name, coords[name]
+    return None
+
+
+def profile_panels(p, ax=None):
+    """Each panel of :data:`PANELS` against position, values with their errors."""
+    where = position(p)
+    panels = [(t, [k for k in p.values if k.startswith(pre) and not k.startswith("dsigma_fluct")])
+              for t, pre in PANELS]
+    panels = [(t, ks) for t, ks in panels if ks]
+    if ax is None:
+        _, ax = plt.subplots(1, len(panels), figsize=(4.0 * len(panels), 3.2),
+                             constrained_layout=True)
+    ax = np.atleast_1d(ax)
+    units = p.meta.get("columns", {})
+    for a, (title, keys) in zip(ax, panels):
+        for k, key in enumerate(keys):
+            if where is None:
+                continue
+            a.errorbar(where[1], p.values[key], yerr=p.sem.get(key), ls="-", marker="o",
+                       ms=3, color=OKABE_ITO[k % len(OKABE_ITO)], label=key)
+        a.set_title(title)
+        a.set_xlabel(f"{where[0] if where else 'cell'} ({units.get(where[0], '') if where else ''})")
+        a.legend(fontsize=7)
+    return ax
+
+
+def balance_panel(p, result, ax=None):
+    """The balance residual per cell (both components, relative to the stress scale),
+    with its errors; the band +-0.1 for scale."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(4.8, 3.2), constrained_layout=True)
+    where = position(p)
+    x = where[1] if where else np.arange(p.rings.n)
+    a, b = ("r", "phi") if p.rings.axes == ("r", "phi") else ("x", "y")
+    for k, comp in enumerate((a, b)):
+        ax.errorbar(x, result["residual"][k], yerr=result["residual_err"][k], ls="none",
+                    marker="os"[k], ms=4, color=OKABE_ITO[k], label=f"{comp} component")
+    ax.axhspan(-0.1, 0.1, color="0.9", zorder=0)
+    ax.axhline(0, color="0.5", lw=0.8)
+    ax.set_xlabel(where[0] if where else "cell")
+    ax.set_ylabel("net force on a cell / (stress scale x face)")
+    terms = ", ".join(result["terms"]) or "none"
+    ax.set_title(f"balance (force densities: {terms})", fontsize=9)
+    ax.legend(fontsize=7)
+    return ax
+
+
+def analyze_fields(profiles, names, closed=False) -> dict:
+    """The summary of profiles of any cells: per profile its geometry, units and the
+    balance of forces (median and largest |residual| with errors; with and without the
+    force densities)."""
+    out = {"kind": "fields", "closed": bool(closed), "profiles": []}
+    for p, name in zip(profiles, names):
+        full, bare = balance(p, closed=closed), balance(p, terms=(), closed=closed)
+        occupied = np.asarray(p.values.get("nu", np.ones(p.rings.n))) > 0
+        res = np.abs(full["residual"])[:, occupied]
+        out["profiles"].append({
+            "profile": str(name), "geometry": p.rings.describe(), "n_cells": p.rings.n,
+            "units": p.meta.get("units"), "n_frames": p.n_frames,
+            "balance": {"terms": full["terms"], "stress_scale": full["scale"],
+                        "median_abs_residual": float(np.nanmedian(res)) if res.size else None,
+                        "max_abs_residual": float(np.nanmax(res)) if res.size else None,
+                        "max_abs_residual_without_forces":
+                            float(np.nanmax(np.abs(bare["residual"])[:, occupied]))
+                            if res.size else None,
+                        "residual": full["residual"].tolist(),
+                        "residual_err": full["residual_err"].tolist()}})
+    return out
+
+
+def write_field_report(summary, profiles, out) -> Path:
+    """Figures (PNG), ``summary.json`` and a small ``report.html`` into ``out``."""
+    out = Path(out)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    rows = []
+    for k, (p, s) in enumerate(zip(profiles, summary["profiles"])):
+        ax = profile_panels(p)
+        ax[0].figure.savefig(out / "figures" / f"profiles{k}.png", dpi=110)
+        plt.close(ax[0].figure)
+        res = {"residual": np.array(s["balance"]["residual"]),
+               "residual_err": np.array(s["balance"]["residual_err"]),
+               "terms": s["balance"]["terms"]}
+        ax = balance_panel(p, res)
+        ax.figure.savefig(out / "figures" / f"balance{k}.png", dpi=110)
+        plt.close(ax.figure)
+        b = s["balance"]
+        rows.append(f"<h2>{html.escape(s['profile'])}</h2><p>{s['n_cells']} "
+                    f"{html.escape(p.rings.kind)}, {s['n_frames']} frames, units "
+                    f"{html.escape(str(s['units']))}. Balance of forces (force densities: "
+                    f"{html.escape(', '.join(b['terms']) or 'none')}; outer faces "
+                    f"{'closed' if summary['closed'] else 'open: edge cells not judged'}): "
+                    f"median |residual| {b['median_abs_residual']:.3g}, largest "
+                    f"{b['max_abs_residual']:.3g} (without the force densities "
+                    f"{b['max_abs_residual_without_forces']:.3g}) of the stress scale "
+                    f"{b['stress_scale']:.4g}.</p><img src='figures/profiles{k}.png'>"
+                    f"<img src='figures/balance{k}.png'>")
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (out / "report.html").write_text(
+        "<!doctype html><meta charset='utf-8'><title>granavg fields</title><body>"
+        "<h1>granavg: fields and the balance of forces</h1>" + "".join(rows) + "</body>")
+    return out / "report.html"

@@ -1,0 +1,102 @@
+"""The balance of forces, checked with physics: a pile at rest carries its weight
+through the slab stress; the paper's branch vector misses a pair's force by exactly the
+overlap ratio; body and boundary force densities close the momentum balance.
+
+The pile is tests/decks/pile_2d_lj.lmp (LAMMPS' own run, lj units, default dump
+formatting, gravity 1), with springs soft enough (k_n = 200) for overlaps of up to 8% of
+a diameter: across any horizontal cut the contacts carry the weight above,
+-sigma_yy(y) W h = g M_above(y), frame by frame, in static equilibrium. The slab
+average of the disks' smeared stress equals the slab average of that cut stress only
+where the slabs are wide against a disk (two diameters here); slabs one diameter wide
+scatter by 1-2% with the layering."""
+
+import numpy as np
+import pytest
+
+from granavg.engine import Slabs, average
+from granavg.io.frames import Frame
+from granavg.io.profiles_io import read_profiles
+
+from .conftest import run_cli
+from .test_default_dumps import MAP, frames, run_deck
+
+W, H = 20.0, 1.0                       # the deck's box width (periodic) and disk height
+
+
+@pytest.fixture(scope="module")
+def pile(tmp_path_factory):
+    out = tmp_path_factory.mktemp("pile_balance")
+    run_deck(out, kn=200.0)
+    return out
+
+
+def weight_above(atoms, edges, g=1.0, samples=400):
+    """g M_above(y) averaged over each slab [e_k, e_k+1): each disk's mass split by its
+    area above the cut (circular segments), by quadrature over y (independent of
+    granavg)."""
+    a, y, m = 0.5 * atoms[:, 2], atoms[:, 5], atoms[:, 3]
+    out = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        cuts = lo + (np.arange(samples) + 0.5) / samples * (hi - lo)
+        u = np.clip((cuts[:, None] - y[None, :]) / a[None, :], -1, 1)
+        share = (np.arccos(u) - u * np.sqrt(1 - u * u)) / np.pi     # area above / area
+        out.append(g * np.mean(share @ m))
+    return np.array(out)
+
+
+def slab_profiles(pile, dest, *extra):
+    proc = run_cli("average", "--atoms", pile / "atoms.dump", "--contacts",
+                   pile / "contacts.dump", "--contact-columns", MAP, "--thickness", H,
+                   "--slabs", "y", "--range", 0, 14, "--bins", 7, "--gravity", 0, -1,
+                   "--out", dest, "--no-progress", *extra)
+    assert proc.returncode == 0, proc.stderr
+    return read_profiles(dest)
+
+
+def test_a_pile_at_rest_carries_its_weight(pile, tmp_path):
+    """Contact branch (the default): within 1% in every bulk slab (2 <= y <= 8: above
+    the floor's layer, well below the free surface at y ~ 11; measured 0.25-0.4%). The
+    paper's branch vector carries more than the weight, by about the mean overlap over
+    d (measured +1.7 to +2.3%)."""
+    p = slab_profiles(pile, tmp_path / "c.csv")
+    paper = slab_profiles(pile, tmp_path / "p.csv", "--branch", "paper")
+    edges = p.rings.edges
+    load = np.mean([weight_above(a, edges) for _, _, a in frames(pile / "atoms.dump")], axis=0)
+    carried = -p.values["sigma_yy"] * W * H
+    bulk = (p.rings.coordinates()["y"] >= 2) & (p.rings.coordinates()["y"] <= 8)
+    assert bulk.sum() == 3
+    ratio = carried[bulk] / load[bulk]
+    assert np.all(np.abs(ratio - 1) < 0.01), ratio
+    excess = (-paper.values["sigma_yy"] * W * H)[bulk] / load[bulk] - 1
+    assert np.all(excess > 0.01) and np.all(excess > 2 * np.abs(ratio - 1)), (excess, ratio)
+    assert p.meta["branch"] == "contact" and paper.meta["branch"] == "paper"
+    # the body force density is rho g, the frames' own masses (g = (0, -1))
+    assert np.allclose(p.values["body_y"], -p.values["rho"], rtol=1e-12, atol=0)
+    assert np.allclose(p.values["body_x"], 0.0)
+    assert p.meta["columns"]["body_y"] == "force/length^3"
+
+
+def pair(a1, a2, dist, f):
+    """A frame of two disks on the x axis pressed together by a normal force f."""
+    atoms = {"x": np.array([0.0, dist]), "y": np.zeros(2), "radius": np.array([a1, a2]),
+             "id": np.array([1.0, 2.0])}
+    c = {"id1": np.array([1.0]), "id2": np.array([2.0]), "wall": np.zeros(1),
+         "fnx": np.array([-f]), "fny": np.zeros(1), "ftx": np.zeros(1), "fty": np.zeros(1),
+         "nx": np.ones(1), "ny": np.zeros(1), "overlap": np.array([a1 + a2 - dist])}
+    return Frame(0, 0.0, atoms, c)
+
+
+@pytest.mark.parametrize("a1, a2, dist", [(1.0, 1.0, 1.9), (0.5, 1.2, 1.6), (1.0, 0.4, 1.39)])
+def test_the_paper_branch_misses_a_pair_by_the_overlap_ratio(a1, a2, dist):
+    """sum_k V_k tr sigma_k = -f (a1 + a2) with Eq. 5 as printed, -f r_12 with the
+    contact point: their ratio is 1 + delta / r_12 exactly, for any two radii."""
+    cells = Slabs(np.array([-5.0, 5.0]), 1.0, "x", 10.0)
+    got = {}
+    for branch in ("paper", "contact"):
+        p = average([pair(a1, a2, dist, 2.0)], cells, quantities=["sigma"], branch=branch)
+        got[branch] = float(p.rings.volume[0] * (p.values["sigma_xx"][0] +
+                                                 p.values["sigma_yy"][0]))
+    assert got["contact"] == pytest.approx(-2.0 * dist, rel=1e-14)
+    assert got["paper"] == pytest.approx(-2.0 * (a1 + a2), rel=1e-14)
+    assert got["paper"] / got["contact"] == pytest.approx(1 + (a1 + a2 - dist) / dist,
+                                                          rel=1e-14)
