@@ -22,7 +22,7 @@ from granavg.engine.average import CellAverage, frame_sums
 from granavg.engine.geometry import Rings
 from granavg.pipeline.runs import average_run
 from granavg.engine.kernels import CHANNELS
-from granavg.engine.quantities import QUANTITIES
+from granavg.engine.quantities import groups_for
 from granavg.io.frames import Frame
 from granavg.io.reader import DumpReader
 from granavg.io.run_dumps import RunDumps
@@ -87,7 +87,7 @@ def memory_rows(frames, m):
                   for k, f in zip(range(n), itertools.cycle(frames)))
         tracemalloc.start()
         t0 = time.perf_counter()
-        CellAverage(stream, rings, list(QUANTITIES), scene["rho_p"], 0.0, 250.0).run(False)
+        CellAverage(stream, rings, groups_for(None, True), scene["rho_p"], 0.0, 250.0).run(False)
         elapsed = time.perf_counter() - t0
         peak = tracemalloc.get_traced_memory()[1] / 1e6
         tracemalloc.stop()

@@ -100,3 +100,72 @@ def test_the_paper_branch_misses_a_pair_by_the_overlap_ratio(a1, a2, dist):
     assert got["paper"] == pytest.approx(-2.0 * (a1 + a2), rel=1e-14)
     assert got["paper"] / got["contact"] == pytest.approx(1 + (a1 + a2 - dist) / dist,
                                                           rel=1e-14)
+
+
+@pytest.fixture(scope="module")
+def plated(tmp_path_factory):
+    """The small Couette cell sheared with base-plate friction (a real LAMMPS run),
+    averaged over 8 rings from R_i to R_o."""
+    from .conftest import small_cell_args
+    out = tmp_path_factory.mktemp("plated")
+    proc = run_cli(*small_cell_args(out / "run", "mu_base=0.03", "t_end=6"))
+    assert proc.returncode == 0, proc.stderr
+    proc = run_cli("average", out / "run", "--bins", 8, "--t-min", 2, "--out",
+                   out / "p8.csv", "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+def test_the_couette_walls_balance_with_the_boundary_and_plate_forces(plated):
+    """Without the force densities the wall rings miss by about the whole wall stress
+    (measured 1.05 of the stress scale); with the walls' boundary force density (at the
+    contact points) and the base plate's body force every ring closes within 0.1 and 2
+    errors (measured at most 0.022); the plate's friction is seen where the shear is."""
+    from granavg.analysis.balance import balance
+
+    p = read_profiles(plated / "p8.csv")
+    assert p.meta["body_forces"][0]["base_plate"]["mu_base"] == 0.03
+    bare = balance(p, terms=(), closed=True)
+    full = balance(p, closed=True)
+    no_plate = balance(p, terms=("boundary",), closed=True)
+    assert full["terms"] == ["body", "boundary"]
+    assert np.all(np.abs(bare["residual"][:, [0, -1]]).max(axis=0) > 0.5)
+    assert np.all(np.abs(full["residual"]) < 0.1)
+    assert np.all(np.abs(full["residual"]) < 0.1 - 2 * full["residual_err"])
+    # the plate: the inner wall ring's balance is better with it
+    assert np.abs(full["residual"][:, 0]).max() < np.abs(no_plate["residual"][:, 0]).max()
+    # the cell's torques: the packing holds the turning inner ring back and drags the
+    # outer one along; the plate takes up the difference
+    ts = p.timeseries[p.timeseries.t_s >= 2]
+    assert ts.torque_in_Nm.mean() < 0 < ts.torque_out_Nm.mean() < -ts.torque_in_Nm.mean()
+
+
+def test_analyze_runs_on_slab_profiles_of_plain_dumps(tmp_path):
+    """`granavg analyze` on a slab profile of anyone's dumps (no run manifest): the
+    fields, the balance figure and a summary; the pile on its floor of wall disks, cells
+    from the floor's top, closes in every slab with gravity and the floor's boundary
+    force, and misses at the floor without them."""
+    pile = tmp_path / "pile"
+    run_deck(pile, floor="disks", kn=200.0)
+    proc = run_cli("average", "--atoms", pile / "atoms.dump", "--contacts",
+                   pile / "contacts.dump", "--contact-columns", MAP, "--thickness", H,
+                   "--slabs", "y", "--range", 1, 15, "--bins", 7, "--gravity", 0, -1,
+                   "--wall-types", 2, "--out", tmp_path / "s.csv", "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    proc = run_cli("analyze", tmp_path / "s.csv", "--closed", "--out", tmp_path / "rep")
+    assert proc.returncode == 0, proc.stderr
+    import json
+    s = json.loads((tmp_path / "rep" / "summary.json").read_text())
+    b = s["profiles"][0]["balance"]
+    assert b["terms"] == ["body", "boundary"]
+    assert b["max_abs_residual"] < 0.1 < 1.0 < b["max_abs_residual_without_forces"]
+    assert (tmp_path / "rep" / "report.html").exists()
+    assert (tmp_path / "rep" / "figures" / "balance0.png").stat().st_size > 1000
+
+
+def test_walls_without_contact_rows_are_said_to_be_missing(pile, tmp_path):
+    """The pile on a fix wall/gran floor: no wall contact in the dumps, so the sidecar
+    says the boundary term is absent, and the floor's slab misses by about the weight."""
+    p = slab_profiles(pile, tmp_path / "w.csv")
+    assert p.meta["boundary"].startswith("absent")
+    assert np.all(p.values["boundary_y"] == 0)

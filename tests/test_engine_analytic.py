@@ -12,7 +12,7 @@ from granavg.io.frames import Frame
 from granavg.engine.weights import ring_weights
 
 H, RHO_P = 0.006, 1060.0
-ALL = list(QUANTITIES)
+ALL = [g for g in QUANTITIES if g != "body"]      # these frames carry no body forces
 
 
 def hex_crystal(a=0.004, delta=1e-4, k=10.0, extent=0.12):
@@ -40,16 +40,20 @@ def hex_crystal(a=0.004, delta=1e-4, k=10.0, extent=0.12):
     return Frame(0, 0.0, atoms, contacts)
 
 
-def average(frames, rings, groups=ALL, block_time=1.0):
-    return CellAverage(frames, rings, groups, RHO_P, t_min=0.0, block_time=block_time).run(
-        progress=False)
+def average(frames, rings, groups=ALL, block_time=1.0, branch="contact"):
+    return CellAverage(frames, rings, groups, RHO_P, t_min=0.0, block_time=block_time,
+                       branch=branch).run(progress=False)
 
 
-def test_compressed_hex_crystal_gives_fabric_stress_and_strain_exactly():
+@pytest.mark.parametrize("branch, reach", [("contact", 0.5), ("paper", 0.0)])
+def test_compressed_hex_crystal_gives_fabric_stress_and_strain_exactly(branch, reach):
+    """Branch vectors of length l = a - reach delta: to the contact point (the middle of
+    the overlap) or, as Eq. 5 is printed, to the disk's surface."""
     a, delta, k = 0.004, 1e-4, 10.0
     frame = hex_crystal(a, delta, k)
     rings = Rings.count(8, 0.03, 0.09, H)          # away from the crystal's edge (0.12 m)
-    p = average([frame], rings)
+    p = average([frame], rings, branch=branch)
+    length = a - reach * delta
     nu = p.values["nu"]
     assert np.all(nu > 0.85)
     # six contacts a disk: tr F = nu C, F = 3 nu I (six normals 60 degrees apart)
@@ -57,14 +61,15 @@ def test_compressed_hex_crystal_gives_fabric_stress_and_strain_exactly():
     assert np.allclose(p.values["F_rr"], 3 * nu, rtol=1e-12)
     assert np.allclose(p.values["F_rphi"], 0, atol=1e-12)
     assert np.allclose(p.values["coordination"], 6, rtol=1e-12)
-    # sigma = (1/V) sum_p w sum_c f (x) l = -3 k delta a nu / (pi a^2 h) I (tension > 0)
-    expected = -3 * k * delta * a * nu / (np.pi * a * a * H)
+    # sigma = (1/V) sum_p w sum_c f (x) l = -3 k delta l nu / (pi a^2 h) I (tension > 0)
+    expected = -3 * k * delta * length * nu / (np.pi * a * a * H)
     assert np.allclose(p.values["sigma_rr"], expected, rtol=1e-12)
     assert np.allclose(p.values["sigma_phiphi"], expected, rtol=1e-12)
     assert np.allclose(p.values["sigma_rphi"], 0, atol=1e-12 * abs(expected).max())
-    # eps = -(delta / a) I: the overlap shortens every branch vector by delta
-    assert np.allclose(p.values["eps_rr"], -delta / a, rtol=1e-12)
-    assert np.allclose(p.values["eps_phiphi"], -delta / a, rtol=1e-12)
+    # eps = -(delta l / a^2) I (-delta / a with Eq. 5's l = a): the overlap shortens
+    # every branch vector by delta
+    assert np.allclose(p.values["eps_rr"], -delta * length / a ** 2, rtol=1e-12)
+    assert np.allclose(p.values["eps_phiphi"], -delta * length / a ** 2, rtol=1e-12)
     assert np.allclose(p.values["eps_phir"], 0, atol=1e-12)
 
 

@@ -8,7 +8,8 @@ import pytest
 from granavg.engine.average import CellAverage
 from granavg.engine.geometry import Rings
 from granavg.sim.lammps_session import lammps_session, load_lammps
-from granavg.engine.quantities import QUANTITIES
+from granavg.engine.body_forces import base_plate
+from granavg.engine.quantities import groups_for
 from granavg.io.reader import DumpReader
 from granavg.io.run_dumps import RunDumps
 from granavg.io.contacts import COLUMNS, contact_table
@@ -37,8 +38,9 @@ def covering_rings(frame, h, n=15):
 
 
 def direct_sums(frame, h):
-    """sum_p sum_c f (x) l and sum_p V^p sum_c n (x) n in each disk's polar basis,
-    written independently of granavg.engine.kernels (complex numbers rotate into the basis)."""
+    """sum_p sum_c f (x) l (l = (a - delta/2) n, to the contact point) and sum_p V^p
+    sum_c n (x) n in each disk's polar basis, written independently of
+    granavg.engine.kernels (complex numbers rotate into the basis)."""
     a, c = frame.atoms, frame.contacts
     row = {int(i): k for k, i in enumerate(a["id"])}
     z = a["x"] + 1j * a["y"]
@@ -52,7 +54,7 @@ def direct_sums(frame, h):
             sides.append((row[int(c["id2"][k])], -f, -n))
         for p, fp, np_ in sides:
             fl, nl = fp * rot[p], np_ * rot[p]
-            lv = a["radius"][p] * nl
+            lv = (a["radius"][p] - 0.5 * c["overlap"][k]) * nl
             sig += np.outer([fl.real, fl.imag], [lv.real, lv.imag])
             fab += np.pi * h * a["radius"][p] ** 2 * np.outer([nl.real, nl.imag],
                                                                [nl.real, nl.imag])
@@ -63,7 +65,8 @@ def test_sum_rule_over_rings_is_exact(small_run):
     m, frames = frames_of(small_run)
     h, frame = m["scene"]["h"], frames[len(frames) // 2]
     rings = covering_rings(frame, h)
-    p = CellAverage([frame], rings, list(QUANTITIES), m["scene"]["rho_p"], 0.0, 1.0).run(False)
+    p = CellAverage([frame], rings, groups_for(None, True), m["scene"]["rho_p"], 0.0,
+                    1.0).run(False)
     V = rings.volume
     sig, fab = direct_sums(frame, h)
     for k, comp in enumerate(("rr", "rphi", "phir", "phiphi")):
@@ -133,13 +136,15 @@ def test_contact_rows_sum_to_lammps_forces_on_every_disk(tmp_path, sets):
         assert np.allclose(total[i], fi, atol=1e-10 * scale), i
 
 
-def test_stress_trace_equals_lammps_virial(tmp_path):
-    """sum_k V_k tr sigma_k = sum_c (r1 + r2) f.n uses the disks' radii as branch
-    vectors; LAMMPS' virial uses the centre distance and gives half of a wall pair to the
-    wall disk. With those known geometric differences added they agree to round-off."""
-    scene, derived, frame, lmp_trace, _ = live_frame_and_virial(tmp_path / "live")
+@pytest.mark.parametrize("branch", ["contact", "paper"])
+def test_stress_trace_equals_lammps_virial(tmp_path, branch):
+    """sum_k V_k tr sigma_k = sum_c l.f: with the contact-point branch vectors a pair
+    gives f.n dist, LAMMPS' own virial term; Eq. 5 as printed gives f.n (r1 + r2), an
+    overlap more. LAMMPS gives half of a wall pair to the wall disk. With those known
+    geometric differences they agree to round-off."""
+    scene, derived, frame, lmp_trace, _ = live_frame_and_virial(tmp_path / f"live_{branch}")
     rings = covering_rings(frame, scene.h)
-    p = CellAverage([frame], rings, ["sigma"], scene.rho_p, 0.0, 1.0).run(False)
+    p = CellAverage([frame], rings, ["sigma"], scene.rho_p, 0.0, 1.0, branch=branch).run(False)
     ours = np.sum(rings.volume * (p.values["sigma_rr"] + p.values["sigma_phiphi"]))
     c, a = frame.contacts, frame.atoms
     radius = dict(zip(a["id"].astype(int), a["radius"]))
@@ -147,7 +152,44 @@ def test_stress_trace_equals_lammps_virial(tmp_path):
     f_dot_n = (c["fnx"] + c["ftx"]) * c["nx"] + (c["fny"] + c["fty"]) * c["ny"]
     wall = c["wall"] > 0
     dist = np.where(wall, r1 + derived.wall_d / 2 - c["overlap"], np.nan)
-    # disk-disk: (r1 + r2) - dist = overlap; disk-wall: r1 against half the distance
-    correction = np.sum(np.where(wall, r1 - dist / 2, c["overlap"]) * f_dot_n)
+    # disk-disk: (r1 + r2) - dist = overlap (nothing with the contact point);
+    # disk-wall: our branch against half the distance
+    shorten = 0.5 * c["overlap"] if branch == "contact" else 0.0
+    pair_part = 0.0 if branch == "contact" else c["overlap"]
+    correction = np.sum(np.where(wall, r1 - shorten - dist / 2, pair_part) * f_dot_n)
     assert np.sum(wall) > 10 and np.sum(~wall) > 100
     assert ours == pytest.approx(lmp_trace + correction, rel=1e-10)
+
+
+def test_the_base_plate_force_is_what_lammps_applied(tmp_path):
+    """The body force granavg gives each disk from its velocity (the deck's law,
+    granavg.engine.body_forces.base_plate) equals LAMMPS' own per-atom force of the
+    deck's fix addforce, to round-off, on a sheared cell with base-plate friction."""
+    lammps = load_lammps()
+    scene = PAPER_HOOKE.with_overrides([*SMALL_CELL, "mu_base=0.03", "v_base=0.002"])
+    derived = scene.derive()
+    out = tmp_path / "base"
+    out.mkdir()
+    variables = deck_variables(out, derived, embedded=True, resume=None, start=None)
+    with lammps_session(cmdargs(out, variables, 1)) as lmp:
+        lmp.file(str(DECK))
+        lmp.command("run 2000")
+        n = lmp.extract_global("nlocal")
+        typ = np.array(lmp.numpy.extract_atom("type")[:n])
+        v = np.array(lmp.numpy.extract_atom("v")[:n, :2])
+        rad = np.array(lmp.numpy.extract_atom("radius")[:n])
+        mass = np.array(lmp.numpy.extract_atom("rmass")[:n])
+        fbx = np.array(lmp.numpy.extract_variable("fbx", "mobile", lammps.LMP_VAR_ATOM)[:n])
+        fby = np.array(lmp.numpy.extract_variable("fby", "mobile", lammps.LMP_VAR_ATOM)[:n])
+    disk = typ <= 2
+    assert np.abs(v[disk]).max() > 10 * scene.v_base          # both regimes of the law
+    assert np.abs(v[disk]).min() < scene.v_base
+    term = base_plate(scene.mu_base, scene.v_base)
+    atoms = {"x": np.zeros(disk.sum()), "radius": rad[disk], "vx": v[disk, 0],
+             "vy": v[disk, 1]}
+    gx, gy = term(atoms, scene.h, scene.rho_p)                 # masses rho_p pi h a^2
+    scale = np.abs(fbx[disk]).max()
+    assert scale > 0
+    assert np.allclose(gx, fbx[disk], rtol=1e-12, atol=1e-12 * scale)
+    assert np.allclose(gy, fby[disk], rtol=1e-12, atol=1e-12 * scale)
+    assert np.allclose(scene.rho_p * np.pi * scene.h * rad[disk] ** 2, mass[disk], rtol=1e-12)

@@ -92,6 +92,7 @@ def analyze_fields(profiles, names, closed=False) -> dict:
         out["profiles"].append({
             "profile": str(name), "geometry": p.rings.describe(), "n_cells": p.rings.n,
             "units": p.meta.get("units"), "n_frames": p.n_frames,
+            "boundary": p.meta.get("boundary", "not averaged"),
             "balance": {"terms": full["terms"], "stress_scale": full["scale"],
                         "median_abs_residual": float(np.nanmedian(res)) if res.size else None,
                         "max_abs_residual": float(np.nanmax(res)) if res.size else None,
@@ -123,7 +124,8 @@ def write_field_report(summary, profiles, out) -> Path:
                     f"{html.escape(p.rings.kind)}, {s['n_frames']} frames, units "
                     f"{html.escape(str(s['units']))}. Balance of forces (force densities: "
                     f"{html.escape(', '.join(b['terms']) or 'none')}; outer faces "
-                    f"{'closed' if summary['closed'] else 'open: edge cells not judged'}): "
+                    f"{'closed' if summary['closed'] else 'open: edge cells not judged'}; "
+                    f"boundary term: {html.escape(s['boundary'])}): "
                     f"median |residual| {b['median_abs_residual']:.3g}, largest "
                     f"{b['max_abs_residual']:.3g} (without the force densities "
                     f"{b['max_abs_residual_without_forces']:.3g}) of the stress scale "

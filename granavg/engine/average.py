@@ -15,7 +15,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.kernels import CHANNELS, particle_channels, ring_sums
+from granavg.engine.kernels import CHANNELS, INDEX, particle_channels, ring_sums, wall_points
 from granavg.engine.profiles import Profiles, flags, standard_errors, values
 from granavg.engine.quantities import QUANTITIES
 from granavg.engine.timeseries import DRIFT_Z, TimeSeries, stationarity
@@ -99,6 +99,15 @@ class CellAverage:
         meta = {**self.meta, "frames": {**self.meta.get("frames", {}), "n": acc.n_frames}}
         if {"sigma", "eps"} & set(self.groups):
             meta["branch"] = self.branch
+        if "boundary" in self.groups:
+            seen = bool(np.any(S[:, INDEX["wall_r"]:INDEX["wall_r"] + 2] != 0))
+            meta["boundary"] = "wall contacts at their contact points" if seen else (
+                "absent: no wall contact in the contact data (walls made by fix wall/gran "
+                "leave none: their force on the packing is not in the balance; wall atoms "
+                "named as walls are)")
+            if not seen:
+                log.info("no wall contact in the contact data: the boundary force density "
+                         "is absent (walls as fix wall/gran leave no contact rows)")
         ring_flags = flags(S, self.groups)
         extra = [[] for _ in ring_flags]
         if len(counts) < 2:
@@ -178,4 +187,13 @@ def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact") ->
     q = particle_channels(a, frame.contacts, rings.h, rho_p, channels,
                           basis=rings.basis(a["x"], a["y"]), branch=branch)
     particle, ring, w = rings.weights(a["x"], a["y"], a["radius"])
-    return ring_sums(particle, ring, w, q, rings.n)
+    sums = ring_sums(particle, ring, w, q, rings.n)
+    if "wall_r" in channels and frame.contacts is not None:
+        cx, cy, fx, fy = wall_points(a, frame.contacts, branch)
+        cell = rings.cell_of(cx, cy)
+        er, ephi = rings.basis(cx, cy)
+        inside = cell >= 0
+        for k, e in ((INDEX["wall_r"], er), (INDEX["wall_phi"], ephi)):
+            sums[:, k] += np.bincount(cell[inside], (fx * e[:, 0] + fy * e[:, 1])[inside],
+                                      minlength=rings.n)
+    return sums

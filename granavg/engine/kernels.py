@@ -18,9 +18,14 @@ fab_ij       V^p sum_c n_i n_j                             F (Eq. 4)
 sig_ij       sum_c f_i l_j,  l = (a - s delta) n           sigma (Eq. 5)
 kin_ij       m^p v_i v_j                                   dynamic stress (Eq. 6)
 def_ij       pi h sum_c Delta_i l_j,  Delta = -delta n     eps numerator (Eq. 7)
-wall_i       sum_(wall c) f_i                              boundary force density
+wall_i       (at the contact points) sum_(wall c) f_i      boundary force density
 body_i       b^p (the atoms' ``bx by``: gravity, ...)      body force density
 ===========  ==========================================  =========================
+
+The boundary force density is not spread with the disks' weights: each wall contact's
+force on the disk is put in the cell of its contact point (:func:`wall_points`), where
+the wall acts (the cell at the edge if the point lies just beyond it), in the basis
+there.
 
 The branch vector l ends at the contact point: s = 1/2 (``branch="contact"``, the default,
 l_1 - l_2 = r_12) or at the disk's surface, s = 0 (``branch="paper"``, Eq. 5 as printed);
@@ -109,7 +114,7 @@ def particle_channels(atoms, contacts, h, rho_p, channels, basis, branch="contac
         b = np.column_stack([atoms["bx"], atoms["by"]])
         q[:, INDEX["body_r"]] = np.einsum("ij,ij->i", b, er)
         q[:, INDEX["body_phi"]] = np.einsum("ij,ij->i", b, ephi)
-    if want & {"ncontact", "fab_rr", "sig_rr", "def_rr", "wall_r"}:
+    if want & {"ncontact", "fab_rr", "sig_rr", "def_rr"}:
         if branch not in BRANCHES:
             raise UserError(f"branch {branch!r}: choose from {', '.join(BRANCHES)}")
         _contact_channels(q, atoms, contacts, er, ephi, vol, h, want, BRANCHES[branch])
@@ -125,29 +130,43 @@ def _contact_channels(q, atoms, contacts, er, ephi, vol, h, want, shorten):
     i2[pair] = rows_of(ids, contacts["id2"][pair])
     nc = np.zeros(len(vol))
     fab, sig, dfm = (np.zeros((len(vol), 4)) for _ in range(3))
-    wall = np.zeros((len(vol), 2))
     # columns the wanted channels do not need (e.g. forces for coordination alone) may be
     # absent: they enter only channels that are not kept
     col = {k: contacts[k] if k in contacts else np.zeros(len(i1))
            for k in ("fnx", "ftx", "fny", "fty", "nx", "ny", "overlap")}
     _accumulate_contacts(i1, i2, col["fnx"] + col["ftx"], col["fny"] + col["fty"],
                          col["nx"], col["ny"], col["overlap"], er, ephi, atoms["radius"],
-                         np.pi * h, shorten, nc, fab, sig, dfm, wall)
+                         np.pi * h, shorten, nc, fab, sig, dfm)
     if "ncontact" in want:
         q[:, INDEX["ncontact"]] = vol * nc
-    for name, values in (("fab_rr", vol[:, None] * fab), ("sig_rr", sig), ("def_rr", dfm),
-                         ("wall_r", wall)):
+    for name, values in (("fab_rr", vol[:, None] * fab), ("sig_rr", sig), ("def_rr", dfm)):
         if name in want:
-            q[:, INDEX[name]:INDEX[name] + values.shape[1]] = values
+            q[:, INDEX[name]:INDEX[name] + 4] = values
+
+
+def wall_points(atoms, contacts, branch="contact"):
+    """Contact points and forces on the disks of the wall contacts.
+
+    Returns
+    -------
+    cx, cy, fx, fy : ndarray, shape (n_wall_contacts,)
+        The point x_p + (a_p - s delta) n (s of :data:`BRANCHES`) and the contact's
+        total force on the disk.
+    """
+    k = contacts["wall"] != 0
+    p = rows_of(atoms["id"], contacts["id1"][k])
+    reach = atoms["radius"][p] - BRANCHES[branch] * contacts["overlap"][k]
+    return (atoms["x"][p] + reach * contacts["nx"][k], atoms["y"][p] + reach * contacts["ny"][k],
+            contacts["fnx"][k] + contacts["ftx"][k], contacts["fny"][k] + contacts["fty"][k])
 
 
 @njit(cache=True, nogil=True)
 def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih, shorten,
-                         nc, fab, sig, dfm, wall):
+                         nc, fab, sig, dfm):
     """Per-disk sums over its contacts (side 2 sees -f and -n; i2 < 0: wall contact):
     count, sum n (x) n, sum f (x) l with l = (a - shorten overlap) n, pi h sum
-    Delta (x) l with Delta = -overlap n, and the force of its wall contacts; tensors in
-    the disk's polar basis (rr, rphi, phir, phiphi)."""
+    Delta (x) l with Delta = -overlap n; tensors in the disk's polar basis (rr, rphi,
+    phir, phiphi)."""
     for c in range(i1.shape[0]):
         for side in range(2):
             p = i1[c] if side == 0 else i2[c]
@@ -160,9 +179,6 @@ def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih, shor
             f_phi = s * (fx[c] * ephi[p, 0] + fy[c] * ephi[p, 1])
             length = a[p] - shorten * overlap[c]
             d = -pih * overlap[c] * length
-            if i2[c] < 0:
-                wall[p, 0] += f_r
-                wall[p, 1] += f_phi
             nc[p] += 1.0
             fab[p, 0] += n_r * n_r
             fab[p, 1] += n_r * n_phi
