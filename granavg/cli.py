@@ -106,8 +106,7 @@ def _parser() -> argparse.ArgumentParser:
     plain.add_argument("--x-range", type=float, nargs=2, metavar=("X1", "X2"))
     plain.add_argument("--y-range", type=float, nargs=2, metavar=("Y1", "Y2"))
     plain.add_argument("--gravity", type=float, nargs=2, metavar=("GX", "GY"),
-                       help="gravitational acceleration: a body force m g on every disk "
-                       "(the body force density and the balance of forces use it)")
+                       help="gravitational acceleration: a body force m g on every disk")
     plain.add_argument("--wall-types", type=int, nargs="+", metavar="T", default=[],
                        help="atom types that are walls: left out of the packing, their "
                        "contacts with disks kept")
@@ -116,21 +115,16 @@ def _parser() -> argparse.ArgumentParser:
     plain.add_argument("--contact-columns", metavar="MAP", help="e.g. id1=c_pp[1],"
                        "id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
                        "ftx=c_pl[5],fty=c_pl[6]")
-    avg.add_argument("--t-min", type=float, help="average frames with t >= T s "
-                     "(default: the scene's discarded transient, discard_rotations inner-ring "
-                     "rotations)")
-    avg.add_argument("--block-time", type=float,
-                     help="length in s of the base time blocks of the blocking analysis "
-                     "behind the standard errors (default: one dump interval, at most 512 "
-                     "blocks)")
+    avg.add_argument("--t-min", type=float, help="average frames with t >= T s (default: "
+                     "the scene's discarded transient, discard_rotations rotations)")
+    avg.add_argument("--block-time", type=float, help="base time blocks of the errors' "
+                     "blocking analysis, s (default: one dump interval, at most 512 blocks)")
     avg.add_argument("--quantities", help="comma-separated subset of: nu, rho, v, omega, "
                      "coordination, F, sigma, dsigma, dsigma_fluct, eps, boundary, body "
                      "(default: all the data allow)")
-    avg.add_argument("--branch", choices=["contact", "paper"], default="contact",
-                     help="where the branch vectors of Eqs. 5 and 7 end: at the middle of "
-                     "the overlap (default; the stress carries the contact forces exactly) "
-                     "or at the disk's surface as printed in the paper (too large by about "
-                     "overlap / d)")
+    avg.add_argument("--branch", choices=["contact", "paper"], default="contact", help=(
+        "branch vectors of Eqs. 5, 7 to the contact point (default: the stress carries the "
+        "contact forces exactly) or, as printed, to the surface (too large by ~overlap/d)"))
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
     avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
@@ -146,8 +140,7 @@ def _parser() -> argparse.ArgumentParser:
     ana.add_argument("profiles", nargs="+", help="profiles of 'granavg average' (two ring "
                      "profiles of a run, e.g. 20 and 60 rings, for the paper's analysis)")
     ana.add_argument("--closed", action="store_true", help="the cells' outer faces are "
-                     "walls or empty space (no stress beyond them), so the edge cells' "
-                     "balance is judged too (granavg's own rings always are)")
+                     "walls or empty space: edge cells' balance judged too (runs' rings are)")
     ana.add_argument("--out", required=True, help="directory for the report (must be new)")
     ana.add_argument("--density-series", nargs="+", metavar="PROFILES", default=[],
                      help="coarse profiles of the same scene at other area fractions: "

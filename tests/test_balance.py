@@ -169,3 +169,25 @@ def test_walls_without_contact_rows_are_said_to_be_missing(pile, tmp_path):
     p = slab_profiles(pile, tmp_path / "w.csv")
     assert p.meta["boundary"].startswith("absent")
     assert np.all(p.values["boundary_y"] == 0)
+
+
+def test_a_grid_over_the_pile_balances_its_interior_cells(tmp_path):
+    """A grid of 5 x 7 cells (4 x 2 diameters) over the pile on its floor of wall disks:
+    the interior cells (the edges are the periodic sides and the free top) balance with
+    gravity to a median |residual| of a tenth of what they miss without it (measured
+    0.064 against 0.67; single cells scatter with the frozen force chains of one
+    packing, up to 0.4)."""
+    from granavg.analysis.balance import balance
+
+    pile = tmp_path / "pile"
+    run_deck(pile, floor="disks", kn=200.0)
+    proc = run_cli("average", "--atoms", pile / "atoms.dump", "--contacts",
+                   pile / "contacts.dump", "--contact-columns", MAP, "--thickness", H,
+                   "--grid", 5, 7, "--x-range", 0, 20, "--y-range", 1, 15, "--gravity", 0, -1,
+                   "--wall-types", 2, "--out", tmp_path / "g.csv", "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    p = read_profiles(tmp_path / "g.csv")
+    with_b, without = balance(p)["residual"][1], balance(p, terms=())["residual"][1]
+    inner = np.isfinite(with_b)
+    assert inner.sum() == 3 * 5                                # interior cells only
+    assert np.median(np.abs(with_b[inner])) < 0.25 * np.median(np.abs(without[inner]))

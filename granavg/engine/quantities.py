@@ -43,8 +43,10 @@ CONTACT_COLUMNS = {"ncontact": ["id1", "id2", "wall"],
 
 
 def needed_columns(groups):
-    """Atom-dump and contact-dump columns (with what needs each) for these groups."""
-    atoms, contacts = {}, {}
+    """Atom-dump and contact-dump columns (with what needs each) for these groups; every
+    group needs the disks' positions and radii (their weights in the cells)."""
+    atoms, contacts = {"x": "the cells' weights", "y": "the cells' weights",
+                       "radius": "the cells' weights"}, {}
     for g in groups:
         for ch in QUANTITIES[g][1]:
             for c in ATOM_COLUMNS.get(ch, []):
