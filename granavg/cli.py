@@ -15,7 +15,8 @@ FLAGS = {"t_min": "--t-min", "block_time": "--block-time", "rho_p": "--density",
          "bins": "--bins", "quantities": "--quantities", "contacts": "--contacts"}
 #: Options that only plain dumps take (a run directory's manifest says them).
 PLAIN_ONLY = ("thickness", "density", "dt", "r_range", "slabs", "grid", "wall_types",
-              "atom_columns", "contact_columns", "units", "format", "gravity")
+              "atom_columns", "contact_columns", "units", "format", "gravity", "center",
+              "range", "length", "x_range", "y_range")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -91,7 +92,7 @@ def _parser() -> argparse.ArgumentParser:
     plain.add_argument("--density", type=float, metavar="RHO", help="material density "
                        "(masses rho pi h a^2); or the dump's mass column")
     plain.add_argument("--dt", type=float, help="time step, for dumps without ITEM: TIME")
-    plain.add_argument("--center", type=float, nargs=2, metavar=("X", "Y"), default=(0.0, 0.0),
+    plain.add_argument("--center", type=float, nargs=2, metavar=("X", "Y"),
                        help="centre of the rings (default 0 0)")
     plain.add_argument("--r-range", type=float, nargs=2, metavar=("R1", "R2"),
                        help="rings: --bins equal rings from R1 to R2")
@@ -191,7 +192,7 @@ def _average(args):
         options = dict(common, bins=args.bins, edges=args.edges)
     else:
         cells = dict(thickness=args.thickness, bins=args.bins, edges=args.edges,
-                     center=args.center, r_range=args.r_range, slabs=args.slabs,
+                     center=args.center or (0.0, 0.0), r_range=args.r_range, slabs=args.slabs,
                      range=args.range, length=args.length, grid=args.grid,
                      x_range=args.x_range, y_range=args.y_range)
         options = dict(common, cells=cells, fmt=args.format, density=args.density,

@@ -191,3 +191,37 @@ def test_a_grid_over_the_pile_balances_its_interior_cells(tmp_path):
     inner = np.isfinite(with_b)
     assert inner.sum() == 3 * 5                                # interior cells only
     assert np.median(np.abs(with_b[inner])) < 0.25 * np.median(np.abs(without[inner]))
+
+
+def test_a_subset_of_quantities_gives_the_same_stress_and_boundary(small_run, tmp_path):
+    """`--quantities sigma` reads the overlaps its branch vectors need (the same sigma
+    as with every quantity), and `--quantities boundary` alone works."""
+    args = ("average", small_run, "--bins", 6, "--t-min", 1, "--no-progress")
+    for name, extra in (("all", ()), ("sigma", ("--quantities", "sigma")),
+                        ("boundary", ("--quantities", "boundary"))):
+        proc = run_cli(*args, *extra, "--out", tmp_path / f"{name}.csv")
+        assert proc.returncode == 0, proc.stderr
+    full, sig, bnd = (read_profiles(tmp_path / f"{n}.csv") for n in ("all", "sigma", "boundary"))
+    np.testing.assert_array_equal(sig.values["sigma_rr"], full.values["sigma_rr"])
+    np.testing.assert_array_equal(bnd.values["boundary_r"], full.values["boundary_r"])
+    assert np.abs(full.values["boundary_r"][[0, -1]]).min() > 0     # both walls push
+
+
+def test_mistakes_with_force_densities_are_one_line(pile, tmp_path, small_run):
+    base = ("average", "--atoms", pile / "atoms.dump", "--thickness", H, "--slabs", "y",
+            "--out", tmp_path / "x.csv")
+    atoms_only = pile / "no_mass.dump"                     # the dump without its masses
+    lines = (pile / "atoms.dump").read_text().replace(" mass ", " m ")
+    atoms_only.write_text(lines)
+    proc = run_cli("average", "--atoms", atoms_only, "--thickness", H, "--slabs", "y",
+                   "--gravity", 0, -1, "--out", tmp_path / "x.csv")
+    assert proc.returncode == 2 and "--density" in proc.stderr and "Traceback" not in proc.stderr
+    proc = run_cli(*base, "--gravity", 0, -1, "--units", "real")
+    assert proc.returncode == 2 and "force unit" in proc.stderr
+    proc = run_cli("average", small_run, "--center", 0, 0, "--out", tmp_path / "y.csv")
+    assert proc.returncode == 2 and "--center is for plain LAMMPS dumps" in proc.stderr
+    proc = run_cli(*base, "--units", "real")
+    assert proc.returncode == 0, proc.stderr
+    import json
+    cols = json.loads((tmp_path / "x.csv.json").read_text())["columns"]
+    assert cols["dsigma_yy"] == "g/mol (Angstrom/fs)^2/Angstrom^3"

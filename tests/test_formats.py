@@ -98,3 +98,26 @@ def test_csv_options_and_damage_are_refused_with_one_line(tables, tmp_path):
                    "--out", tmp_path / "y.csv")
     assert proc.returncode == 2 and f"{bad}:" in proc.stderr and "increasing step" in proc.stderr
     assert "Traceback" not in proc.stderr and not list(tmp_path.glob("[xy].csv*"))
+
+
+def test_csv_tables_that_do_not_fit_together_are_refused(tables, tmp_path):
+    atoms = pd.read_csv(tables / "atoms.csv")
+    contacts = pd.read_csv(tables / "contacts.csv")
+    cases = {}
+    no_id = tmp_path / "no_id.csv"
+    atoms.drop(columns="id").to_csv(no_id, index=False)
+    cases["no id"] = (no_id, tables / "contacts.csv", "contacts need the atoms' id")
+    shifted = tmp_path / "shifted.csv"
+    contacts.assign(step=contacts.step + 7).to_csv(shifted, index=False)
+    cases["steps"] = (tables / "atoms.csv", shifted, "is not a step of")
+    holed = tmp_path / "holed.csv"
+    atoms.assign(vx=atoms.vx.where(atoms.index != 5)).to_csv(holed, index=False)
+    cases["nan"] = (holed, None, f"{holed}:7: no finite value in column 'vx'")
+    for name, (a, c, needle) in cases.items():
+        args = ["average", "--atoms", a, "--thickness", 0.006, "--edges", 0.04, 0.08,
+                "--out", tmp_path / f"{name}.out.csv"]
+        if c is not None:
+            args[3:3] = ["--contacts", c]
+        proc = run_cli(*args)
+        assert proc.returncode == 2 and needle in proc.stderr, (name, proc.stderr)
+        assert "Traceback" not in proc.stderr

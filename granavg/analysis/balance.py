@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from granavg.errors import UserError
+
 #: Force densities that enter the balance, in the order added.
 FORCE_DENSITIES = ("body", "boundary")
 
@@ -128,6 +130,11 @@ def balance(profiles, terms=FORCE_DENSITIES, dynamic=True, closed=False) -> dict
         ``terms`` (the force densities present and used).
     """
     geo = profiles.rings
+    flux = ((profiles.meta or {}).get("unit_system") or {}).get("momentum_flux")
+    if flux and dynamic:
+        raise UserError(f"the dynamic stress is in {flux}, not the stress unit of these "
+                        "units: the balance of forces would mix them (LAMMPS' real, metal "
+                        "and electron styles)")
     used = [t for t in terms if any(k.startswith(t + "_") for k in profiles.values)]
     scale = stress_scale(profiles.values, geo)
     res = np.array(residuals(profiles.values, geo, used, dynamic, closed)) / scale

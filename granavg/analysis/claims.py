@@ -317,11 +317,11 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         f"{eo['bulk_median_residual']:.3f} +- {eo['bulk_median_residual_err']:.3f} "
         f"({p20.rings.n} rings; reproduced below {EOM_LIMIT}). Each ring's net force over "
         f"its face's with the body and boundary force densities, walls closed: median "
-        f"{eo['balance_bulk_median_residual']:.3f} +- "
-        f"{eo['balance_bulk_median_residual_err']:.3f} in the bulk, at most "
-        f"{eo['balance_max_residual']:.3f} +- {eo['balance_max_residual_err']:.3f} in any "
-        f"ring, wall rings {eo['balance_wall_residual_max']:.3f} +- "
-        f"{eo['balance_wall_residual_max_err']:.3f} ({eo['balance_wall_residual_max_without_forces']:.2f}"
+        f"{eo['balance_bulk_median_residual']:.2g} +- "
+        f"{eo['balance_bulk_median_residual_err']:.1g} in the bulk, at most "
+        f"{eo['balance_max_residual']:.2g} +- {eo['balance_max_residual_err']:.1g} in any "
+        f"ring, wall rings {eo['balance_wall_residual_max']:.2g} +- "
+        f"{eo['balance_wall_residual_max_err']:.1g} ({eo['balance_wall_residual_max_without_forces']:.2f}"
         " without the force densities)"))
 
     # the shear cell's torque (what the experiments measure), and its balance with the

@@ -15,7 +15,8 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.kernels import CHANNELS, INDEX, particle_channels, ring_sums, wall_points
+from granavg.engine.kernels import (BRANCHES, CHANNELS, INDEX, particle_channels, ring_sums,
+                                   wall_points)
 from granavg.engine.profiles import Profiles, flags, standard_errors, values
 from granavg.engine.quantities import QUANTITIES
 from granavg.engine.timeseries import DRIFT_Z, TimeSeries, stationarity
@@ -57,6 +58,9 @@ class CellAverage:
                  block_time: float, series: TimeSeries | None = None,
                  branch: str = "contact"):
         self.frames, self.rings, self.groups = frames, rings, list(groups)
+        if branch not in BRANCHES:
+            raise ParameterError("branch", f"{{param}} {branch!r}: choose from "
+                                 f"{', '.join(BRANCHES)}")
         self.branch = branch
         self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
         self.channels = sorted({c for g in self.groups for c in QUANTITIES[g][1]})
@@ -190,7 +194,7 @@ def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact") ->
     sums = ring_sums(particle, ring, w, q, rings.n)
     if "wall_r" in channels and frame.contacts is not None:
         cx, cy, fx, fy = wall_points(a, frame.contacts, branch)
-        cell = rings.cell_of(cx, cy)
+        cell = rings.cell_of(cx, cy, slack=float(a["radius"].max(initial=0.0)))
         er, ephi = rings.basis(cx, cy)
         inside = cell >= 0
         for k, e in ((INDEX["wall_r"], er), (INDEX["wall_phi"], ephi)):

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from granavg.errors import ParameterError
+
 #: The deck's gravitational acceleration for the base plate's normal load, m/s^2.
 G_BASE = 9.81
 
@@ -19,7 +21,8 @@ def masses(atoms, h: float, rho_p: float | None) -> np.ndarray:
     if "mass" in atoms:
         return atoms["mass"]
     if rho_p is None:
-        raise ValueError("masses need rho_p or a mass column")
+        raise ParameterError("rho_p", "body forces need masses: give the material density "
+                             "({param}) or a mass column")
     return rho_p * np.pi * h * atoms["radius"] ** 2
 
 

@@ -81,10 +81,11 @@ class Rings:
     def coordinates(self) -> dict:
         return {"r_lo": self.edges[:-1], "r_hi": self.edges[1:], "r": self.centre}
 
-    def cell_of(self, x, y):
-        """The ring of each point; points within a disk diameter's worth beyond the edges
-        (where a wall's contact points lie) go to the edge rings (see :func:`_cell_of`)."""
-        return _cell_of(np.hypot(x - self.center[0], y - self.center[1]), self.edges)
+    def cell_of(self, x, y, slack=0.0):
+        """The ring of each point; points less than ``slack`` beyond the first or last
+        edge (a wall's contact points, a disk radius from the disk's centre) go to the
+        edge rings (:func:`_cell_of`)."""
+        return _cell_of(np.hypot(x - self.center[0], y - self.center[1]), self.edges, slack)
 
     def describe(self) -> dict:
         return {"kind": "rings", "edges": list(self.edges), "h": self.h,
@@ -128,9 +129,9 @@ class Slabs:
         n = len(x)
         return (np.tile([1.0, 0.0], (n, 1)), np.tile([0.0, 1.0], (n, 1)))
 
-    def cell_of(self, x, y):
-        """The slab of each point (edge slabs take points just beyond the edges)."""
-        return _cell_of(x if self.axis == "x" else y, self.edges)
+    def cell_of(self, x, y, slack=0.0):
+        """The slab of each point (edge slabs take points up to ``slack`` beyond)."""
+        return _cell_of(x if self.axis == "x" else y, self.edges, slack)
 
     def coordinates(self) -> dict:
         u = self.axis
@@ -171,9 +172,10 @@ class Grid:
 
     basis = Slabs.basis
 
-    def cell_of(self, x, y):
-        """The cell k = i n_y + j of each point (edge cells take points just beyond)."""
-        i, j = _cell_of(x, self.xedges), _cell_of(y, self.yedges)
+    def cell_of(self, x, y, slack=0.0):
+        """The cell k = i n_y + j of each point (edge cells take points up to ``slack``
+        beyond)."""
+        i, j = _cell_of(x, self.xedges, slack), _cell_of(y, self.yedges, slack)
         return np.where((i >= 0) & (j >= 0), i * (len(self.yedges) - 1) + j, -1)
 
     def coordinates(self) -> dict:
@@ -188,14 +190,13 @@ class Grid:
                 "h": self.h}
 
 
-def _cell_of(u, edges):
-    """Index of the cell [e_k, e_k+1) holding each u; -1 outside. A point less than a
-    tenth of the span beyond the first or last edge is clamped to that cell: a wall's
-    contact points lie on the wall, just beyond the cells of the packing."""
+def _cell_of(u, edges, slack=0.0):
+    """Index of the cell [e_k, e_k+1) holding each u; -1 outside. A point at most
+    ``slack`` beyond the first or last edge is clamped to that cell: a wall's contact
+    points lie on the wall, just beyond the cells of the packing."""
     u = np.asarray(u, float)
     k = np.searchsorted(edges, u, side="right") - 1
     n = len(edges) - 1
-    slack = 0.1 * (edges[-1] - edges[0])
     k = np.where((u < edges[0]) & (u >= edges[0] - slack), 0, k)
     k = np.where((u >= edges[-1]) & (u <= edges[-1] + slack), n - 1, k)
     return np.where((k >= 0) & (k < n), k, -1)

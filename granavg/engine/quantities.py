@@ -36,9 +36,11 @@ ATOM_COLUMNS = {"vol": ["x", "y", "radius"], "mom_r": ["vx", "vy"], "mom_phi": [
                 "body_r": ["bx", "by"]}
 CONTACT_COLUMNS = {"ncontact": ["id1", "id2", "wall"],
                    "fab_rr": ["id1", "id2", "wall", "nx", "ny"],
-                   "sig_rr": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny"],
+                   "sig_rr": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny",
+                              "overlap"],
                    "def_rr": ["id1", "id2", "wall", "nx", "ny", "overlap"],
-                   "wall_r": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty"]}
+                   "wall_r": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny",
+                              "overlap"]}
 
 
 

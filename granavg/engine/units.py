@@ -25,6 +25,9 @@ class UnitSystem:
         Name of force/length^2 (stress, pressure) in this system.
     note : str
         One line on where the units come from, for the sidecar.
+    momentum_flux : str, optional
+        The unit of m v v / V where it is not the stress unit (LAMMPS' real, metal and
+        electron styles: mass (length/time)^2 is not their energy unit); None where it is.
     """
 
     style: str
@@ -34,6 +37,7 @@ class UnitSystem:
     force: str
     stress: str
     note: str = ""
+    momentum_flux: str | None = None
 
     @property
     def label(self) -> str:
@@ -54,6 +58,8 @@ class UnitSystem:
         """
         name = column[:-4] if column.endswith("_sem") else column
         head = name.split("_")[0]
+        if head == "dsigma" and self.momentum_flux:
+            return self.momentum_flux
         if head in ("sigma", "dsigma"):
             return self.stress
         if head in ("boundary", "body"):
@@ -74,7 +80,7 @@ class UnitSystem:
         """The sidecar's ``unit_system`` entry."""
         return {"style": self.style, "length": self.length, "time": self.time,
                 "mass": self.mass, "force": self.force, "stress": self.stress,
-                "note": self.note}
+                "note": self.note, "momentum_flux": self.momentum_flux}
 
     def columns(self, names) -> dict:
         """The sidecar's ``columns`` entry: the unit of each column."""

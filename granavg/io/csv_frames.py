@@ -38,6 +38,11 @@ def _table(path, need):
     bad = [c for c in table.columns if not pd.api.types.is_numeric_dtype(table[c])]
     if bad:
         raise UserError(f"{path}: column {bad[0]!r} holds non-numbers")
+    blank = np.argwhere(~np.isfinite(table.to_numpy(float)))
+    if len(blank):
+        row, col = blank[0]
+        raise UserError(f"{path}:{row + 2}: no finite value in column "
+                        f"{table.columns[col]!r}; the table is damaged")
     step = table["step"].to_numpy()
     back = np.flatnonzero(np.diff(step) < 0)
     if len(back):
@@ -63,6 +68,14 @@ class CsvFrames:
         self.atoms_path, self.contacts_path = Path(atoms), contacts
         self.atoms = _table(atoms, ATOMS)
         self.contacts = _table(contacts, CONTACTS) if contacts is not None else None
+        if self.contacts is not None:
+            if "id" not in self.atoms.columns:
+                raise UserError(f"{atoms}: contacts need the atoms' id column")
+            extra = np.setdiff1d(self.contacts["step"].unique(), self.atoms["step"].unique())
+            if len(extra):
+                row = int(np.flatnonzero(self.contacts["step"].to_numpy() == extra[0])[0])
+                raise UserError(f"{contacts}:{row + 2}: step {extra[0]} is not a step of "
+                                f"{atoms}; use the atom and contact tables of one run")
         self.units = choose_units(None, units)
         self.dropped = {"contacts_not_touching": 0}
 

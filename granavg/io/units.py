@@ -24,6 +24,9 @@ _STYLES = {
     "nano": ("nm", "ns", "ag", "ag nm/ns^2", "ag/(nm ns^2)"),
 }
 _NOTES = {"lj": "LAMMPS reduced units (sigma, tau, m, epsilon of the run)"}
+#: Styles whose mass (length/time)^2 is not their energy unit (LAMMPS converts with
+#: mvv2e): the dynamic stress m v v / V is not in their stress unit, nor m g a force.
+MIXED = ("real", "metal", "electron")
 #: What frames in a dump that does not say its units are labelled.
 UNSTATED = UnitSystem(
     "unstated", "length", "time", "mass", "force", "force/length^2",
@@ -39,7 +42,12 @@ def lammps_units(style: str, where: str = "--units") -> UnitSystem:
                         f"{', '.join(_STYLES)}")
     length, time, mass, force, stress = _STYLES[key]
     note = _NOTES.get(key, f"LAMMPS 'units {key}'")
-    return UnitSystem("SI" if key == "si" else key, length, time, mass, force, stress, note)
+    flux = f"{mass} ({length}/{time})^2/{length}^3" if key in MIXED else None
+    if flux:
+        note += ("; the dynamic stress is in mass (length/time)^2 / length^3, not the "
+                 "stress unit, so the balance of forces is not formed")
+    return UnitSystem("SI" if key == "si" else key, length, time, mass, force, stress, note,
+                      flux)
 
 
 def choose_units(header, option) -> UnitSystem:

@@ -72,6 +72,10 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     validate.finite("--t-min", t_min)
     frames = formats.open_frames(atoms, contacts, fmt=fmt, **source_options)
     spec = DumpAverage.of(frames.box, **cells)
+    if gravity and frames.units.momentum_flux:
+        raise UserError(f"--gravity with LAMMPS units {frames.units.style}: m g is not in "
+                        "that style's force unit; give the body force as a per-atom column "
+                        "(--atom-columns bx=COL,by=COL)")
     terms = [body_forces.gravity(*gravity)] if gravity else []
     if terms:
         frames = WithBodyForces(frames, terms, cells["thickness"], density)
