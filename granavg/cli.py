@@ -12,7 +12,8 @@ from granavg.errors import ParameterError, UserError
 
 #: How the command line names the parameters the engine's errors name.
 FLAGS = {"t_min": "--t-min", "block_time": "--block-time", "rho_p": "--density",
-         "bins": "--bins", "quantities": "--quantities", "contacts": "--contacts"}
+         "bins": "--bins", "quantities": "--quantities", "contacts": "--contacts",
+         "sectors": "--sectors"}
 #: Options that only plain dumps take (a run directory's manifest says them).
 PLAIN_ONLY = ("thickness", "density", "dt", "r_range", "slabs", "grid", "wall_types",
               "atom_columns", "contact_columns", "units", "format", "gravity", "center",
@@ -126,6 +127,10 @@ def _parser() -> argparse.ArgumentParser:
     avg.add_argument("--branch", choices=["contact", "paper"], default="contact", help=(
         "branch vectors of Eqs. 5, 7 to the contact point (default: the stress carries the "
         "contact forces exactly) or, as printed, to the surface (too large by ~overlap/d)"))
+    avg.add_argument("--sectors", type=_sectors, default="auto", help=(
+        "spatial replicas for the errors: each ring (slab) split into K sectors along phi "
+        "(its length) to count the packing's frozen structure; auto (default: K from the "
+        "sectors' correlation), a number >= 4, or off (errors from time alone)"))
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
     avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
@@ -155,6 +160,16 @@ def _parser() -> argparse.ArgumentParser:
                       help="average frames with t >= T s (default: the scene's discarded "
                       "start, 6.3 s)")
     return p
+
+
+def _sectors(text):
+    """--sectors: 'auto', 'off' or a number of sectors (checked by the engine)."""
+    if text in ("auto", "off"):
+        return None if text == "off" else text
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give auto, off or a number") from None
 
 
 def _names(text):
@@ -187,7 +202,8 @@ def _average(args):
         raise UserError(f"{flag} is for plain LAMMPS dumps; a run directory's manifest "
                         "already says it (drop the option or the run directory)")
     common = dict(t_min=args.t_min, block_time=args.block_time,
-                  quantities=_names(args.quantities), branch=args.branch)
+                  quantities=_names(args.quantities), branch=args.branch,
+                  sectors=args.sectors)
     if args.run_dir:
         options = dict(common, bins=args.bins, edges=args.edges)
     else:

@@ -278,3 +278,26 @@ def test_wall_atoms_of_a_default_dump(tmp_path):
     # time-averaged over frames of a pile at rest: the same disks in every frame
     assert np.sum(p.values["nu"] * p.rings.volume) == pytest.approx(area, rel=1e-9)
     assert p.values["coordination"][1] > 2.5               # the layer on the floor disks
+
+
+def test_slabs_of_a_pile_get_segment_replicas_and_the_weight_time_errors(pile, tmp_path):
+    """Slabs across y split into segments along x (the box's width) for errors that
+    count the frozen structure; sigma_yy, the weight a layer carries, is fixed by the
+    balance in a whole slab and keeps errors from time alone."""
+    out, _ = pile
+    proc = average(out / "atoms.dump", out / "contacts.dump", tmp_path / "s.csv",
+                   "--contact-columns", MAP, "--bins", 6, "--quantities", "nu,sigma")
+    assert proc.returncode == 0, proc.stderr
+    p = read_profiles(tmp_path / "s.csv")
+    err = p.meta["errors"]
+    assert err["kind"] == "time+structure" and err["sectors"]["axis"] == "x"
+    assert p.rings.span is not None and p.replicates.kind == "structure"
+    assert set(err["sectors"]["time_only"]) == {"sigma_xy", "sigma_yx", "sigma_yy"}
+    off = tmp_path / "t.csv"
+    proc = average(out / "atoms.dump", out / "contacts.dump", off, "--contact-columns", MAP,
+                   "--bins", 6, "--quantities", "nu,sigma", "--sectors", "off")
+    assert proc.returncode == 0, proc.stderr
+    t = read_profiles(off)
+    assert t.meta["errors"]["kind"] == "time" and t.replicates.kind == "jackknife"
+    assert np.array_equal(t.sem["sigma_yy"], p.sem["sigma_yy"], equal_nan=True)
+    assert np.allclose(t.values["nu"], p.values["nu"], rtol=1e-12)

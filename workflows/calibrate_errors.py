@@ -1,16 +1,22 @@
-"""Are granavg's within-run errors honest? Measured on independent realisations.
+"""Are one run's errors honest? Single-run errors against the spread of realisations.
 
 Usage::
 
     python workflows/calibrate_errors.py OUT RUN RUN RUN RUN [--bins 20] [--t-min T]
 
-Each run is averaged alone (its errors from the blocking analysis, and, for contrast,
-from the old fixed 20 blocks); the realisations' spread is the truth the within-run
-errors should predict. For every quantity and bulk ring (middle half of the rings) and
-every run, z = |run - ensemble mean| / within-run error; honest errors give z < 2 in
-about 95% of cases (>= 90% is the target). Also the ratio of the between-run standard
-deviation to the rms within-run error (1 when honest). Writes OUT/calibration.csv (one
-row per quantity, method and window) and prints a markdown table.
+Each run is read once and its errors made several ways from the same accumulators: from
+time alone (blocking analysis), and from time and structure with the rings split into
+sectors (K chosen from the data, ``auto``, and K pinned to 4, 6, 8, 12, 24;
+:mod:`granavg.engine.replicas`). The realisations' spread is the truth the single-run
+errors should predict. For every quantity, bulk ring (middle half of the rings) and run
+i, the leave-one-out score
+
+    z = (x_i - mean of the other runs) / sqrt(sem_i^2 + sum_j sem_j^2 / (n - 1)^2)
+
+is a standard normal if the errors are honest: |z| < 2 in 95% of cases, median |z|
+0.67. Also the between-run standard deviation over the rms single-run error (about 1
+when honest). Writes OUT/calibration.csv (one row per quantity and method) and prints
+a markdown table.
 """
 
 from __future__ import annotations
@@ -23,81 +29,79 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from granavg.engine import replicas
 from granavg.pipeline.runs import run_averager
-from granavg.engine.profiles import block_values
-from granavg.engine.uncertainty import spread_error
 
-QUANTITIES = ["nu", "v_phi", "omega", "coordination", "F_rr", "F_rphi", "F_phiphi",
-              "sigma_rr", "sigma_rphi", "sigma_phiphi", "dsigma_rr", "dsigma_phiphi",
-              "eps_rr", "eps_rphi", "eps_phiphi"]
+QUANTITIES = ["nu", "coordination", "sigma_rr", "sigma_rphi", "v_phi", "omega", "F_rr",
+              "F_phiphi",
+              "sigma_phiphi", "eps_rr", "eps_phiphi"]
+METHODS = ["time", "auto", 4, 6, 8, 12, 24]
 log = logging.getLogger("calibrate")
 
 
-def one_run(run, bins, t_min):
-    """(values, blocking errors, old 20-block errors) of one run; dicts name -> (n_rings,)."""
+def one_run(run, bins, t_min) -> dict:
+    """Profiles of one run with every method's errors, from one pass over its frames."""
     avg = run_averager(run, bins=bins, t_min=t_min)
-    prof = avg.run(False)
-    counts, sums = avg.acc.block_sums()
-    groups = np.array_split(np.arange(len(counts)), 20)
-    c20 = np.array([counts[g].sum() for g in groups])
-    s20 = np.stack([sums[g].sum(axis=0) for g in groups])
-    per_block = block_values(s20 / c20[:, None, None], avg.rings.volume, avg.rho_p, avg.groups)
-    old = {k: spread_error(v) for k, v in per_block.items()}
-    return prof, old
+    avg.run(False)
+    out, replica_acc = {}, avg.replica_acc
+    for method in METHODS:
+        avg.replica_acc = None if method == "time" else replica_acc
+        avg.sectors = "auto" if method == "time" else method
+        out[method] = avg.conclude()
+    return out
+
+
+def scores(x, e):
+    """Leave-one-out z of every run and ring, shape (n_runs, n_rings)."""
+    n = len(x)
+    z = np.empty_like(x)
+    for i in range(n):
+        rest = np.delete(np.arange(n), i)
+        z[i] = (x[i] - x[rest].mean(axis=0)) / np.sqrt(
+            e[i] ** 2 + np.sum(e[rest] ** 2, axis=0) / (n - 1) ** 2)
+    return z
 
 
 def calibrate(runs, bins, t_min) -> pd.DataFrame:
     results = [one_run(r, bins, t_min) for r in runs]
-    n = results[0][0].rings.n
+    n = results[0]["time"].rings.n
     bulk = slice(n // 4, n - n // 4)
     rows = []
-    for q in QUANTITIES:
-        x = np.stack([p.values[q][bulk] for p, _ in results])
-        mean = x.mean(axis=0)
-        for method, errs in (("blocking", [p.sem[q][bulk] for p, _ in results]),
-                             ("20 fixed blocks", [o[q][bulk] for _, o in results])):
-            e = np.stack(errs)
+    for method in METHODS:
+        for q in QUANTITIES:
+            x = np.stack([r[method].values[q][bulk] for r in results])
+            e = np.stack([r[method].sem[q][bulk] for r in results])
             with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
                 warnings.simplefilter("ignore", RuntimeWarning)
-                z = np.abs(x - mean) / e
+                z = np.abs(scores(x, e))
                 ratio = np.nanmedian(x.std(axis=0, ddof=1) / np.sqrt(np.nanmean(e**2, axis=0)))
             ok = np.isfinite(z)
-            flagged = np.zeros_like(z, dtype=bool)
-            for i, (p, _) in enumerate(results):
-                idx = np.array(p.meta["errors"]["lower_bound"].get(q, []), dtype=int)
-                flagged[i, idx[(idx >= bulk.start) & (idx < bulk.stop)] - bulk.start] = True
-            lb = int(flagged.sum())
-            plateau = ok & ~flagged
-            rows.append({"quantity": q, "method": method, "t_min_s": results[0][0].meta[
-                "frames"]["t_min_s"], "runs": len(runs), "bulk_rings": x.shape[1],
-                "fraction_z_below_2": float(np.mean(z[ok] < 2)),
-                "fraction_z_below_2_plateau": float(np.mean(z[plateau] < 2))
-                if plateau.any() else float("nan"), "cases_plateau": int(plateau.sum()),
-                "median_between_over_within": float(ratio),
-                "lower_bound_rings": int(lb) if method == "blocking" else -1})
+            sec = [r[method].meta["errors"].get("sectors") or {} for r in results]
+            rows.append({"quantity": q, "method": str(method), "runs": len(runs),
+                         "t_min_s": results[0][method].meta["frames"]["t_min_s"],
+                         "bulk_rings": x.shape[1], "cases": int(ok.sum()),
+                         "fraction_z_below_2": float(np.mean(z[ok] < 2)),
+                         "median_abs_z": float(np.median(z[ok])),
+                         "between_over_within": float(ratio),
+                         "sectors": ",".join(str(s.get("sectors", "-")) for s in sec),
+                         "flagged_lower_bound": int(sum(
+                             np.sum((np.array(r[method].meta["errors"]["lower_bound"].get(
+                                 q, []), int) >= bulk.start) &
+                                 (np.array(r[method].meta["errors"]["lower_bound"].get(
+                                     q, []), int) < bulk.stop)) for r in results))})
     return pd.DataFrame(rows)
 
 
 def markdown(df: pd.DataFrame) -> str:
-    lines = ["| quantity | t_min (s) | blocking: z < 2 | between/within | lower-bound cases "
-             "| z < 2 where a plateau was found (cases) | 20 blocks: z < 2 | between/within |",
-             "|---|---|---|---|---|---|---|---|"]
-    for (q, t), g in df.groupby(["quantity", "t_min_s"], sort=False):
-        b = g[g.method == "blocking"].iloc[0]
-        o = g[g.method == "20 fixed blocks"].iloc[0]
-        lines.append(f"| {q} | {t:.0f} | {b.fraction_z_below_2:.0%} | "
-                     f"{b.median_between_over_within:.2f} | {b.lower_bound_rings} of "
-                     f"{b.runs * b.bulk_rings} | {b.fraction_z_below_2_plateau:.0%} "
-                     f"({b.cases_plateau}) | "
-                     f"{o.fraction_z_below_2:.0%} | {o.median_between_over_within:.2f} |")
-    for (m, t), g in df.groupby(["method", "t_min_s"], sort=False):
-        lines.append(f"\nall quantities, {m}, t >= {t:.0f} s: z < 2 in "
-                     f"{g.fraction_z_below_2.mean():.0%} (mean over quantities)")
-        if m == "blocking":
-            w = g.cases_plateau
-            lines.append(f"where the blocking analysis found a plateau: z < 2 in "
-                         f"{np.nansum(g.fraction_z_below_2_plateau * w) / w.sum():.0%} of "
-                         f"{w.sum()} cases; lower-bound cases {g.lower_bound_rings.sum()}")
+    lines = ["| quantity | " + " | ".join(f"{m}: z<2, median, between/within"
+                                          for m in df.method.unique()) + " |",
+             "|---|" + "---|" * df.method.nunique()]
+    for q, g in df.groupby("quantity", sort=False):
+        cells = [f"{r.fraction_z_below_2:.0%}, {r.median_abs_z:.2f}, "
+                 f"{r.between_over_within:.2f}" for r in g.itertuples()]
+        lines.append(f"| {q} | " + " | ".join(cells) + " |")
+    auto = df[df.method == "auto"]
+    lines.append(f"\nsectors chosen (auto) per run: {auto.sectors.iloc[0]}")
     return "\n".join(lines)
 
 
@@ -106,15 +110,22 @@ def main(argv=None):
     ap.add_argument("out", type=Path)
     ap.add_argument("runs", nargs="+", type=Path)
     ap.add_argument("--bins", type=int, default=20)
-    ap.add_argument("--t-min", type=float, nargs="+", default=[None],
-                    help="start(s) of the average, s (default: two rotations)")
+    ap.add_argument("--t-min", type=float, default=None,
+                    help="start of the average, s (default: the run's discarded transient)")
+    ap.add_argument("--sectors-for-stress", action="store_true",
+                    help="give sigma_rr, sigma_rphi, sigma_phir sector errors too (to measure "
+                         "why granavg gives them time errors only)")
     args = ap.parse_args(argv)
+    if args.sectors_for_stress:
+        replicas.balanced_names = lambda groups, across="r": set()
+    if len(args.runs) < 3:
+        ap.error("give at least three independent realisations")
     args.out.mkdir(parents=True, exist_ok=True)
-    df = pd.concat([calibrate(args.runs, args.bins, t) for t in args.t_min], ignore_index=True)
+    df = calibrate(args.runs, args.bins, args.t_min)
     df.to_csv(args.out / "calibration.csv", index=False, float_format="%.4g")
     print(markdown(df))
 
 
 if __name__ == "__main__":
-    logging.basicConfig(level=logging.INFO, format="calibrate: %(message)s")
+    logging.basicConfig(level=logging.WARNING, format="calibrate: %(message)s")
     main()

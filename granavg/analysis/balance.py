@@ -139,7 +139,8 @@ def balance(profiles, terms=FORCE_DENSITIES, dynamic=True, closed=False) -> dict
     scale = stress_scale(profiles.values, geo)
     res = np.array(residuals(profiles.values, geo, used, dynamic, closed)) / scale
     err = np.full(res.shape, np.nan)
-    reps = profiles.replicates
+    # a sector's balance misses the tractions on its cuts: time blocks only
+    reps = profiles.replicates.in_time() if profiles.replicates is not None else None
     if reps is not None and reps.n >= 2:
         each = np.array([np.array(residuals({k: v[i] for k, v in reps.values.items()}, geo,
                                             used, dynamic, closed)) / scale

@@ -89,42 +89,87 @@ def bulk(n):
 
 
 def replicate_views(p20, p60):
-    """Pairs of (coarse, fine) profile views, one per replicate; [] without replicates.
+    """Pairs of (coarse, fine) profile views, one per replicate, and the replicates that
+    give their errors; ([], None) without replicates.
 
     Both profiles must have replicates of the same kind and number (the same run's
-    blocks, or the same realisations).
+    blocks and sectors, or the same realisations). Structure replicates split into
+    different sectors fall back to their time blocks, with a warning.
     """
     r20, r60 = p20.replicates, p60.replicates
-    if r20 is None or r60 is None or r20.kind != r60.kind or r20.n != r60.n or r20.n < 2:
-        return []
+    if r20 is None or r60 is None:
+        return [], None
+    if r20.kind == r60.kind == "structure" and r20.parts != r60.parts:
+        log.warning("the two profiles split their rings into different sectors (%d, %d): "
+                    "derived numbers get errors from time alone; average both with the "
+                    "same --sectors", r20.parts["sectors"], r60.parts["sectors"])
+        r20, r60 = r20.in_time(), r60.in_time()
+    if r20.kind != r60.kind or r20.n != r60.n or r20.n < 2:
+        return [], None
 
     def view(p, rep, i):
         return SimpleNamespace(rings=p.rings, sem=p.sem, meta=p.meta,
                                values={k: v[i] for k, v in rep.values.items()})
-    return [(view(p20, r20, i), view(p60, r60, i)) for i in range(r20.n)]
+    return [(view(p20, r20, i), view(p60, r60, i)) for i in range(r20.n)], r20
+
+
+class _Reads(dict):
+    """A profile's values that note the names read (``[]`` and ``get``)."""
+
+    def __init__(self, values, seen):
+        super().__init__(values)
+        self.seen = seen
+
+    def __getitem__(self, name):
+        self.seen.add(name)
+        return super().__getitem__(name)
+
+    def get(self, name, default=None):
+        self.seen.add(name)
+        return super().get(name, default)
 
 
 class Estimator:
-    """Numbers computed by one function of (coarse, fine) profiles, with replicate errors."""
+    """Numbers computed by one function of (coarse, fine) profiles, with replicate errors.
+
+    With a single run's ``structure`` replicates, a number that reads only values with
+    errors from time alone (the balance of forces fixes them in a whole cell, the
+    sidecar's ``errors.sectors.time_only``), or one marked ``balance`` (a balance law's
+    residual, which a sector cannot close: it misses the tractions on its cuts), takes
+    its error from the time blocks alone."""
 
     def __init__(self, p20, p60):
         self.p20, self.p60 = p20, p60
-        self.views = replicate_views(p20, p60)
-        self.replicates = p20.replicates if self.views else None
+        self.views, self.replicates = replicate_views(p20, p60)
+        self.time_only = set(((p20.meta or {}).get("errors", {}).get("sectors") or {})
+                             .get("time_only", []))
 
-    def __call__(self, fn):
+    def _in_time(self):
+        """(views, replicates) of the time blocks alone."""
+        return replicate_views(*(SimpleNamespace(rings=p.rings, sem=p.sem, meta=p.meta,
+                                                 replicates=p.replicates.in_time())
+                                 for p in (self.p20, self.p60)))
+
+    def __call__(self, fn, balance=False):
         """``fn(coarse, fine) -> dict of float``; returns the dict with ``<key>_err`` added
         (NaN without replicates)."""
-        value = {k: float(v) for k, v in fn(self.p20, self.p60).items()}
+        seen = set()
+        reading = [SimpleNamespace(rings=p.rings, sem=p.sem, meta=p.meta,
+                                   values=_Reads(p.values, seen)) for p in (self.p20, self.p60)]
+        value = {k: float(v) for k, v in fn(*reading).items()}
+        views, replicates = self.views, self.replicates
+        if replicates is not None and replicates.kind == "structure" and (
+                balance or (seen and seen <= self.time_only)):
+            views, replicates = self._in_time()
         reps = []
-        for a, b in self.views:
+        for a, b in views:
             try:
                 reps.append(fn(a, b))
             except (UserError, np.linalg.LinAlgError, ValueError):
                 reps.append({})
         for k in list(value):
             xs = [r.get(k, np.nan) for r in reps]
-            value[f"{k}_err"] = self.replicates.error(xs) if self.views else float("nan")
+            value[f"{k}_err"] = replicates.error(xs) if views else float("nan")
         return value
 
 
@@ -235,7 +280,8 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         f"{2 * fab['anisotropy_max']:.3f})"))
 
     # Fig. 4, Eq. 10: stress exponents in the bulk (unweighted; errors from replicates)
-    num["stress_exponents"] = est(lambda a, b: _exponents(a))
+    num["stress_exponents"] = {k: v for comp in TENSOR for k, v in est(
+        lambda a, b, comp=comp: _exponents(a, comp)).items()}
     ex = num["stress_exponents"]
     parts = []
     for k in TENSOR:
@@ -307,7 +353,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
     # Fig. 7: equations of motion, static alone and the total sigma - dsigma
     for p in (p20, p60):
         series[f"eom_{p.rings.n}"] = _eom(p)
-    num["equations_of_motion"] = est(lambda a, b: _eom_numbers(a))
+    num["equations_of_motion"] = est(lambda a, b: _eom_numbers(a), balance=True)
     eo = num["equations_of_motion"]
     claims.append(_claim(
         "equations of motion close in the bulk",
@@ -358,7 +404,9 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
 
     errors = {"kind": est.replicates.kind if est.replicates else None,
               "replicates": est.replicates.n if est.replicates else 0,
+              "parts": est.replicates.parts if est.replicates else None,
               "profiles": (p20.meta or {}).get("errors", {}).get("method"),
+              "sectors": (p20.meta or {}).get("errors", {}).get("sectors"),
               "lower_bound_rings": {str(p.rings.n): sorted(
                   {k for ks in (p.meta or {}).get("errors", {}).get("lower_bound", {}).values()
                    for k in ks}) for p in (p20, p60)}}
@@ -444,12 +492,9 @@ def _fabric_numbers(p):
             "anisotropy_max": np.nanmax(aniso)}
 
 
-def _exponents(p):
+def _exponents(p, comp):
     b = bulk(p.rings.n)
-    out = {}
-    for k in TENSOR:
-        out[f"sigma_{k}"] = c.power_law(p.rings.centre[b], p.values[f"sigma_{k}"][b])[0]
-    return out
+    return {f"sigma_{comp}": c.power_law(p.rings.centre[b], p.values[f"sigma_{comp}"][b])[0]}
 
 
 def _stiffness_numbers(a, b, geo):

@@ -79,16 +79,34 @@ def error_source(summary) -> str:
         text = (f"standard errors between {err['replicates']} independent realisations "
                 "(ensemble), for profiles and derived numbers alike")
     elif err.get("kind") == "jackknife":
-        text = ("profile errors from a blocking analysis of the frames' time correlation; "
-                f"derived numbers from a delete-one-block jackknife over {err['replicates']} "
-                "blocks")
+        text = ("errors from time only: profile errors from a blocking analysis of the "
+                "frames' time correlation; derived numbers from a delete-one-block "
+                f"jackknife over {err['replicates']} blocks (the packing's frozen structure "
+                "is not counted: an ensemble, or rings split into sectors, counts it)")
+    elif err.get("kind") == "structure":
+        sec, parts = err.get("sectors") or {}, err.get("parts") or {}
+        text = (f"errors from time and structure: the spread of the {parts.get('sectors')} "
+                f"sectors along {sec.get('axis', 'phi')} of every ring (the packing's frozen "
+                "structure and local noise) with the time blocking of the whole ring, less "
+                "what both count (a two-way analysis, docs/errors.md); derived numbers from "
+                "the same sectors, time blocks and their interaction")
+        if sec.get("time_only"):
+            text += (f"; {', '.join(sec['time_only'])} from time alone, lower bounds (the "
+                     "balance of forces makes them the same in every sector: a packing's "
+                     "frozen pressure and torque are global, only realisations sample them)")
+        if sec and not sec.get("resolved", True):
+            text += ("; neighbouring sectors stay correlated even at "
+                     f"{parts.get('sectors')} sectors, so these errors may be too small "
+                     "(flag few_replicas)")
     else:
         text = "no replicates: derived numbers carry no error"
     bound = {n: ks for n, ks in (err.get("lower_bound_rings") or {}).items() if ks}
     if bound and err.get("kind") != "runs":
         text += ("; the blocking analysis reached no plateau in some rings (" + ", ".join(
             f"{len(ks)} of the {n}-ring profile" for n, ks in bound.items()) +
-            "), where the errors are only lower bounds (flag sem_lower_bound)")
+            "), where the errors are only lower bounds (flag sem_lower_bound"
+            + ("; with sectors: where the time part dominates" if err.get("kind") ==
+               "structure" else "") + ")")
     return text + "."
 
 

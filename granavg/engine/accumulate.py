@@ -27,36 +27,54 @@ class CellAccumulator:
         Frames before this time (s) are rejected by :meth:`add`.
     block_time : float
         Block length (s) for the standard errors.
+    max_blocks : int, optional
+        Keep at most this many blocks: blocks of ``block_time * 2**level`` s, the level
+        raised (pairs of blocks merged) when a frame falls beyond them.
     """
 
-    def __init__(self, shape, t_min: float, block_time: float):
+    def __init__(self, shape, t_min: float, block_time: float, max_blocks: int | None = None):
         if not block_time > 0:
             raise ValueError("block_time must be > 0")
         self.shape, self.t_min, self.block_time = tuple(shape), float(t_min), float(block_time)
+        self.max_blocks, self.level = max_blocks, 0
         self.blocks: dict[int, list] = {}
         self.first = self.last = None
 
     def block_of(self, time: float) -> int:
-        """Index of the block holding time ``time`` (s)."""
+        """Index of the (base) block holding time ``time`` (s)."""
         return int(math.floor((time - self.t_min) / self.block_time + 1e-9))
 
     def add(self, timestep: int, time: float, sums: np.ndarray) -> None:
         """Add one frame's ring sums, shape ``shape``."""
         if time < self.t_min:
             raise ValueError(f"frame at t={time} s is before t_min={self.t_min} s")
-        entry = self.blocks.setdefault(self.block_of(time), [0, np.zeros(self.shape)])
+        base = self.block_of(time)
+        while self.max_blocks and base >> self.level >= self.max_blocks:
+            self.coarsen()
+        entry = self.blocks.setdefault(base >> self.level, [0, np.zeros(self.shape)])
         entry[0] += 1
         entry[1] += sums
         self._span(timestep, time, timestep, time)
 
+    def coarsen(self) -> None:
+        """Double the block length: merge blocks 2i and 2i + 1."""
+        merged: dict[int, list] = {}
+        for b, (n, s) in sorted(self.blocks.items()):
+            entry = merged.setdefault(b >> 1, [0, np.zeros(self.shape)])
+            entry[0] += n
+            entry[1] += s
+        self.blocks, self.level = merged, self.level + 1
+
     def merge(self, other: "CellAccumulator") -> "CellAccumulator":
         """A new accumulator holding the frames of both (same rings, t_min, blocks)."""
-        if (other.shape, other.t_min, other.block_time) != (self.shape, self.t_min,
-                                                            self.block_time):
+        if (other.shape, other.t_min, other.block_time, other.max_blocks) != (
+                self.shape, self.t_min, self.block_time, self.max_blocks):
             raise ValueError("can only merge accumulators of the same rings and blocks")
-        out = CellAccumulator(self.shape, self.t_min, self.block_time)
+        out = CellAccumulator(self.shape, self.t_min, self.block_time, self.max_blocks)
+        out.level = max(self.level, other.level)
         for src in (self, other):
             for b, (n, s) in sorted(src.blocks.items()):
+                b >>= out.level - src.level
                 entry = out.blocks.setdefault(b, [0, np.zeros(self.shape)])
                 entry[0] += n
                 entry[1] = entry[1] + s if entry[0] > n else s.copy()

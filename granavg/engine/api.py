@@ -26,7 +26,7 @@ from granavg.errors import ParameterError, UserError
 def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
             t_min: float = 0.0, block_time: float | None = None,
             progress: bool | None = False, units: UnitSystem = SI,
-            branch: str = "contact") -> Profiles:
+            branch: str = "contact", sectors="auto") -> Profiles:
     """Time-averaged profiles of ``frames`` over the cells of ``geometry`` (Eqs. 1-7).
 
     Parameters
@@ -54,6 +54,12 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
         Where the branch vectors of Eqs. 5 and 7 end: at the middle of the overlap (the
         stress balances the contact forces) or, as printed in the paper, at the disk's
         surface (:data:`granavg.engine.kernels.BRANCHES`).
+    sectors : "auto", int or None
+        Spatial replicas for errors that count the frozen structure
+        (:mod:`granavg.engine.replicas`): each cell split into K sectors along the
+        geometry's symmetry direction (rings: phi; slabs with a ``span``: their length),
+        K chosen from the sectors' correlation (``auto``) or given; None for errors from
+        time alone (grids always).
 
     Returns
     -------
@@ -78,7 +84,8 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
         if not block_time > 0:
             raise UserError("frames must come in increasing time")
     avg = CellAverage(itertools.chain(head, it), geometry, groups,
-                      rho_p if rho_p is not None else 0.0, t_min, block_time, branch=branch)
+                      rho_p if rho_p is not None else 0.0, t_min, block_time, branch=branch,
+                      sectors=sectors)
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
                 "geometry": geometry.describe(),
                 "frames": {"t_min_s": t_min, "block_time_s": block_time}}

@@ -19,6 +19,7 @@ from granavg.engine.kernels import (BRANCHES, CHANNELS, INDEX, particle_channels
                                    wall_points)
 from granavg.engine.profiles import Profiles, flags, standard_errors, values
 from granavg.engine.quantities import QUANTITIES
+from granavg.engine import replicas
 from granavg.engine.timeseries import DRIFT_Z, TimeSeries, stationarity
 from granavg.engine.uncertainty import Replicates
 from granavg.engine.geometry import rename
@@ -52,16 +53,27 @@ class CellAverage:
     branch : {"contact", "paper"}
         Where the branch vectors of Eqs. 5 and 7 end
         (:data:`granavg.engine.kernels.BRANCHES`).
+    sectors : "auto", int or None
+        Spatial replicas along the cells' symmetry direction
+        (:mod:`granavg.engine.replicas`): K chosen from the data (``auto``), K pinned, or
+        none (errors from time alone). Geometries without a symmetry direction have none.
     """
 
     def __init__(self, frames, rings: Rings, groups, rho_p: float, t_min: float,
                  block_time: float, series: TimeSeries | None = None,
-                 branch: str = "contact"):
+                 branch: str = "contact", sectors="auto"):
         self.frames, self.rings, self.groups = frames, rings, list(groups)
         if branch not in BRANCHES:
             raise ParameterError("branch", f"{{param}} {branch!r}: choose from "
                                  f"{', '.join(BRANCHES)}")
+        if sectors not in ("auto", None, 0) and not (
+                isinstance(sectors, int) and sectors >= replicas.MIN_REPLICAS):
+            raise ParameterError("sectors", f"{{param}} {sectors!r}: give auto, off or a "
+                                 f"number of sectors >= {replicas.MIN_REPLICAS}")
         self.branch = branch
+        self.sectors = sectors if rings.symmetry else None
+        self.k_fine = (replicas.FINE_SECTORS if self.sectors == "auto"
+                       else self.sectors or 0)
         self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
         self.channels = sorted({c for g in self.groups for c in QUANTITIES[g][1]})
         self.series = series
@@ -79,6 +91,9 @@ class CellAverage:
     def prepare(self):
         """Start with an empty accumulator (and time series)."""
         self.acc = CellAccumulator((self.rings.n, len(CHANNELS)), self.t_min, self.block_time)
+        self.replica_acc = CellAccumulator(
+            (self.rings.n, self.k_fine, len(CHANNELS)), self.t_min, self.block_time,
+            replicas.REPLICA_BLOCKS) if self.k_fine else None
         if self.series is not None:
             self.series.rows = []
 
@@ -87,8 +102,23 @@ class CellAverage:
         if self.series is not None:
             self.series.add(frame)
         if frame.time >= self.t_min:
-            self.acc.add(frame.timestep, frame.time, frame_sums(
-                frame, self.rings, self.rho_p, self.channels, self.branch))
+            sums = frame_sums(frame, self.rings, self.rho_p, self.channels, self.branch,
+                              self.k_fine)
+            if self.k_fine:
+                self.replica_acc.add(frame.timestep, frame.time, sums)
+                sums = sums.sum(axis=1)
+            self.acc.add(frame.timestep, frame.time, sums)
+
+    def state(self) -> tuple:
+        """The accumulators (cells, sectors or None): what a worker hands back."""
+        return self.acc, self.replica_acc
+
+    def merge(self, state) -> None:
+        """Add another averager's :meth:`state` (disjoint frames; exact)."""
+        acc, reps = state
+        self.acc = self.acc.merge(acc)
+        if self.replica_acc is not None:
+            self.replica_acc = self.replica_acc.merge(reps)
 
     def conclude(self) -> Profiles:
         """Profiles of the frames added so far."""
@@ -119,7 +149,28 @@ class CellAverage:
                         "'one_block'); average more frames or shorten the base block time",
                         acc.n_frames)
             extra = [["one_block"] for _ in ring_flags]
-        else:
+        meta["errors"] = {
+            "kind": "time",
+            "method": "blocking analysis over time blocks (Flyvbjerg-Petersen; level by "
+                      "Lee et al. 2011); derived numbers from delete-one-block jackknife",
+            "base_blocks": int(len(counts)),
+            "jackknife_blocks": replicates.n if replicates else 0}
+        if len(counts) >= 2 and self.replica_acc is not None:
+            sem, replicates, info, time_part = replicas.structure_errors(
+                *self.replica_acc.block_sums(), V, self.rho_p, self.groups, sem, replicates,
+                sectors=self.sectors, periodic=self.rings.periodic, across=self.rings.across)
+            lower = {n: lb & time_part[n] for n, lb in lower.items()}
+            meta["errors"].update(kind="time+structure", sectors={
+                "axis": self.rings.symmetry, **info}, method=(
+                f"two-way: the spread of {info['sectors']} sectors along "
+                f"{self.rings.symmetry} (frozen structure and local noise), plus the time "
+                "blocking of each cell, less their sector x time interaction (counted by "
+                "both); derived numbers from the same three sets of replicates"))
+            if not info["resolved"]:
+                log.warning("neighbouring sectors stay correlated down to %d sectors: the "
+                            "errors may be too small (flag 'few_replicas')", info["sectors"])
+                extra = [e + ["few_replicas"] for e in extra]
+        if len(counts) >= 2:
             bound = np.zeros(len(V), bool)
             for name, lb in lower.items():
                 bound |= lb & np.isfinite(vals[name])
@@ -127,13 +178,9 @@ class CellAverage:
                 extra[k].append("sem_lower_bound")
         ring_flags = np.array([";".join(filter(None, (f, *e))) for f, e in zip(ring_flags, extra)],
                               dtype=object)
-        meta["errors"] = {
-            "method": "blocking analysis over time blocks (Flyvbjerg-Petersen; level by "
-                      "Lee et al. 2011); derived numbers from delete-one-block jackknife",
-            "base_blocks": int(len(counts)),
-            "jackknife_blocks": replicates.n if replicates else 0,
-            "lower_bound": {n: [int(k) for k in np.flatnonzero(lb & np.isfinite(vals[n]))]
-                            for n, lb in lower.items() if np.any(lb & np.isfinite(vals[n]))}}
+        meta["errors"]["lower_bound"] = {
+            n: [int(k) for k in np.flatnonzero(lb & np.isfinite(vals[n]))]
+            for n, lb in lower.items() if np.any(lb & np.isfinite(vals[n]))}
         dropped = dict(getattr(self.frames, "dropped", None) or {})
         if any(dropped.values()):
             meta["dropped"] = dropped
@@ -152,9 +199,22 @@ class CellAverage:
                                      for k, v in replicates.values.items()}
             meta["errors"]["lower_bound"] = {rename(k, self.rings): v for k, v in
                                              meta["errors"]["lower_bound"].items()}
+            if "sectors" in meta["errors"]:
+                meta["errors"]["sectors"] = _renamed(meta["errors"]["sectors"], self.rings)
         self.results = Profiles(self.rings, vals, sem, ring_flags, acc.n_frames, meta,
                                     replicates, timeseries=series)
         return self.results
+
+
+def _renamed(info, geometry):
+    """The sectors' sidecar entry with profile names in the geometry's basis."""
+    def names(x):
+        if isinstance(x, dict):
+            return {rename(k, geometry) if isinstance(k, str) else k: names(v)
+                    for k, v in x.items()}
+        return [rename(v, geometry) for v in x] if isinstance(x, list) and x and \
+            isinstance(x[0], str) else x
+    return {k: v if k in ("axis", "chosen") else names(v) for k, v in info.items()}
 
 
 def warn_if_drifting(judged: dict, t_min: float) -> list:
@@ -184,20 +244,34 @@ def warn_if_drifting(judged: dict, t_min: float) -> list:
     return drifting
 
 
-def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact") -> np.ndarray:
-    """Cell sums of one frame, shape (n_cells, n_channels), for any geometry of
-    :mod:`granavg.engine.geometry`."""
+def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact",
+               sectors: int = 0) -> np.ndarray:
+    """Cell sums of one frame for any geometry of :mod:`granavg.engine.geometry`.
+
+    Returns
+    -------
+    ndarray, shape (n_cells, n_channels), or (n_cells, sectors, n_channels) with
+    ``sectors`` > 0: the sums of each cell's sectors (:mod:`granavg.engine.replicas`),
+    which add up to the cell's.
+    """
     a = frame.atoms
     q = particle_channels(a, frame.contacts, rings.h, rho_p, channels,
                           basis=rings.basis(a["x"], a["y"]), branch=branch)
-    particle, ring, w = rings.weights(a["x"], a["y"], a["radius"])
-    sums = ring_sums(particle, ring, w, q, rings.n)
+    particle, cell, w = rings.weights(a["x"], a["y"], a["radius"])
+    n = rings.n * max(sectors, 1)
+    if sectors:
+        sector, share = replicas.sector_shares(rings, a["x"], a["y"], a["radius"], sectors)
+        particle, cell, w = replicas.replica_weights(particle, cell, w, sector, share, sectors)
+    sums = ring_sums(particle, cell, w, q, n)
     if "wall_r" in channels and frame.contacts is not None:
         cx, cy, fx, fy = wall_points(a, frame.contacts, branch)
-        cell = rings.cell_of(cx, cy, slack=float(a["radius"].max(initial=0.0)))
+        where = rings.cell_of(cx, cy, slack=float(a["radius"].max(initial=0.0)))
         er, ephi = rings.basis(cx, cy)
-        inside = cell >= 0
+        inside = where >= 0
+        if sectors:
+            at = replicas.sector_shares(rings, cx, cy, np.zeros(len(cx)), sectors)[0][:, 0]
+            where = where * sectors + at
         for k, e in ((INDEX["wall_r"], er), (INDEX["wall_phi"], ephi)):
-            sums[:, k] += np.bincount(cell[inside], (fx * e[:, 0] + fy * e[:, 1])[inside],
-                                      minlength=rings.n)
-    return sums
+            sums[:, k] += np.bincount(where[inside], (fx * e[:, 0] + fy * e[:, 1])[inside],
+                                      minlength=n)
+    return sums.reshape(rings.n, sectors, -1) if sectors else sums

@@ -49,7 +49,7 @@ def combine_runs(profiles: list, names: list) -> Profiles:
     n_runs = np.sum(np.isfinite(stacked["nu"]) & (stacked["nu"] > 0), axis=0) \
         if "nu" in stacked else np.full(first.rings.n, len(profiles))
     flags = np.array([";".join(sorted({f for p in profiles for f in str(p.flags[k]).split(";")
-                                       if f and f != "sem_lower_bound"}))
+                                       if f and f not in ("sem_lower_bound", "few_replicas")}))
                       for k in range(first.rings.n)], dtype=object)
     meta = dict(first.meta)
     meta["runs"] = [{"run": name, "frames": p.meta.get("frames"), "seed":

@@ -37,6 +37,9 @@ class Rings:
 
     kind = "rings"
     axes = ("r", "phi")
+    #: The symmetry direction along which cells split into sectors
+    #: (:mod:`granavg.engine.replicas`), and whether its sectors close on themselves.
+    symmetry, periodic, across = "phi", True, "r"
 
     @classmethod
     def count(cls, n: int, r_inner: float, r_outer: float, h: float,
@@ -97,18 +100,39 @@ class Slabs:
     """Strips [u_k, u_k+1) across ``axis`` (``"x"`` or ``"y"``), each ``length`` m long
     in the other direction; volumes h (u_k+1 - u_k) length. A disk's weight is the
     fraction of its area between the strip's edges (the strips are taken to span the
-    whole packing along the other direction). Cartesian basis."""
+    whole packing along the other direction). Cartesian basis.
+
+    ``span`` = (lo, hi), the slabs' extent along the other direction (hi - lo is
+    normally ``length``), lets them split into segments along it: the spatial replicas of
+    :mod:`granavg.engine.replicas`. Without it the errors come from time alone."""
 
     edges: np.ndarray
     h: float
     axis: str = "x"
     length: float = 1.0
+    span: tuple | None = None
 
     kind = "slabs"
     axes = ("x", "y")
+    periodic = False
+
+    @property
+    def across(self):
+        """The direction across the slabs in the engine's (polar) names: x is "r"."""
+        return "r" if self.axis == "x" else "phi"
+
+    @property
+    def symmetry(self):
+        """The direction along the slabs (segments), or None without a ``span``."""
+        return None if self.span is None else ("y" if self.axis == "x" else "x")
 
     def __post_init__(self):
         object.__setattr__(self, "edges", _edges(self.edges, "slab edges"))
+        if self.span is not None:
+            lo, hi = (float(v) for v in self.span)
+            if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+                raise UserError(f"slab span {self.span}: give finite lo < hi")
+            object.__setattr__(self, "span", (lo, hi))
         if self.axis not in ("x", "y"):
             raise UserError(f"slabs across {self.axis!r}: give x or y")
         if not (np.isfinite(self.length) and self.length > 0):
@@ -139,8 +163,9 @@ class Slabs:
                 u: 0.5 * (self.edges[1:] + self.edges[:-1])}
 
     def describe(self) -> dict:
-        return {"kind": "slabs", "edges": list(self.edges), "h": self.h,
-                "axis": self.axis, "length": self.length}
+        out = {"kind": "slabs", "edges": list(self.edges), "h": self.h,
+               "axis": self.axis, "length": self.length}
+        return out if self.span is None else {**out, "span": list(self.span)}
 
 
 @dataclass(frozen=True)
@@ -154,6 +179,7 @@ class Grid:
 
     kind = "grid"
     axes = ("x", "y")
+    symmetry, periodic = None, False
 
     def __post_init__(self):
         object.__setattr__(self, "xedges", _edges(self.xedges, "grid x edges"))
@@ -224,7 +250,7 @@ def from_description(d: dict):
                      tuple(d.get("center", (0.0, 0.0))))
     if kind == "slabs":
         return Slabs(np.asarray(d["edges"], float), float(d["h"]), d["axis"],
-                     float(d["length"]))
+                     float(d["length"]), tuple(d["span"]) if d.get("span") else None)
     if kind == "grid":
         return Grid(np.asarray(d["xedges"], float), np.asarray(d["yedges"], float),
                     float(d["h"]))

@@ -29,6 +29,30 @@ QUANTITIES = {
     "boundary": (["boundary_r", "boundary_phi"], ["wall_r"], True),
     "body": (["body_r", "body_phi"], ["body_r"], False),
 }
+#: What the balance of forces fixes in a whole cell: the tractions on the cell's own
+#: faces. A cell's summed stress is the traction on its boundary, and the components
+#: with the normal across the cells (rr, phir and, the static stress being symmetric,
+#: rphi for rings: the radial force and the torque through a circle) are the same for
+#: every sector of it; so is the walls' force on a cell at a wall (``boundary``: the
+#: traction on its wall face). Sectors differ there only by the tractions on their
+#: cuts, which cancel in the cell, so their spread is no measure of the cell's frozen
+#: disorder (measured: it overstates the spread between realisations 3-5 times,
+#: docs/errors.md), and a balance law that holds in every packing would get the cuts'
+#: noise as its error. These get errors from time alone, lower bounds: a packing's
+#: frozen pressure and torque are global, the same in every sector, and only
+#: realisations sample them.
+BALANCED = ("sigma", "boundary")
+
+
+def balanced_names(groups, across: str = "r") -> set:
+    """Profile names that the balance of forces fixes in a whole cell (:data:`BALANCED`):
+    every boundary component and all stress components but (along, along), with
+    ``across`` ("r" or "phi", in the engine's names) the direction across the cells."""
+    along = "phi" if across == "r" else "r"
+    out = {f"sigma_{c}" for c in TENSOR if c != along * 2} if "sigma" in groups else set()
+    return out | ({"boundary_r", "boundary_phi"} if "boundary" in groups else set())
+
+
 #: the atom-dump and contact-dump columns each channel reads
 ATOM_COLUMNS = {"vol": ["x", "y", "radius"], "mom_r": ["vx", "vy"], "mom_phi": ["vx", "vy"],
                 "kin_rr": ["vx", "vy"], "spin": ["omegaz"], "ncontact": ["id"],

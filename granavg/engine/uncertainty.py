@@ -14,7 +14,10 @@ it, the plateau was not reached and the error is only a **lower bound** (flagged
 Derived numbers (fits, exponents, maxima) get their errors from *replicates*: profiles
 recomputed with one block of the coarsest usable level left out (delete-one jackknife)
 for one run, or the profiles of each realisation for an ensemble
-(:class:`Replicates`).
+(:class:`Replicates`). Time alone misses the frozen structure of one packing: where the
+cells have a symmetry direction their sectors are replicas of it
+(:mod:`granavg.engine.replicas`), and :func:`combine_errors` joins the sectors' spread
+with the time blocking in a two-way analysis.
 
 Block values are ratios of block sums (v = <nu v>/<nu> per block), as the profiles are;
 a block in which a value is undefined (NaN) is left out of that value's spread, and the
@@ -178,31 +181,87 @@ class Replicates:
 
     Attributes
     ----------
-    kind : {"jackknife", "runs"}
-        ``jackknife``: one block left out each (one run); ``runs``: one realisation each.
+    kind : {"jackknife", "runs", "structure"}
+        ``jackknife``: one time block left out each (one run); ``runs``: one realisation
+        each; ``structure``: one run's sectors and time blocks
+        (:mod:`granavg.engine.replicas`): delete-one-sector profiles, then the
+        delete-one-block ones, then the sector x block interaction replicates.
     values : dict of name -> ndarray, shape (n_replicates, n_rings)
+    parts : dict, optional
+        ``structure`` only: ``{"sectors": K, "blocks": J, "cells": [K, B]}``, the
+        lengths of the three parts in that order.
     """
 
     kind: str
     values: dict
+    parts: dict | None = None
 
     @property
     def n(self) -> int:
         return len(next(iter(self.values.values()))) if self.values else 0
 
+    def in_time(self) -> "Replicates":
+        """The time blocks alone (kind ``jackknife``) of ``structure`` replicates; other
+        kinds unchanged. For numbers that hold in every packing but not in a sector - a
+        balance law's residual: a sector's balance misses the tractions on its cuts."""
+        if self.kind != "structure":
+            return self
+        return Replicates("jackknife", {q: self.split(v)[1] for q, v in self.values.items()})
+
+    def split(self, estimates):
+        """(sectors, blocks, cells) parts of per-replicate estimates (structure kind)."""
+        k, j = self.parts["sectors"], self.parts["blocks"]
+        x = np.asarray(estimates, float)
+        return x[:k], x[k:k + j], x[k + j:]
+
     def error(self, estimates) -> float:
         """Standard error of a number from its value on each replicate (NaN-aware):
-        jackknife sqrt((n-1)/n sum (x_i - mean)^2), or between runs std/sqrt(n)."""
+        jackknife sqrt((n-1)/n sum (x_i - mean)^2), between runs std/sqrt(n), or for
+        ``structure`` the two-way combination of the sector jackknife, the time
+        jackknife and the interaction (:func:`combine_errors`)."""
+        if self.kind == "structure":
+            sectors, blocks, cells = self.split(estimates)
+            return float(combine_errors(jackknife_error(sectors) ** 2, jackknife_error(blocks) ** 2,
+                                        interaction_variance(cells, *self.parts["cells"])))
         x = np.asarray(estimates, float)
         x = x[np.isfinite(x)]
-        n = len(x)
-        if n < 2:
+        if len(x) < 2:
             return float("nan")
         if self.kind == "jackknife":
-            return float(np.sqrt((n - 1) / n * np.sum((x - x.mean()) ** 2)))
-        return float(np.std(x, ddof=1) / np.sqrt(n))
+            return jackknife_error(x)
+        return float(np.std(x, ddof=1) / np.sqrt(len(x)))
 
     def profile_errors(self) -> dict:
         """Per-ring standard errors of every value from the replicates."""
         return {k: np.array([self.error(v[:, j]) for j in range(v.shape[1])])
                 for k, v in self.values.items()}
+
+
+def jackknife_error(estimates) -> float:
+    """Delete-one jackknife error sqrt((n-1)/n sum (x_i - mean)^2) over the finite ones."""
+    x = np.asarray(estimates, float)
+    x = x[np.isfinite(x)]
+    n = len(x)
+    return float(np.sqrt((n - 1) / n * np.sum((x - x.mean()) ** 2))) if n >= 2 else float("nan")
+
+
+def interaction_variance(estimates, k, b):
+    """The two-way interaction mean square over K B from the interaction replicates
+    (each the profile shifted by its residual / sqrt(K B)): sum (x - mean)^2 /
+    ((K-1)(B-1)), scaled up for replicates that are not finite."""
+    x = np.asarray(estimates, float)
+    x = x[np.isfinite(x)]
+    if len(x) < 2 or k < 2 or b < 2:
+        return float("nan")
+    return float(np.sum((x - x.mean()) ** 2)) * (k * b / len(x)) / ((k - 1) * (b - 1))
+
+
+def combine_errors(var_sectors, var_time, var_interaction):
+    """Standard error of the two-way model: sqrt(E_s + E_t - E_i), never below either
+    of E_s and E_t (each a variance of the same mean); the time part alone where the
+    sectors give none. Arrays or floats."""
+    vs, vt, vi = (np.asarray(v, float) for v in (var_sectors, var_time, var_interaction))
+    vi = np.where(np.isfinite(vi), vi, 0.0)
+    both = np.fmax(np.fmax(vs + vt - vi, vs), vt)
+    out = np.where(np.isfinite(vs), both, vt)
+    return np.sqrt(out) if out.ndim else float(np.sqrt(out))

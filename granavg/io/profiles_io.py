@@ -69,8 +69,9 @@ def read_profiles(path) -> Profiles:
     if reps.exists():
         try:
             with np.load(reps) as z:
-                replicates = Replicates(str(z["kind"]),
-                                        {k: z[k] for k in z.files if k != "kind"})
+                parts = json.loads(str(z["parts"])) if "parts" in z.files else None
+                replicates = Replicates(str(z["kind"]), {k: z[k] for k in z.files
+                                                         if k not in ("kind", "parts")}, parts)
         except (OSError, ValueError, KeyError) as exc:
             raise UserError(f"{reps}: damaged replicates ({exc}); average again") from None
     series = path.with_name(path.name + TIMESERIES)
@@ -112,7 +113,9 @@ def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
         extra = iter(tmp[2:])
         if profiles.replicates is not None:
             with open(next(extra), "wb") as fh:
-                np.savez(fh, kind=profiles.replicates.kind, **profiles.replicates.values)
+                reps = profiles.replicates
+                parts = {"parts": json.dumps(reps.parts)} if reps.parts else {}
+                np.savez(fh, kind=reps.kind, **parts, **reps.values)
         if profiles.timeseries is not None:
             profiles.timeseries.to_csv(next(extra), index=False, float_format="%.8g")
         # the table last: when it exists, its companions do; no signal in between

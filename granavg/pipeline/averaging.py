@@ -44,7 +44,8 @@ def average_runs(run_dirs, average_one=average_run, **options) -> Profiles:
 
 def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
                   quantities=None, t_min=None, block_time=None, progress=None,
-                  gravity=None, branch="contact", **source_options) -> Profiles:
+                  gravity=None, branch="contact", sectors="auto",
+                  **source_options) -> Profiles:
     """Profiles of anyone's dumps (no run directory), in their own units.
 
     Parameters
@@ -63,6 +64,9 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
         Gravitational acceleration (gx, gy): a body force m g on every disk.
     branch : {"contact", "paper"}
         Where the branch vectors of Eqs. 5 and 7 end.
+    sectors : "auto", int or None
+        Sectors per cell along the symmetry direction (rings: phi; slabs: their length)
+        for the errors' spatial replicas (:mod:`granavg.engine.replicas`).
     **source_options
         Options of the format (e.g. ``atom_map``, ``contact_map``, ``wall_types``,
         ``dt``, ``units`` for LAMMPS dumps).
@@ -84,7 +88,7 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
                  "STYLE names them", atoms)
     profiles = average(frames, spec.geometry, rho_p=density, quantities=quantities,
                        t_min=t_min or 0.0, block_time=block_time, progress=progress,
-                       units=frames.units, branch=branch)
+                       units=frames.units, branch=branch, sectors=sectors)
     profiles.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
                                     else None},
                           "inputs": {"format": frames.format_name,

@@ -99,10 +99,11 @@ class RunAverage:
     files: dict = field(default_factory=dict)
     branch: str = "contact"
     body_forces: list = field(default_factory=list)
+    sectors: object = "auto"
 
     @classmethod
     def of(cls, manifest: dict, groups, *, bins=None, edges=None, t_min=None,
-           block_time=None, branch="contact") -> "RunAverage":
+           block_time=None, branch="contact", sectors="auto") -> "RunAverage":
         """The average of the run ``manifest`` describes, options resolved."""
         scene, derived = manifest["scene"], manifest["derived"]
         validate.ring_options(bins, edges)
@@ -112,7 +113,7 @@ class RunAverage:
         block_time = block_time or max(derived["dump_interval_s"],
                                        (derived["t_end_s"] - t_min) / MAX_BLOCKS)
         return cls(manifest, rings, list(groups), t_min, block_time, branch=branch,
-                   body_forces=scene_body_forces(manifest))
+                   body_forces=scene_body_forces(manifest), sectors=sectors)
 
     @property
     def meta(self) -> dict:
@@ -134,7 +135,8 @@ class RunAverage:
         if frames is not None and self.body_forces and "body" in self.groups:
             frames = WithBodyForces(frames, self.body_forces, scene["h"], scene["rho_p"])
         avg = CellAverage(frames, self.geometry, self.groups, scene["rho_p"], self.t_min,
-                          self.block_time, state, branch=self.branch)
+                          self.block_time, state, branch=self.branch,
+                          sectors=self.sectors)
         avg.meta = self.meta
         return avg
 
@@ -146,9 +148,10 @@ class DumpAverage:
 
     Parameters of :meth:`of`: ``thickness`` (the disks' height h), ``bins`` or ``edges``;
     rings: ``r_range`` (or ``edges``) and ``center``; ``slabs`` ("x" or "y") with
-    ``range`` (default the box) and ``length`` (default the box's other side); ``grid``
-    (nx, ny) over ``x_range``, ``y_range`` (default the box). ``box`` is called for the
-    first frame's box bounds only where an option leaves a length to it.
+    ``range`` (default the box) and ``length`` (default the box's other side; the slabs
+    span it from the box's lower bound, their segments the errors' spatial replicas);
+    ``grid`` (nx, ny) over ``x_range``, ``y_range`` (default the box). ``box`` is called
+    for the first frame's box bounds where an option leaves a length to it.
     """
 
     geometry: object
@@ -172,10 +175,12 @@ class DumpAverage:
             return cls(Grid(np.linspace(*xr, grid[0] + 1), np.linspace(*yr, grid[1] + 1), h))
         if slabs:
             k = "xy".index(slabs)
-            bx = box() if not (edges or range) or not length else None
+            bx = box()
             lo_hi = range or bx[k]
             cuts = np.asarray(edges, float) if edges else equal_edges(*lo_hi, bins)
-            return cls(Slabs(cuts, h, slabs, length or (bx[1 - k][1] - bx[1 - k][0])))
+            other = bx[1 - k]
+            length = length or (other[1] - other[0])
+            return cls(Slabs(cuts, h, slabs, length, (other[0], other[0] + length)))
         if edges is None and r_range is None:
             raise UserError("rings need --r-range R1 R2 (with --bins) or --edges; or choose "
                             "--slabs or --grid")

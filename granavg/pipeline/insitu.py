@@ -20,6 +20,7 @@ from granavg.io.contacts import COLUMNS
 from granavg.io.frames import Frame
 from granavg.io.profiles_io import write_profiles
 from granavg.pipeline.description import RunAverage, WithBodyForces, scene_body_forces
+from granavg.pipeline.runs import chosen_sectors
 from granavg.sim.lammps_frames import atoms_by_id
 
 log = logging.getLogger(__name__)
@@ -83,6 +84,8 @@ class InSituAverage:
         """Conclude and write ``profiles_<bins>.csv`` (+ JSON sidecar) into ``out``."""
         paths, first = [], None
         for n, avg in self.averages.items():
+            if first is not None and avg.sectors:
+                avg.sectors = chosen_sectors(first, avg.sectors)   # the same replicas
             profiles = avg.conclude()
             if first is None:
                 first = profiles

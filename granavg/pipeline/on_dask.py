@@ -39,13 +39,13 @@ def chunk_windows(manifest: dict, t_min: float, block_time: float, n_chunks: int
 
 
 def _chunk(run_dir, window, options):
-    """One worker's job: the accumulator of the frames in ``window``, its peak RSS and
+    """One worker's job: the accumulators of the frames in ``window``, its peak RSS and
     the frames' time-series rows."""
     avg = run_averager(run_dir, steps=window, **options)
     avg.prepare()
     for frame in avg.frames:
         avg.add(frame)
-    return avg.acc, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, avg.series.rows
+    return avg.state(), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, avg.series.rows
 
 
 def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
@@ -86,8 +86,8 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
             if cluster is not None:
                 cluster.close()
     base.prepare()
-    for acc, _, rows in results:
-        base.acc = base.acc.merge(acc)
+    for state, _, rows in results:
+        base.merge(state)
         base.series.rows.extend(rows)
     base.series.rows.sort(key=lambda row: row["step"])
     profiles = base.conclude()

@@ -17,7 +17,7 @@ from granavg.analysis.report import write_report, write_summary
 from granavg.engine.profiles import Profiles
 from granavg.errors import UserError
 from granavg.io.profiles_io import read_profiles, write_profiles
-from granavg.pipeline.runs import average_run, run_averager
+from granavg.pipeline.runs import average_run, chosen_sectors, run_averager
 
 log = logging.getLogger(__name__)
 
@@ -97,9 +97,10 @@ def fig1_of_run(run_dir, out, t=None, progress=None) -> Path:
 def report_run(run_dir, out, bins=(20, 60), t_min=None, progress=None, title="granavg report"):
     """Average a run over two ring counts, then :func:`report_profiles`."""
     out = Path(out)
-    profiles = []
+    profiles, sectors = [], "auto"
     for n in bins:
-        p = average_run(run_dir, bins=n, t_min=t_min, progress=progress)
+        p = average_run(run_dir, bins=n, t_min=t_min, progress=progress, sectors=sectors)
+        sectors = chosen_sectors(p)              # the same replicas for every ring count
         write_profiles(p, out / f"profiles{n}.csv")
         profiles.append(p)
     return report_profiles(*profiles, out, title)

@@ -16,7 +16,8 @@ from granavg.pipeline.description import RunAverage, scene_body_forces
 
 
 def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
-                 quantities=None, atoms=None, contacts=None, steps=None, branch="contact"):
+                 quantities=None, atoms=None, contacts=None, steps=None, branch="contact",
+                 sectors="auto"):
     """The :class:`~granavg.engine.average.CellAverage` of a run directory, its frames
     read lazily (only those with time steps in ``steps = (first, last)`` if given).
 
@@ -37,6 +38,8 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
     branch : {"contact", "paper"}
         Where the branch vectors of Eqs. 5 and 7 end
         (:data:`granavg.engine.kernels.BRANCHES`).
+    sectors : "auto", int or None
+        Sectors per ring for the errors' spatial replicas (:mod:`granavg.engine.replicas`).
     """
     if run_dir is None:
         raise UserError("give the run directory: its manifest holds h, rho_p and the rings")
@@ -57,7 +60,7 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
     reader_c = DumpReader(contacts, list(contact_cols), contact_cols, steps) \
         if need_contacts else None
     spec = RunAverage.of(manifest, groups, bins=bins, edges=edges, t_min=t_min,
-                         block_time=block_time, branch=branch)
+                         block_time=block_time, branch=branch, sectors=sectors)
     spec.files = {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None}
     return spec.averager(RunDumps(reader_a, reader_c, dt=manifest["derived"]["dt_s"]))
 
@@ -65,3 +68,9 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
 def average_run(run_dir=None, *, progress=None, **options) -> Profiles:
     """Ring profiles of a run directory (options as for :func:`run_averager`)."""
     return run_averager(run_dir, **options).run(progress)
+
+
+def chosen_sectors(profiles, default="auto"):
+    """The number of sectors a single run's profiles took for their errors (to average the
+    same run over other cells with the same replicas), or ``default``."""
+    return (profiles.meta.get("errors", {}).get("sectors") or {}).get("sectors", default)

@@ -1,0 +1,445 @@
+"""Spatial replicas: a cell's sectors along its symmetry direction, for errors that count
+the frozen structure of one packing.
+
+Time averaging cannot remove a packing's frozen density and contact structure, so the
+spread of time blocks misses it. Where the cells have a symmetry direction - the
+azimuth of rings about the Couette axis, the length of slabs - a cell's sectors along
+it are independent samples of the same frozen disorder, once they are farther apart
+than its correlation length. Each cell is split into ``K`` sectors, accumulated like a
+cell (the same channels); the sectors of a cell add up to the cell exactly.
+
+Weights: a disk's weight in a cell (exact, :mod:`granavg.engine.weights`) is split
+between the sector holding its centre and its two neighbours by the exact fraction of
+the disk's area beyond each sector boundary (a circular segment: the boundary is a ray
+from the axis for rings, a line across a slab). The shares of a disk sum to 1, so
+sector sums add up to the cell's sums exactly; the product of the cell weight and the
+sector share is exact except for disks cut by a cell edge *and* a sector boundary. A
+disk wider than a sector (or around the axis) goes whole to its centre's sector, as
+does a point (radius 0: a wall's contact point).
+
+The error of a cell's value (:func:`~granavg.engine.uncertainty.combine_errors`) is
+that of the two-way random model x[s, b] = mu + F_s + T_b + e_sb over sectors s and time blocks b: frozen
+structure F, a part common to all sectors T (the whole packing's fluctuations), and a
+local, time-varying part e. The variance of the mean is
+
+    Var = sigma_F^2 / K + sigma_T^2 / B + sigma_e^2 / (K B)
+        = E_sectors + E_time - E_interaction,
+
+with E_sectors the delete-one-sector jackknife variance (sectors' time means: F and e),
+E_time the time blocking variance of the cell (T and e) and E_interaction the two-way
+table's interaction mean square over K B (e alone), which both of the others count.
+Derived numbers take the same three terms from replicate profiles
+(:class:`~granavg.engine.uncertainty.Replicates` of kind ``structure``).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+from numba import njit
+
+from granavg.engine.profiles import block_values
+from granavg.engine.quantities import balanced_names
+from granavg.engine.uncertainty import (Replicates, combine_errors, interaction_variance,
+                                       jackknife_error, merge_levels)
+from granavg.engine.weights import _below
+from granavg.errors import ParameterError
+
+#: Sectors accumulated per cell when K is chosen from the data; every candidate K
+#: divides it.
+FINE_SECTORS = 24
+#: Candidate numbers of sectors, most first; fewer than 4 replicas give an error whose
+#: own relative error exceeds 40%.
+CANDIDATES = (24, 12, 8, 6, 4)
+MIN_REPLICAS = 4
+#: Largest accepted correlation of adjacent sectors: with correlation rho the spread
+#: of K sectors understates the error by about sqrt(1 + 2 rho), 10% at rho = 0.1.
+RHO_MAX = 0.1
+#: A quantity whose frozen part is at least this share of its sectors' variance is
+#: dominated by structure: its sectors' correlation sets the replicas of derived numbers.
+FROZEN_SHARE = 0.5
+#: At most this many interaction replicates (sectors x time blocks) for derived numbers.
+MAX_CELLS = 96
+#: Time blocks the replica accumulator keeps at most (coarser blocks beyond).
+REPLICA_BLOCKS = 32
+
+
+@njit(cache=True, nogil=True)
+def _ring_shares(x, y, a, cx, cy, k):
+    """Sector of each disk's centre and its neighbours, and the disk's share in each."""
+    n = x.shape[0]
+    sector = np.empty((n, 3), np.int64)
+    share = np.zeros((n, 3))
+    width = 2.0 * math.pi / k
+    for p in range(n):
+        dx, dy = x[p] - cx, y[p] - cy
+        r = math.hypot(dx, dy)
+        phi = math.atan2(dy, dx) % (2.0 * math.pi)
+        s = min(int(phi / width), k - 1)
+        sector[p, 0], sector[p, 1], sector[p, 2] = s, (s - 1) % k, (s + 1) % k
+        if a[p] <= 0.0 or r <= a[p] or math.asin(a[p] / r) >= 0.5 * width:
+            share[p, 0] = 1.0
+            continue
+        full = math.pi * a[p] * a[p]
+        lo = _below(-r * math.sin(phi - s * width), a[p]) / full
+        hi = _below(-r * math.sin((s + 1) * width - phi), a[p]) / full
+        share[p, 0], share[p, 1], share[p, 2] = 1.0 - lo - hi, lo, hi
+    return sector, share
+
+
+@njit(cache=True, nogil=True)
+def _segment_shares(u, a, lo, length, k):
+    """As :func:`_ring_shares` for segments [lo + i L/K, lo + (i+1) L/K) of a line; the
+    first and last segments extend to infinity, so every disk's shares sum to 1."""
+    n = u.shape[0]
+    sector = np.empty((n, 3), np.int64)
+    share = np.zeros((n, 3))
+    width = length / k
+    for p in range(n):
+        s = min(max(int(math.floor((u[p] - lo) / width)), 0), k - 1)
+        sector[p, 0], sector[p, 1], sector[p, 2] = s, max(s - 1, 0), min(s + 1, k - 1)
+        if a[p] <= 0.0 or 2.0 * a[p] >= width:
+            share[p, 0] = 1.0
+            continue
+        full = math.pi * a[p] * a[p]
+        below = _below(lo + s * width - u[p], a[p]) / full if s > 0 else 0.0
+        above = _below(u[p] - lo - (s + 1) * width, a[p]) / full if s < k - 1 else 0.0
+        share[p, 0], share[p, 1], share[p, 2] = 1.0 - below - above, below, above
+    return sector, share
+
+
+def sector_shares(geometry, x, y, a, k):
+    """Each disk's sector (of ``k`` along the geometry's symmetry direction) and its
+    neighbours', with the disk's area share in each.
+
+    Returns
+    -------
+    sector : ndarray of int, shape (P, 3)
+        Centre's sector, the one before, the one after.
+    share : ndarray, shape (P, 3)
+        Fractions of the disk's area in them; rows sum to 1.
+    """
+    x, y, a = (np.ascontiguousarray(v, float) for v in (x, y, a))
+    if geometry.kind == "rings":
+        return _ring_shares(x, y, a, *map(float, geometry.center), int(k))
+    lo, hi = geometry.span
+    u = y if geometry.axis == "x" else x
+    return _segment_shares(u, a, float(lo), float(hi - lo), int(k))
+
+
+@njit(cache=True, nogil=True)
+def _expand(particle, cell, w, sector, share, k):
+    t_out = 0
+    n = particle.shape[0]
+    p_out = np.empty(3 * n, np.int64)
+    c_out = np.empty(3 * n, np.int64)
+    w_out = np.empty(3 * n)
+    for t in range(n):
+        p = particle[t]
+        for j in range(3):
+            if share[p, j] > 0.0:
+                p_out[t_out] = p
+                c_out[t_out] = cell[t] * k + sector[p, j]
+                w_out[t_out] = w[t] * share[p, j]
+                t_out += 1
+    return p_out[:t_out], c_out[:t_out], w_out[:t_out]
+
+
+def replica_weights(particle, cell, w, sector, share, k):
+    """Cell weights split over sectors: (particle, cell * k + sector, weight); the
+    weights of a (particle, cell) pair over its sectors sum to its cell weight."""
+    return _expand(particle, cell, w, sector, share, int(k))
+
+
+def merge_sectors(sums, k):
+    """Sums over ``k`` sectors from sums over finer ones (adjacent sectors added).
+
+    Parameters
+    ----------
+    sums : ndarray, shape (..., n_cells, K_fine, n_channels)
+    k : int
+        A divisor of K_fine.
+    """
+    *lead, n, kf, c = sums.shape
+    return sums.reshape(*lead, n, k, kf // k, c).sum(axis=-2)
+
+
+def sector_values(sums, V, rho_p, groups):
+    """Profile values of every sector of every cell.
+
+    Parameters
+    ----------
+    sums : ndarray, shape (m, n_cells, K, n_channels)
+        Mean sums per frame.
+    V : ndarray, shape (n_cells,)
+
+    Returns
+    -------
+    dict of name -> ndarray, shape (m, K, n_cells)
+        Each sector's value as if it were a cell of volume V / K.
+    """
+    m, n, k, c = sums.shape
+    flat = np.moveaxis(sums, 2, 1).reshape(m * k, n, c) * k
+    return {q: v.reshape(m, k, n) for q, v in block_values(flat, V, rho_p, groups).items()}
+
+
+def frozen_correlation(first, second, periodic=True):
+    """Correlation of a quantity's frozen part between sectors ``lag`` apart.
+
+    The sectors' deviations from their cell's mean in the two halves of the window
+    share the frozen structure but not (for halves longer than the correlation time)
+    the time-varying noise, so their cross products measure the frozen part alone.
+
+    Parameters
+    ----------
+    first, second : ndarray, shape (K, n_cells)
+        One quantity's value per (fine) sector and cell, averaged over each half.
+    periodic : bool
+        Sectors close on themselves (rings) or not (segments of a slab).
+
+    Returns
+    -------
+    corr : ndarray, shape (K // 2 + 1,)
+        corr[l]: the frozen cross-covariance at lag l over that at lag 0, corrected by
+        1/(K-1) for the subtracted mean (0 for independent sectors, corr[0] = 1); NaN
+        where the frozen part is not detected (lag-0 covariance below 3 se).
+    se : float
+        The standard error of corr[l] for independent sectors.
+    frozen : float
+        The frozen part's share of the sectors' variance (lag-0 covariance).
+    """
+    a, b = np.asarray(first, float), np.asarray(second, float)
+    k = a.shape[0]
+    lags = k // 2 + 1
+    ok = np.all(np.isfinite(a) & np.isfinite(b), axis=0)
+    da, db = a[:, ok] - a[:, ok].mean(axis=0), b[:, ok] - b[:, ok].mean(axis=0)
+    scale = np.sqrt(np.sqrt(np.mean(da**2, axis=0) * np.mean(db**2, axis=0)))
+    keep = scale > 0
+    nan = np.full(lags, np.nan)
+    if k < 3 or not np.any(keep):
+        return nan, float("nan"), float("nan")
+    da, db = da[:, keep] / scale[keep], db[:, keep] / scale[keep]
+    cov = np.empty(lags)
+    for lag in range(lags):
+        if periodic:
+            cov[lag] = 0.5 * np.mean(da * np.roll(db, -lag, 0) + db * np.roll(da, -lag, 0))
+        else:
+            cov[lag] = 0.5 * np.mean(da[:k - lag] * db[lag:] + db[:k - lag] * da[lag:])
+    se = 1.0 / math.sqrt(da.size)
+    if not cov[0] > 3 * se:
+        return nan, float("nan"), float(cov[0])
+    corr = cov / cov[0] + np.r_[0.0, np.full(lags - 1, 1.0 / (k - 1))]
+    return corr, float(se / cov[0]), float(cov[0])
+
+
+def adjacent_correlation(corr, se, m):
+    """Correlation of adjacent sectors of ``m`` fine sectors each, predicted from the fine
+    correlation (used up to the first lag where it is within 2 se of zero):
+    sum_l min(l, 2m - l) c_l / (m + 2 sum_l (m - l) c_l)."""
+    c = np.where(np.isfinite(corr), corr, 0.0)
+    small = np.flatnonzero(c[1:] < 2 * se)
+    window = int(small[0]) if len(small) else len(c) - 1      # lags 1..window count
+    c = np.r_[c[:window + 1], np.zeros(max(0, 2 * m - window))]
+    lags = np.arange(1, 2 * m)
+    cov = np.sum(np.minimum(lags, 2 * m - lags) * c[lags])
+    var = m + 2 * np.sum((m - lags[:m - 1]) * c[1:m])
+    return float(cov / var)
+
+
+def choose_sectors(first, second, V, rho_p, groups, periodic=True, fine=FINE_SECTORS,
+                   exclude=()):
+    """How many sectors each quantity's frozen structure allows, from the data.
+
+    The frozen part's correlation between fine sectors (:func:`frozen_correlation`)
+    gives, for each candidate K, the correlation of adjacent sectors
+    (:func:`adjacent_correlation`). A quantity takes the most sectors for which it stays
+    below :data:`RHO_MAX`; one whose frozen part is not detected takes ``fine`` (its
+    time-varying part is counted by the time blocking). The replicas of derived numbers
+    take the fewest sectors among the quantities whose frozen part is at least half of
+    the sectors' variance (:data:`FROZEN_SHARE`). The quantities named in ``exclude``
+    (:func:`~granavg.engine.quantities.balanced_names`) take no part.
+
+    Parameters
+    ----------
+    first, second : ndarray, shape (n_cells, K_fine, n_channels)
+        Mean sector sums per frame over the two halves of the window.
+
+    Returns
+    -------
+    per_quantity : dict of name -> int
+        The sectors of each quantity's profile errors.
+    common : int
+        The sectors of the replicates (derived numbers).
+    unresolved : list of str
+        Quantities correlated even at :data:`MIN_REPLICAS` sectors (given that many;
+        their errors may be too small).
+    table : dict
+        ``{K: {quantity: predicted adjacent correlation}}``; ``"fine"``: each quantity's
+        frozen correlation at lags 1, 2, ... fine sectors; ``"frozen_share"``: its frozen
+        part's share of the fine sectors' variance.
+    """
+    halves = [sector_values(h[None], V, rho_p, groups) for h in (first, second)]
+    measured = {q: frozen_correlation(halves[0][q][0], halves[1][q][0], periodic)
+                for q in halves[0] if q not in exclude}
+    share = {q: f for q, (_, _, f) in measured.items() if np.isfinite(f)}
+    table = {"frozen_share": {q: round(f, 3) for q, f in share.items()},
+             "fine": {q: [round(float(x), 3) for x in c[1:]]
+                      for q, (c, _, _) in measured.items() if np.isfinite(c[1])}}
+    candidates = [c for c in CANDIDATES if fine % c == 0 and c <= fine]
+    per_quantity, unresolved = {q: fine for q in measured}, []
+    for q, (c, se, _) in measured.items():
+        if not np.isfinite(c[1]):
+            continue
+        rows = {k: adjacent_correlation(c, se, fine // k) for k in candidates}
+        for k, r in rows.items():
+            table.setdefault(k, {})[q] = round(r, 4)
+        ok = [k for k, r in rows.items() if r < RHO_MAX]
+        per_quantity[q] = max(ok) if ok else MIN_REPLICAS
+        if not ok:
+            unresolved.append(q)
+    frozen = [per_quantity[q] for q, f in share.items() if f >= FROZEN_SHARE]
+    return per_quantity, min(frozen, default=fine), unresolved, table
+
+
+def structure_parts(counts, sums, V, rho_p, groups, evaluate):
+    """Replicate profiles of the sectors and of the sector x time-block interaction.
+
+    Parameters
+    ----------
+    counts : ndarray, shape (B0,)
+        Frames per time block of the replica accumulator.
+    sums : ndarray, shape (B0, n_cells, K, n_channels)
+        Summed sector sums per time block.
+    evaluate : callable
+        Mean cell sums (m, n_cells, n_channels) -> dict name -> (m, n_cells) values.
+
+    Returns
+    -------
+    sectors : dict of name -> ndarray, shape (K, n_cells)
+        Delete-one-sector profiles (the other sectors over the whole window).
+    cells : dict of name -> ndarray, shape (K B, n_cells)
+        The profile plus the interaction residual of one (sector, block) scaled by
+        1/sqrt(K B) each; see :func:`interaction_variance`.
+    shape : tuple
+        (K, B): sectors and time blocks of the two-way table.
+    """
+    counts, sums = np.asarray(counts, float), np.asarray(sums, float)
+    k = sums.shape[2]
+    total = sums.sum(axis=0) / counts.sum()                       # (n, K, C)
+    rest = (total.sum(axis=1)[None] - np.moveaxis(total, 1, 0)) * (k / (k - 1))
+    sectors = evaluate(rest)
+    levels = [(c, s) for c, s in merge_levels(counts, sums) if len(c) * k <= MAX_CELLS
+              and len(c) >= 2]
+    usable = [lv for lv in levels if len(lv[0]) >= 8] or levels
+    if not usable:
+        return sectors, {}, (k, 0)
+    c, s = usable[0]
+    b = len(c)
+    x = sector_values(s / c[:, None, None, None], V, rho_p, groups)   # (B, K, n)
+    full = evaluate(total.sum(axis=1)[None])
+    cells = {}
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)          # all-NaN (empty) cells
+        for q, v in x.items():
+            r = (v - np.nanmean(v, axis=0, keepdims=True) - np.nanmean(v, axis=1, keepdims=True)
+                 + np.nanmean(v, axis=(0, 1), keepdims=True))
+            cells[q] = full[q] + r.reshape(b * k, -1) / math.sqrt(k * b)
+    return sectors, cells, (k, b)
+
+
+def structure_errors(counts, sums, V, rho_p, groups, sem_time, jackknife, *,
+                     sectors="auto", periodic=True, across="r"):
+    """Errors that count the frozen structure, from the sectors of every cell.
+
+    Parameters
+    ----------
+    counts, sums : ndarray, shapes (B0,) and (B0, n_cells, K_fine, n_channels)
+        The replica accumulator's blocks.
+    sem_time : dict of name -> ndarray (n_cells,)
+        The cells' time-blocking errors.
+    jackknife : Replicates
+        The cells' delete-one-block replicates (kind ``jackknife``).
+    sectors : "auto" or int
+        Choose K from the data (:func:`choose_sectors`: per quantity for its profile
+        errors, one K for the replicates), or this K for all (a divisor of the K_fine
+        accumulated).
+    periodic : bool
+        The sectors close on themselves (rings).
+    across : {"r", "phi"}
+        The direction across the cells, in the engine's names (rings and slabs across x:
+        "r"; slabs across y: "phi"), for :func:`~granavg.engine.quantities.balanced_names`.
+
+    Returns
+    -------
+    sem : dict of name -> ndarray (n_cells,)
+        :func:`~granavg.engine.uncertainty.combine_errors` of the three parts; the time
+        part alone for the components the balance of forces fixes in a whole cell.
+    replicates : Replicates
+        Kind ``structure``: the sectors, the time blocks, the interaction cells, for
+        every quantity (a balance law's residual takes the time blocks alone:
+        :meth:`~granavg.engine.uncertainty.Replicates.in_time`).
+    info : dict
+        For the sidecar: K (common and per quantity), how it was chosen, the frozen
+        structure's correlations and share, the two-way table's shape, the unresolved
+        and the time-only quantities.
+    time_dominated : dict of name -> ndarray of bool (n_cells,)
+        Where the time part is the larger (there a time lower bound still matters).
+    """
+    evaluate = lambda m: block_values(m, V, rho_p, groups)          # noqa: E731
+    fine = sums.shape[2]
+    balanced = balanced_names(groups, across)
+    if sectors == "auto":
+        per_q, common, unresolved, table = choose_sectors(*halves(counts, sums), V, rho_p,
+                                                          groups, periodic, fine, balanced)
+    elif fine % int(sectors) == 0:
+        per_q, common, unresolved, table = {}, int(sectors), [], {}
+    else:
+        raise ParameterError("sectors", f"{{param}} {sectors}: must divide the "
+                             f"{fine} sectors accumulated")
+    parts = {common: structure_parts(counts, merge_sectors(sums, common), V, rho_p, groups,
+                                     evaluate)}
+    sem, time_dominated, b = {}, {}, parts[common][2][1]
+    for q in parts[common][0]:
+        k = per_q.get(q, common)
+        if k not in parts:
+            parts[k] = structure_parts(counts, merge_sectors(sums, k), V, rho_p, groups,
+                                       evaluate)
+        by_sector, cells, (_, bk) = parts[k]
+        vs = np.array([jackknife_error(v) ** 2 for v in by_sector[q].T])
+        vi = (np.array([interaction_variance(c, k, bk) for c in cells[q].T]) if cells
+              else np.full(len(V), np.nan))
+        sem[q] = sem_time[q] if q in balanced else combine_errors(vs, sem_time[q] ** 2, vi)
+        time_dominated[q] = ~(vs >= sem_time[q] ** 2) | (q in balanced)
+    by_sector, cells, _ = parts[common]
+    # every quantity's sectors stay in the replicates, so that numbers of several
+    # quantities that vary together in a packing (sigma / eps) vary together in them
+    reps = Replicates("structure", {q: np.concatenate([by_sector[q], jackknife.values[q],
+                                                       cells.get(q, np.zeros((0, len(V))))])
+                                    for q in by_sector},
+                      {"sectors": common, "blocks": jackknife.n, "cells": [common, b]})
+    info = {"sectors": int(common), "chosen": "auto" if sectors == "auto" else "pinned",
+            "resolved": not [q for q in unresolved
+                             if table["frozen_share"].get(q, 0) >= FROZEN_SHARE],
+            "two_way_blocks": int(b),
+            "per_quantity": {q: int(k) for q, k in per_q.items() if q not in balanced},
+            "unresolved": sorted(unresolved), "time_only": sorted(balanced & set(sem)),
+            "neighbour_correlation_by_k": {str(k): t for k, t in table.items()
+                                           if isinstance(k, int)},
+            "fine_sector_correlation": table.get("fine", {}),
+            "frozen_share": table.get("frozen_share", {})}
+    return sem, reps, info, time_dominated
+
+
+def halves(counts, sums):
+    """Mean sums per frame over the first and the second half of the window's frames
+    (whole blocks), shapes (n_cells, K, n_channels); the whole window twice if it holds
+    a single block."""
+    counts = np.asarray(counts, float)
+    cut = int(np.searchsorted(np.cumsum(counts), counts.sum() / 2.0)) + 1
+    cut = min(max(cut, 1), len(counts) - 1) if len(counts) > 1 else 1
+    parts = [(counts[:cut], sums[:cut]), (counts[cut:], sums[cut:])] if len(counts) > 1 \
+        else [(counts, sums)] * 2
+    return tuple(s.sum(axis=0) / c.sum() for c, s in parts)
+
