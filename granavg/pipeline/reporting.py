@@ -94,13 +94,15 @@ def fig1_of_run(run_dir, out, t=None, progress=None) -> Path:
     return out / "fig1.png"
 
 
-def report_run(run_dir, out, bins=(20, 60), t_min=None, progress=None, title="granavg report"):
-    """Average a run over two ring counts, then :func:`report_profiles`."""
+def report_run(run_dir, out, bins=(20, 60), t_min=None, progress=None, title="granavg report",
+               sectors="auto"):
+    """Average a run over two ring counts (the second with the first one's sectors),
+    then :func:`report_profiles`."""
     out = Path(out)
-    profiles, sectors = [], "auto"
+    profiles = []
     for n in bins:
         p = average_run(run_dir, bins=n, t_min=t_min, progress=progress, sectors=sectors)
-        sectors = chosen_sectors(p)              # the same replicas for every ring count
+        sectors = chosen_sectors(p, sectors)     # the same replicas for every ring count
         write_profiles(p, out / f"profiles{n}.csv")
         profiles.append(p)
     return report_profiles(*profiles, out, title)
