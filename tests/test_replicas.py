@@ -260,3 +260,32 @@ def test_ensembles_keep_their_between_run_errors():
     within = np.sqrt(np.sum(np.stack([p.sem["nu"] for p in runs]) ** 2, axis=0)) / 4
     assert np.allclose(ens.sem["nu"], np.fmax(between, within))
     assert "between-run" in ens.meta["errors"]["method"]
+
+
+def test_frames_that_start_late_still_fill_the_sectors_blocks():
+    """Replica blocks count from the first frame, not from t_min = 0."""
+    for start in (0.0, 1000.0):
+        acc = CellAccumulator((1, 2, 1), 0.0, 0.1, replicas.REPLICA_BLOCKS)
+        for k in range(100):
+            acc.add(k, start + 0.1 * k, np.ones((1, 2, 1)))
+        assert 16 <= len(acc.blocks) <= 32, start
+    a = CellAccumulator((1, 2, 1), 0.0, 0.1, replicas.REPLICA_BLOCKS)
+    b = CellAccumulator((1, 2, 1), 0.0, 0.1, replicas.REPLICA_BLOCKS)
+    for k in range(100):
+        (a if k < 40 else b).add(k, 1000.0 + 0.1 * k, np.full((1, 2, 1), float(k)))
+    merged = a.merge(b)
+    assert len(merged.blocks) <= 32 and merged.n_frames == 100
+    assert np.sum(merged.block_sums()[1]) == pytest.approx(2 * sum(range(100)))
+
+
+@pytest.mark.parametrize("sectors, ok", [("off", True), (np.int64(8), True), (3, False),
+                                         (49, False), ("many", False)])
+def test_the_sectors_option_is_checked(sectors, ok):
+    from granavg.errors import ParameterError
+    rings = Rings.count(3, 0.1, 0.25, 0.006)
+    if ok:
+        avg = CellAverage([], rings, ["nu"], 1060.0, 0.0, 1.0, sectors=sectors)
+        assert avg.k_fine == (0 if sectors == "off" else 8)
+    else:
+        with pytest.raises(ParameterError, match="sectors"):
+            CellAverage([], rings, ["nu"], 1060.0, 0.0, 1.0, sectors=sectors)

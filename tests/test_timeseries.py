@@ -96,13 +96,22 @@ def test_a_hexagonal_packing_is_ordered_and_its_pressure_is_the_virial():
 
 
 def test_random_disks_have_no_hexatic_order():
+    from scipy.spatial import cKDTree
     rng = np.random.default_rng(3)
     r = np.sqrt(rng.uniform(R_I**2, R_O**2, 3000))
     phi = rng.uniform(0, 2 * np.pi, 3000)
-    atoms = {"x": r * np.cos(phi), "y": r * np.sin(phi), "radius": np.full(3000, 0.001)}
-    s = frame_state(atoms, None, R_I, R_O, H, RHO, 0.002)
+    a = np.full(3000, 0.0025)
+    atoms = {"x": r * np.cos(phi), "y": r * np.sin(phi), "radius": a,
+             "id": np.arange(1, 3001)}
+    pairs = cKDTree(np.column_stack([atoms["x"], atoms["y"]])).query_pairs(0.009,
+                                                                          output_type="ndarray")
+    i, j = pairs.T
+    contacts = {"id1": i + 1, "id2": j + 1, "wall": np.zeros(len(i))}
+    s = frame_state(atoms, contacts, R_I, R_O, H, RHO, 0.005)
+    # ~4.6 bonds per disk at random: |psi_6| ~ sqrt(pi / (4 n)) = 0.41; hexagons: > 0.85
     assert s["psi6_bulk"] < 0.5 and s["psi6_bulk_ordered"] < 0.1
-    assert "C" not in s                                # no contacts, no coordination
+    s = frame_state(atoms, None, R_I, R_O, H, RHO, 0.002)
+    assert "C" not in s and "psi6_bulk" not in s       # no contacts: no network
 
 
 def test_a_real_run_writes_its_time_series(small_run, tmp_path):

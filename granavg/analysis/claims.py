@@ -99,10 +99,10 @@ def replicate_views(p20, p60):
     r20, r60 = p20.replicates, p60.replicates
     if r20 is None or r60 is None:
         return [], None
-    if r20.kind == r60.kind == "structure" and r20.parts != r60.parts:
-        log.warning("the two profiles split their rings into different sectors (%d, %d): "
+    if "structure" in (r20.kind, r60.kind) and (r20.kind, r20.parts) != (r60.kind, r60.parts):
+        log.warning("the two profiles do not split their rings into the same sectors: "
                     "derived numbers get errors from time alone; average both with the "
-                    "same --sectors", r20.parts["sectors"], r60.parts["sectors"])
+                    "same --sectors")
         r20, r60 = r20.in_time(), r60.in_time()
     if r20.kind != r60.kind or r20.n != r60.n or r20.n < 2:
         return [], None

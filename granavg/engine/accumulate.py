@@ -37,6 +37,7 @@ class CellAccumulator:
             raise ValueError("block_time must be > 0")
         self.shape, self.t_min, self.block_time = tuple(shape), float(t_min), float(block_time)
         self.max_blocks, self.level = max_blocks, 0
+        self.origin = None                  # the first frame's base block
         self.blocks: dict[int, list] = {}
         self.first = self.last = None
 
@@ -49,12 +50,19 @@ class CellAccumulator:
         if time < self.t_min:
             raise ValueError(f"frame at t={time} s is before t_min={self.t_min} s")
         base = self.block_of(time)
-        while self.max_blocks and base >> self.level >= self.max_blocks:
-            self.coarsen()
+        self.origin = base if self.origin is None else min(self.origin, base)
+        self._fit(base)
         entry = self.blocks.setdefault(base >> self.level, [0, np.zeros(self.shape)])
         entry[0] += 1
         entry[1] += sums
         self._span(timestep, time, timestep, time)
+
+    def _fit(self, base) -> None:
+        """Coarsen until the blocks from the first frame's to ``base``'s are at most
+        ``max_blocks`` (blocks stay on the grid of t_min, so accumulators merge)."""
+        while self.max_blocks and (base >> self.level) - (self.origin >> self.level) \
+                >= self.max_blocks:
+            self.coarsen()
 
     def coarsen(self) -> None:
         """Double the block length: merge blocks 2i and 2i + 1."""
@@ -80,6 +88,10 @@ class CellAccumulator:
                 entry[1] = entry[1] + s if entry[0] > n else s.copy()
             if src.first is not None:
                 out._span(*src.first, *src.last)
+        origins = [o for o in (self.origin, other.origin) if o is not None]
+        if origins:
+            out.origin = min(origins)
+            out._fit(max(b << out.level for b in out.blocks))
         return out
 
     def _span(self, step0, t0, step1, t1):

@@ -10,6 +10,7 @@ Frames are in-memory arrays (:class:`~granavg.io.reader.Frame`-like: ``timestep`
 from __future__ import annotations
 
 import logging
+import numbers
 
 import numpy as np
 from tqdm.auto import tqdm
@@ -66,10 +67,14 @@ class CellAverage:
         if branch not in BRANCHES:
             raise ParameterError("branch", f"{{param}} {branch!r}: choose from "
                                  f"{', '.join(BRANCHES)}")
-        if sectors not in ("auto", None, 0) and not (
-                isinstance(sectors, int) and sectors >= replicas.MIN_REPLICAS):
+        sectors = None if sectors in ("off", 0) else sectors
+        if sectors not in ("auto", None) and not (
+                isinstance(sectors, numbers.Integral) and
+                replicas.MIN_REPLICAS <= sectors <= replicas.MAX_SECTORS):
             raise ParameterError("sectors", f"{{param}} {sectors!r}: give auto, off or a "
-                                 f"number of sectors >= {replicas.MIN_REPLICAS}")
+                                 f"number of sectors from {replicas.MIN_REPLICAS} to "
+                                 f"{replicas.MAX_SECTORS}")
+        sectors = int(sectors) if isinstance(sectors, numbers.Integral) else sectors
         self.branch = branch
         self.sectors = sectors if rings.symmetry else None
         self.k_fine = (replicas.FINE_SECTORS if self.sectors == "auto"
@@ -155,7 +160,11 @@ class CellAverage:
                       "Lee et al. 2011); derived numbers from delete-one-block jackknife",
             "base_blocks": int(len(counts)),
             "jackknife_blocks": replicates.n if replicates else 0}
-        if len(counts) >= 2 and self.replica_acc is not None:
+        if len(counts) >= 2 and self.replica_acc is not None and \
+                len(self.replica_acc.blocks) < 2:
+            log.warning("the frames span a single block of the sectors' accumulator: errors "
+                        "from time alone")
+        elif len(counts) >= 2 and self.replica_acc is not None:
             sem, replicates, info, time_part = replicas.structure_errors(
                 *self.replica_acc.block_sums(), V, self.rho_p, self.groups, sem, replicates,
                 sectors=self.sectors, periodic=self.rings.periodic, across=self.rings.across)
@@ -261,16 +270,16 @@ def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact",
     n = rings.n * max(sectors, 1)
     if sectors:
         sector, share = replicas.sector_shares(rings, a["x"], a["y"], a["radius"], sectors)
-        particle, cell, w = replicas.replica_weights(particle, cell, w, sector, share, sectors)
-    sums = ring_sums(particle, cell, w, q, n)
+        sums = replicas.sector_sums(particle, cell, w, sector, share, sectors, q, rings.n)
+    else:
+        sums = ring_sums(particle, cell, w, q, n)
     if "wall_r" in channels and frame.contacts is not None:
         cx, cy, fx, fy = wall_points(a, frame.contacts, branch)
         where = rings.cell_of(cx, cy, slack=float(a["radius"].max(initial=0.0)))
         er, ephi = rings.basis(cx, cy)
         inside = where >= 0
         if sectors:
-            at = replicas.sector_shares(rings, cx, cy, np.zeros(len(cx)), sectors)[0][:, 0]
-            where = where * sectors + at
+            where = where * sectors + replicas.point_sectors(rings, cx, cy, sectors)
         for k, e in ((INDEX["wall_r"], er), (INDEX["wall_phi"], ephi)):
             sums[:, k] += np.bincount(where[inside], (fx * e[:, 0] + fy * e[:, 1])[inside],
                                       minlength=n)

@@ -6,7 +6,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import pandas as pd
 
 from granavg.engine.profiles import Profiles
 from granavg.engine.uncertainty import Replicates
@@ -31,6 +30,8 @@ def combine_runs(profiles: list, names: list) -> Profiles:
     names : list of str
         The runs (for the sidecar).
     """
+    import pandas as pd
+
     first = profiles[0]
     for p, name in zip(profiles[1:], names[1:]):
         if p.rings.describe() != first.rings.describe():

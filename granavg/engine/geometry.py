@@ -129,6 +129,8 @@ class Slabs:
     def __post_init__(self):
         object.__setattr__(self, "edges", _edges(self.edges, "slab edges"))
         if self.span is not None:
+            if len(self.span) != 2:
+                raise UserError(f"slab span {self.span}: give two numbers, lo and hi")
             lo, hi = (float(v) for v in self.span)
             if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
                 raise UserError(f"slab span {self.span}: give finite lo < hi")

@@ -20,13 +20,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from granavg.engine.kernels import INDEX
 from granavg.engine.quantities import TENSOR
 from granavg.engine.geometry import Rings
 from granavg.engine.uncertainty import Replicates, blocking_errors, jackknife_sums
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 @dataclass
@@ -69,6 +73,8 @@ class Profiles:
     def to_frame(self) -> pd.DataFrame:
         """One row per cell: its coordinates (r_lo, r_hi, r for rings), V, n_frames, each
         value and ``<name>_sem``, flags."""
+        import pandas as pd
+
         cols = {**self.rings.coordinates(), "V": self.rings.volume,
                 "n_frames": np.full(self.rings.n, self.n_frames)}
         if self.n_runs is not None:

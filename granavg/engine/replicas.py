@@ -54,6 +54,9 @@ FINE_SECTORS = 24
 #: own relative error exceeds 40%.
 CANDIDATES = (24, 12, 8, 6, 4)
 MIN_REPLICAS = 4
+#: Most sectors that may be pinned: the two-way table keeps at least 2 time blocks
+#: (MAX_CELLS / MAX_SECTORS) for the interaction.
+MAX_SECTORS = 48
 #: Largest accepted correlation of adjacent sectors: with correlation rho the spread
 #: of K sectors understates the error by about sqrt(1 + 2 rho), 10% at rho = 0.1.
 RHO_MAX = 0.1
@@ -73,18 +76,24 @@ def _ring_shares(x, y, a, cx, cy, k):
     sector = np.empty((n, 3), np.int64)
     share = np.zeros((n, 3))
     width = 2.0 * math.pi / k
+    narrow2 = math.sin(0.5 * width) ** 2   # a disk wider than this (a / r) spans a sector
+    cos_b = np.cos(np.arange(k + 1) * width)             # the boundary rays
+    sin_b = np.sin(np.arange(k + 1) * width)
     for p in range(n):
         dx, dy = x[p] - cx, y[p] - cy
-        r = math.hypot(dx, dy)
-        phi = math.atan2(dy, dx) % (2.0 * math.pi)
-        s = min(int(phi / width), k - 1)
+        phi = math.atan2(dy, dx)
+        s = min(int((phi + 2.0 * math.pi if phi < 0.0 else phi) / width), k - 1)
         sector[p, 0], sector[p, 1], sector[p, 2] = s, (s - 1) % k, (s + 1) % k
-        if a[p] <= 0.0 or r <= a[p] or math.asin(a[p] / r) >= 0.5 * width:
-            share[p, 0] = 1.0
+        share[p, 0] = 1.0
+        r2, a2 = dx * dx + dy * dy, a[p] * a[p]
+        if a[p] <= 0.0 or r2 <= a2 or a2 >= narrow2 * r2:
+            continue
+        d_lo = dy * cos_b[s] - dx * sin_b[s]               # distances to the two rays
+        d_hi = dx * sin_b[s + 1] - dy * cos_b[s + 1]
+        if d_lo >= a[p] and d_hi >= a[p]:              # inside its sector (most disks)
             continue
         full = math.pi * a[p] * a[p]
-        lo = _below(-r * math.sin(phi - s * width), a[p]) / full
-        hi = _below(-r * math.sin((s + 1) * width - phi), a[p]) / full
+        lo, hi = _below(-d_lo, a[p]) / full, _below(-d_hi, a[p]) / full
         share[p, 0], share[p, 1], share[p, 2] = 1.0 - lo - hi, lo, hi
     return sector, share
 
@@ -130,27 +139,36 @@ def sector_shares(geometry, x, y, a, k):
 
 
 @njit(cache=True, nogil=True)
-def _expand(particle, cell, w, sector, share, k):
-    t_out = 0
-    n = particle.shape[0]
-    p_out = np.empty(3 * n, np.int64)
-    c_out = np.empty(3 * n, np.int64)
-    w_out = np.empty(3 * n)
-    for t in range(n):
+def _scatter_sectors(particle, cell, w, sector, share, k, q, out):
+    for t in range(particle.shape[0]):
         p = particle[t]
         for j in range(3):
-            if share[p, j] > 0.0:
-                p_out[t_out] = p
-                c_out[t_out] = cell[t] * k + sector[p, j]
-                w_out[t_out] = w[t] * share[p, j]
-                t_out += 1
-    return p_out[:t_out], c_out[:t_out], w_out[:t_out]
+            f = share[p, j]
+            if f > 0.0:
+                row = cell[t] * k + sector[p, j]
+                wt = w[t] * f
+                for c in range(q.shape[1]):
+                    out[row, c] += wt * q[p, c]
 
 
-def replica_weights(particle, cell, w, sector, share, k):
-    """Cell weights split over sectors: (particle, cell * k + sector, weight); the
-    weights of a (particle, cell) pair over its sectors sum to its cell weight."""
-    return _expand(particle, cell, w, sector, share, int(k))
+def sector_sums(particle, cell, w, sector, share, k, q, n_cells):
+    """S[cell * k + s, c] = sum_p w_p,cell share_p,s q[p, c]: the cells' sums split over
+    their sectors, shape (n_cells * k, n_channels); the sectors of a cell add up to its
+    sums (the shares of a disk sum to 1)."""
+    out = np.zeros((n_cells * int(k), q.shape[1]))
+    _scatter_sectors(particle, cell, w, sector, share, int(k), np.ascontiguousarray(q), out)
+    return out
+
+
+def point_sectors(geometry, x, y, k):
+    """The sector of each point (a wall's contact point), shape (P,)."""
+    if geometry.kind == "rings":
+        width = 2.0 * np.pi / k
+        phi = np.arctan2(y - geometry.center[1], x - geometry.center[0]) % (2 * np.pi)
+        return np.minimum((phi / width).astype(np.int64), k - 1)
+    lo, hi = geometry.span
+    u = y if geometry.axis == "x" else x
+    return np.clip(np.floor((u - lo) / ((hi - lo) / k)).astype(np.int64), 0, k - 1)
 
 
 def merge_sectors(sums, k):

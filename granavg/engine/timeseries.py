@@ -3,7 +3,8 @@
 The paper averages a *steady* flow (Eqs. 8-12 assume d/dt = 0). :func:`frame_state`
 reduces one frame to scalars that show a transient (SI units): coordination overall and
 per radial zone, rattler fraction, bulk static pressure, overlaps, kinetic energy, wall
-contacts and the bulk hexatic order. :func:`stationarity` judges each over the
+contacts and the bulk hexatic order (over the contact network: one pass over the
+contacts, no triangulation). :func:`stationarity` judges each over the
 averaging window: a quantity drifts when the means of the window's two halves, or the
 change of a straight line fitted over it, differ from steady by more than
 :data:`DRIFT_Z` errors; the errors come from the fluctuations about that line, by
@@ -19,13 +20,15 @@ Zones by disk centre, as fractions of the gap R_o - R_i: ``in`` [0, 0.2), ``bulk
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
-from scipy import stats
-from scipy.spatial import Delaunay
 
 from granavg.engine.kernels import rows_of
 from granavg.engine.uncertainty import blocking_errors
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 ZONES = {"in": (0.0, 0.2), "bulk": (0.3, 0.8), "out": (0.85, 1.0)}
 #: Half-window means further apart than this many combined errors flag a drift. With
@@ -58,8 +61,8 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
         ``P_bulk_Pa`` (-tr sigma / 2 of the bulk zone), ``overlap_mean_over_d``,
         ``overlap_max_over_d``, ``ke_J`` (translational + rotational), ``wall_contacts_in``,
         ``wall_contacts_out``, ``torque_in_Nm``, ``torque_out_Nm``
-        (:func:`wall_torques`), ``nu_bulk``, ``psi6_bulk`` (mean |psi_6|) and
-        ``psi6_bulk_ordered`` (share with |psi_6| > 0.8).
+        (:func:`wall_torques`), ``nu_bulk``, ``psi6_bulk`` (mean |psi_6| over the
+        contact network's bonds) and ``psi6_bulk_ordered`` (share with |psi_6| > 0.8).
     """
     x, y, a = atoms["x"], atoms["y"], atoms["radius"]
     r = np.hypot(x, y)
@@ -74,13 +77,13 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
         if "omegaz" in atoms:
             ke = ke + 0.25 * mass * a * a * atoms["omegaz"] ** 2       # I = m a^2 / 2
         out["ke_J"] = float(np.sum(ke))
-    out.update(_hexatic(x, y, zone["bulk"]))
     if contacts is None or "id" not in atoms:
         return out
     i1 = rows_of(atoms["id"], contacts["id1"])
     pair = contacts["wall"] == 0
     i2 = rows_of(atoms["id"], contacts["id2"][pair])
     n = len(x)
+    out.update(_hexatic(x, y, i1[pair], i2, zone["bulk"]))
     count = np.bincount(i1, minlength=n) + np.bincount(i2, minlength=n)
     out["C"] = float(count.mean()) if n else np.nan
     for k, m in zone.items():
@@ -121,18 +124,21 @@ def wall_torques(atoms, contacts, i1) -> dict:
     return out
 
 
-def _hexatic(x, y, bulk):
-    """Mean |psi_6| of the bulk disks and the share above 0.8, neighbours by Delaunay."""
-    if bulk.sum() < 3 or len(x) < 4:
+def _hexatic(x, y, i1, i2, bulk):
+    """Mean |psi_6| of the bulk disks with contacts and the share above 0.8, over the
+    bonds of the contact network (disk pairs i1, i2): psi_6 = <exp(6 i theta)> over a
+    disk's contacts. One pass over the contacts; rattlers (no contact) are left out."""
+    n = len(x)
+    theta = np.arctan2(y[i2] - y[i1], x[i2] - x[i1])
+    both = np.concatenate([i1, i2])
+    c6, s6 = np.cos(6 * theta), np.sin(6 * theta)           # the reverse bond: theta + pi
+    count = np.bincount(both, minlength=n)
+    re = np.bincount(both, np.concatenate([c6, c6]), n)
+    im = np.bincount(both, np.concatenate([s6, s6]), n)
+    keep = bulk & (count > 0)
+    if keep.sum() < 3:
         return {}
-    tri = Delaunay(np.column_stack([x, y]))
-    indptr, nbr = tri.vertex_neighbor_vertices
-    owner = np.repeat(np.arange(len(x)), np.diff(indptr))
-    angle = np.arctan2(y[nbr] - y[owner], x[nbr] - x[owner])
-    n = np.maximum(np.diff(indptr), 1)
-    re = np.bincount(owner, np.cos(6 * angle), len(x)) / n
-    im = np.bincount(owner, np.sin(6 * angle), len(x)) / n
-    psi = np.hypot(re, im)[bulk]
+    psi = np.hypot(re[keep], im[keep]) / count[keep]
     return {"psi6_bulk": float(psi.mean()), "psi6_bulk_ordered": float(np.mean(psi > 0.8))}
 
 
@@ -148,6 +154,7 @@ class TimeSeries:
                           **frame_state(frame.atoms, frame.contacts, *self.geometry)})
 
     def frame(self) -> pd.DataFrame:
+        import pandas as pd
         return pd.DataFrame(self.rows)
 
 
@@ -315,6 +322,12 @@ def ensemble_stationarity(judged: list) -> dict:
                   "trend_change": float(c.mean()), "trend_change_err": float(e_c),
                   "z": z, "drifts": bool(z > DRIFT_Z), "undetermined": False,
                   "error_lower_bound": False, "resolution": float(DRIFT_Z * e_d),
-                  "false_alarm": float(2 * stats.t.sf(DRIFT_Z, n - 1)),
+                  "false_alarm": float(2 * _t_tail(DRIFT_Z, n - 1)),
                   "steady_from_s": None}
     return out
+
+
+def _t_tail(z, dof):
+    """P(T > z) for Student's t (scipy.stats, imported only for an ensemble's verdict)."""
+    from scipy import stats
+    return stats.t.sf(z, dof)

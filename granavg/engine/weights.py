@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, vectorize
+from numba import njit
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -50,7 +50,13 @@ def _area(d, a, R):
 
 
 _area_scalar = njit(cache=True, nogil=True)(_area)
-area_inside_circle = vectorize(["float64(float64, float64, float64)"], cache=True)(_area)
+
+
+def area_inside_circle(d, a, R):
+    """:func:`_area` over arrays (compiled on first use, not at import)."""
+    return np.vectorize(_area_scalar, otypes=[float])(d, a, R)
+
+
 area_inside_circle.__doc__ = _area.__doc__
 
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-from granavg.analysis.claims import warn_if_inertial
 from granavg.engine import average
 from granavg.engine.average import warn_if_drifting
 from granavg.engine.combine import combine_runs
@@ -106,6 +105,8 @@ def average_to_file(run_dirs, out, *, parquet=False, workers=None, scheduler=Non
     on dask with ``workers`` or ``scheduler``) or, without any, of the dumps ``atoms``
     and ``contacts`` (``options`` as :func:`average_dumps` takes them), written to ``out``
     (never over an existing result)."""
+    from granavg.analysis.claims import warn_if_inertial     # the analysis, when used
+
     out = validate.free_output(Path(out), ("", ".json", REPLICATES, TIMESERIES))
     if run_dirs:
         profiles = _average_run_dirs(run_dirs, atoms, contacts, workers, scheduler,

@@ -4,6 +4,7 @@ Ctrl-C or SIGTERM turned into a clean stop with exit code 130 or 143."""
 from __future__ import annotations
 
 import logging
+import os
 import signal
 import sys
 import threading
@@ -53,8 +54,11 @@ def configure_logging(verbose: bool) -> None:
     quiet = "debug" if verbose else "warning"
     for noisy in ("distributed", "tornado", "bokeh"):     # dask's own chatter
         logging.getLogger(noisy).setLevel(quiet.upper())
-    import dask                      # distributed resets its loggers from this on import
-    dask.config.set({"logging.distributed": quiet})
+    # distributed resets its loggers from dask's config when imported: set it there, and
+    # in the environment for a dask imported later (without importing it here)
+    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", quiet)
+    if "dask" in sys.modules:
+        sys.modules["dask"].config.set({"logging.distributed": quiet})
 
 
 @contextmanager
