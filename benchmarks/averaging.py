@@ -23,6 +23,8 @@ from granavg.engine.geometry import Rings
 from granavg.pipeline.runs import average_run
 from granavg.engine.kernels import CHANNELS
 from granavg.engine.quantities import groups_for
+from granavg.engine.replicas import FINE_SECTORS
+from granavg.engine.timeseries import frame_state
 from granavg.io.frames import Frame
 from granavg.io.reader import DumpReader
 from granavg.io.run_dumps import RunDumps
@@ -67,14 +69,24 @@ def engine_rows(run: Path, m):
                                               DumpReader(run / "contacts.dump.gz"),
                                               dt=m["derived"]["dt_s"]), 40))
     rows = []
+    every = [c for c in CHANNELS if not c.startswith("body")]   # no body forces in the dumps
     for n in (20, 60):
         rings = Rings.count(n, scene["R_i"], scene["R_o"], scene["h"])
-        for label, channels in (("all quantities", CHANNELS),
+        for label, channels in (("all quantities", every),
                                 ("nu and v", ("vol", "mom_r", "mom_phi"))):
-            frame_sums(frames[0], rings, scene["rho_p"], channels)
-            dt = best_of(lambda: [frame_sums(f, rings, scene["rho_p"], channels)
-                                  for f in frames]) / len(frames)
-            rows.append((f"{n} rings, {label}", 1 / dt))
+            for sectors in (FINE_SECTORS, 0):
+                frame_sums(frames[0], rings, scene["rho_p"], channels, sectors=sectors)
+                dt = best_of(lambda: [frame_sums(f, rings, scene["rho_p"], channels,
+                                                 sectors=sectors)
+                                      for f in frames], repeat=5) / len(frames)
+                rows.append((f"{n} rings, {label}, " + (f"{sectors} sectors (default)"
+                                                        if sectors else "--sectors off"),
+                             1 / dt))
+    geo = (scene["R_i"], scene["R_o"], scene["h"], scene["rho_p"], scene["d_s"])
+    frame_state(frames[0].atoms, frames[0].contacts, *geo)
+    dt = best_of(lambda: [frame_state(f.atoms, f.contacts, *geo) for f in frames],
+                 repeat=5) / len(frames)
+    rows.append(("per-frame state (time series), alone", 1 / dt))
     return frames, rows
 
 
@@ -87,7 +99,8 @@ def memory_rows(frames, m):
                   for k, f in zip(range(n), itertools.cycle(frames)))
         tracemalloc.start()
         t0 = time.perf_counter()
-        CellAverage(stream, rings, groups_for(None, True), scene["rho_p"], 0.0, 250.0).run(False)
+        CellAverage(stream, rings, [g for g in groups_for(None, True) if g != "body"],
+                    scene["rho_p"], 0.0, 250.0).run(False)
         elapsed = time.perf_counter() - t0
         peak = tracemalloc.get_traced_memory()[1] / 1e6
         tracemalloc.stop()

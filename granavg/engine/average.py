@@ -16,8 +16,8 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.kernels import (BRANCHES, CHANNELS, INDEX, particle_channels, ring_sums,
-                                   wall_points)
+from granavg.engine.kernels import (BRANCHES, CHANNELS, INDEX, contact_rows,
+                                   particle_channels, ring_sums, wall_points)
 from granavg.engine.profiles import Profiles, flags, standard_errors, values
 from granavg.engine.quantities import QUANTITIES
 from granavg.engine import replicas
@@ -264,8 +264,11 @@ def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact",
     which add up to the cell's.
     """
     a = frame.atoms
-    q = particle_channels(a, frame.contacts, rings.h, rho_p, channels,
-                          basis=rings.basis(a["x"], a["y"]), branch=branch)
+    contacts = frame.contacts
+    rows = contact_rows(a, contacts) if contacts is not None and (
+        {"ncontact", "fab_rr", "sig_rr", "def_rr", "wall_r"} & set(channels)) else None
+    q = particle_channels(a, contacts, rings.h, rho_p, channels,
+                          basis=rings.basis(a["x"], a["y"]), branch=branch, rows=rows)
     particle, cell, w = rings.weights(a["x"], a["y"], a["radius"])
     n = rings.n * max(sectors, 1)
     if sectors:
@@ -274,7 +277,7 @@ def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact",
     else:
         sums = ring_sums(particle, cell, w, q, n)
     if "wall_r" in channels and frame.contacts is not None:
-        cx, cy, fx, fy = wall_points(a, frame.contacts, branch)
+        cx, cy, fx, fy = wall_points(a, contacts, branch, rows)
         where = rings.cell_of(cx, cy, slack=float(a["radius"].max(initial=0.0)))
         er, ephi = rings.basis(cx, cy)
         inside = where >= 0

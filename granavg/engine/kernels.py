@@ -59,14 +59,32 @@ CHANNELS = ("vol", "mass", "mom_r", "mom_phi", "spin", "ncontact",
 #: delta / 2 and makes sigma too large by about delta / d.
 BRANCHES = {"contact": 0.5, "paper": 0.0}
 INDEX = {name: k for k, name in enumerate(CHANNELS)}
+#: First columns of the channels the compiled kernels fill.
+NC, FAB, SIG, KIN, DEF, BODY = (INDEX[c] for c in ("ncontact", "fab_rr", "sig_rr", "kin_rr",
+                                                   "def_rr", "body_r"))
 
 
-def _outer(u_r, u_phi, v_r, v_phi):
-    """Components rr, rphi, phir, phiphi of u (x) v, shape (n, 4)."""
-    return np.column_stack([u_r * v_r, u_r * v_phi, u_phi * v_r, u_phi * v_phi])
+_last_rows: list = [None, None]          # (the arrays looked up, their rows)
 
 
-def particle_channels(atoms, contacts, h, rho_p, channels, basis, branch="contact"):
+def contact_rows(atoms, contacts):
+    """Rows of each contact's disks among the atoms: (i1, i2), i2 = -1 for a wall
+    contact. The last frame's are kept: the cell sums and the per-frame state of one
+    frame look them up once."""
+    key = (atoms["id"], contacts["id1"], contacts["id2"], contacts["wall"])
+    last = _last_rows[0]
+    if last is not None and all(a is b for a, b in zip(key, last)):
+        return _last_rows[1]
+    pair = contacts["wall"] == 0
+    i1 = rows_of(atoms["id"], contacts["id1"])
+    i2 = np.full(len(i1), -1, dtype=np.int64)
+    i2[pair] = rows_of(atoms["id"], contacts["id2"][pair])
+    _last_rows[:] = [key, (i1, i2)]
+    return i1, i2
+
+
+def particle_channels(atoms, contacts, h, rho_p, channels, basis, branch="contact",
+                      rows=None):
     """Per-particle channel values Q_p of one frame.
 
     Parameters
@@ -83,6 +101,8 @@ def particle_channels(atoms, contacts, h, rho_p, channels, basis, branch="contac
         read the atoms' ``bx by``, the body force on each disk).
     branch : {"contact", "paper"}
         Where the branch vectors of Eqs. 5 and 7 end (:data:`BRANCHES`).
+    rows : (ndarray, ndarray), optional
+        :func:`contact_rows` of the frame, if already known.
     basis : (ndarray, ndarray)
         Unit vectors (e_1, e_2) at each disk, shape (P, 2) each: the basis of vectors and
         tensors (the cells' ``basis(x, y)``: e_r, e_phi for rings). With a
@@ -94,57 +114,63 @@ def particle_channels(atoms, contacts, h, rho_p, channels, basis, branch="contac
     ndarray, shape (P, len(CHANNELS))
     """
     x, y, a = atoms["x"], atoms["y"], atoms["radius"]
-    er, ephi = basis
+    er, ephi = (np.ascontiguousarray(e, float) for e in basis)
     vol = np.pi * h * a * a
-    mass = atoms["mass"] if "mass" in atoms else rho_p * vol
+    mass = np.asarray(atoms["mass"], float) if "mass" in atoms else rho_p * vol
     q = np.zeros((len(x), len(CHANNELS)))
     want = set(channels)
-    q[:, INDEX["vol"]] = vol
-    q[:, INDEX["mass"]] = mass
-    if want & {"mom_r", "mom_phi", "kin_rr"}:
-        v = np.column_stack([atoms["vx"], atoms["vy"]])
-        v_r, v_phi = np.einsum("ij,ij->i", v, er), np.einsum("ij,ij->i", v, ephi)
-        q[:, INDEX["mom_r"]], q[:, INDEX["mom_phi"]] = vol * v_r, vol * v_phi
-        if "kin_rr" in want:
-            q[:, INDEX["kin_rr"]:INDEX["kin_rr"] + 4] = \
-                mass[:, None] * _outer(v_r, v_phi, v_r, v_phi)
-    if "spin" in want:
-        q[:, INDEX["spin"]] = vol * atoms["omegaz"]
-    if want & {"body_r", "body_phi"}:
-        b = np.column_stack([atoms["bx"], atoms["by"]])
-        q[:, INDEX["body_r"]] = np.einsum("ij,ij->i", b, er)
-        q[:, INDEX["body_phi"]] = np.einsum("ij,ij->i", b, ephi)
+    zero = np.zeros(len(x))
+    moving = bool(want & {"mom_r", "mom_phi", "kin_rr"})
+    body = bool(want & {"body_r", "body_phi"})
+    _fill_particles(q, vol, mass, *(np.asarray(atoms[c], float) if use else zero
+                                    for c, use in (("vx", moving), ("vy", moving),
+                                                   ("omegaz", "spin" in want),
+                                                   ("bx", body), ("by", body))),
+                    er, ephi, moving, "kin_rr" in want, "spin" in want, body)
     if want & {"ncontact", "fab_rr", "sig_rr", "def_rr"}:
         if branch not in BRANCHES:
             raise UserError(f"branch {branch!r}: choose from {', '.join(BRANCHES)}")
-        _contact_channels(q, atoms, contacts, er, ephi, vol, h, want, BRANCHES[branch])
+        _contact_channels(q, atoms, contacts, er, ephi, vol, h, want, BRANCHES[branch],
+                          rows or contact_rows(atoms, contacts))
     return q
 
 
-def _contact_channels(q, atoms, contacts, er, ephi, vol, h, want, shorten):
+@njit(cache=True, nogil=True)
+def _fill_particles(q, vol, mass, vx, vy, omz, bx, by, er, ephi, moving, kinetic, spin,
+                    body):
+    """The particles' own channels in one pass: volume, mass, momentum, the kinetic
+    tensor m v (x) v, spin and body force, in the basis (er, ephi)."""
+    for p in range(q.shape[0]):
+        q[p, 0], q[p, 1] = vol[p], mass[p]
+        if moving:
+            v_r = vx[p] * er[p, 0] + vy[p] * er[p, 1]
+            v_phi = vx[p] * ephi[p, 0] + vy[p] * ephi[p, 1]
+            q[p, 2], q[p, 3] = vol[p] * v_r, vol[p] * v_phi
+            if kinetic:
+                m = mass[p]
+                q[p, KIN], q[p, KIN + 1] = m * v_r * v_r, m * v_r * v_phi
+                q[p, KIN + 2], q[p, KIN + 3] = m * v_phi * v_r, m * v_phi * v_phi
+        if spin:
+            q[p, 4] = vol[p] * omz[p]
+        if body:
+            q[p, BODY] = bx[p] * er[p, 0] + by[p] * er[p, 1]
+            q[p, BODY + 1] = bx[p] * ephi[p, 0] + by[p] * ephi[p, 1]
+
+
+def _contact_channels(q, atoms, contacts, er, ephi, vol, h, want, shorten, rows):
     """Add each contact to both of its disks (only the disk of a wall contact)."""
-    ids = atoms["id"]
-    pair = contacts["wall"] == 0
-    i1 = rows_of(ids, contacts["id1"])
-    i2 = np.full(len(i1), -1, dtype=np.int64)
-    i2[pair] = rows_of(ids, contacts["id2"][pair])
-    nc = np.zeros(len(vol))
-    fab, sig, dfm = (np.zeros((len(vol), 4)) for _ in range(3))
+    i1, i2 = rows
     # columns the wanted channels do not need (e.g. forces for coordination alone) may be
     # absent: they enter only channels that are not kept
-    col = {k: contacts[k] if k in contacts else np.zeros(len(i1))
+    col = {k: np.asarray(contacts[k], float) if k in contacts else np.zeros(len(i1))
            for k in ("fnx", "ftx", "fny", "fty", "nx", "ny", "overlap")}
+    keep = np.array([n in want for n in ("ncontact", "fab_rr", "sig_rr", "def_rr")])
     _accumulate_contacts(i1, i2, col["fnx"] + col["ftx"], col["fny"] + col["fty"],
-                         col["nx"], col["ny"], col["overlap"], er, ephi, atoms["radius"],
-                         np.pi * h, shorten, nc, fab, sig, dfm)
-    if "ncontact" in want:
-        q[:, INDEX["ncontact"]] = vol * nc
-    for name, values in (("fab_rr", vol[:, None] * fab), ("sig_rr", sig), ("def_rr", dfm)):
-        if name in want:
-            q[:, INDEX[name]:INDEX[name] + 4] = values
+                         col["nx"], col["ny"], col["overlap"], er, ephi,
+                         np.asarray(atoms["radius"], float), vol, np.pi * h, shorten, keep, q)
 
 
-def wall_points(atoms, contacts, branch="contact"):
+def wall_points(atoms, contacts, branch="contact", rows=None):
     """Contact points and forces on the disks of the wall contacts.
 
     Returns
@@ -154,19 +180,19 @@ def wall_points(atoms, contacts, branch="contact"):
         total force on the disk.
     """
     k = contacts["wall"] != 0
-    p = rows_of(atoms["id"], contacts["id1"][k])
+    p = rows[0][k] if rows is not None else rows_of(atoms["id"], contacts["id1"][k])
     reach = atoms["radius"][p] - BRANCHES[branch] * contacts["overlap"][k]
     return (atoms["x"][p] + reach * contacts["nx"][k], atoms["y"][p] + reach * contacts["ny"][k],
             contacts["fnx"][k] + contacts["ftx"][k], contacts["fny"][k] + contacts["fty"][k])
 
 
 @njit(cache=True, nogil=True)
-def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih, shorten,
-                         nc, fab, sig, dfm):
-    """Per-disk sums over its contacts (side 2 sees -f and -n; i2 < 0: wall contact):
-    count, sum n (x) n, sum f (x) l with l = (a - shorten overlap) n, pi h sum
-    Delta (x) l with Delta = -overlap n; tensors in the disk's polar basis (rr, rphi,
-    phir, phiphi)."""
+def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, vol, pih, shorten,
+                         keep, q):
+    """Add to each disk's channels the sums over its contacts (side 2 sees -f and -n;
+    i2 < 0: wall contact), the ``keep``-ed ones of: V^p x count, V^p sum n (x) n,
+    sum f (x) l with l = (a - shorten overlap) n, pi h sum Delta (x) l with
+    Delta = -overlap n; tensors in the disk's basis (rr, rphi, phir, phiphi)."""
     for c in range(i1.shape[0]):
         for side in range(2):
             p = i1[c] if side == 0 else i2[c]
@@ -179,19 +205,24 @@ def _accumulate_contacts(i1, i2, fx, fy, nx, ny, overlap, er, ephi, a, pih, shor
             f_phi = s * (fx[c] * ephi[p, 0] + fy[c] * ephi[p, 1])
             length = a[p] - shorten * overlap[c]
             d = -pih * overlap[c] * length
-            nc[p] += 1.0
-            fab[p, 0] += n_r * n_r
-            fab[p, 1] += n_r * n_phi
-            fab[p, 2] += n_phi * n_r
-            fab[p, 3] += n_phi * n_phi
-            sig[p, 0] += length * f_r * n_r
-            sig[p, 1] += length * f_r * n_phi
-            sig[p, 2] += length * f_phi * n_r
-            sig[p, 3] += length * f_phi * n_phi
-            dfm[p, 0] += d * n_r * n_r
-            dfm[p, 1] += d * n_r * n_phi
-            dfm[p, 2] += d * n_phi * n_r
-            dfm[p, 3] += d * n_phi * n_phi
+            v = vol[p]
+            if keep[0]:
+                q[p, NC] += v
+            if keep[1]:
+                q[p, FAB] += v * n_r * n_r
+                q[p, FAB + 1] += v * n_r * n_phi
+                q[p, FAB + 2] += v * n_phi * n_r
+                q[p, FAB + 3] += v * n_phi * n_phi
+            if keep[2]:
+                q[p, SIG] += length * f_r * n_r
+                q[p, SIG + 1] += length * f_r * n_phi
+                q[p, SIG + 2] += length * f_phi * n_r
+                q[p, SIG + 3] += length * f_phi * n_phi
+            if keep[3]:
+                q[p, DEF] += d * n_r * n_r
+                q[p, DEF + 1] += d * n_r * n_phi
+                q[p, DEF + 2] += d * n_phi * n_r
+                q[p, DEF + 3] += d * n_phi * n_phi
 
 
 def lookup(ids, wanted):

@@ -24,7 +24,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from granavg.engine.kernels import rows_of
+from numba import njit
+
+from granavg.engine.kernels import contact_rows
 from granavg.engine.uncertainty import blocking_errors
 
 if TYPE_CHECKING:
@@ -79,21 +81,19 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
         out["ke_J"] = float(np.sum(ke))
     if contacts is None or "id" not in atoms:
         return out
-    i1 = rows_of(atoms["id"], contacts["id1"])
-    pair = contacts["wall"] == 0
-    i2 = rows_of(atoms["id"], contacts["id2"][pair])
+    i1, i2 = contact_rows(atoms, contacts)
     n = len(x)
-    out.update(_hexatic(x, y, i1[pair], i2, zone["bulk"]))
-    count = np.bincount(i1, minlength=n) + np.bincount(i2, minlength=n)
+    fn = ((contacts["fnx"] + contacts["ftx"]) * contacts["nx"] +
+          (contacts["fny"] + contacts["fty"]) * contacts["ny"]) if "fnx" in contacts \
+        else np.zeros(len(i1))
+    count, trace, bonds, re6, im6 = _contact_state(i1, i2, np.asarray(fn, float),
+                                                   np.asarray(a, float), x, y, n)
+    out.update(_hexatic(bonds, re6, im6, zone["bulk"]))
     out["C"] = float(count.mean()) if n else np.nan
     for k, m in zone.items():
         out[f"C_{k}"] = float(count[m].mean()) if m.any() else np.nan
     out["rattler_fraction"] = float(np.mean(count < 2)) if n else np.nan
     if "fnx" in contacts:
-        fn = (contacts["fnx"] + contacts["ftx"]) * contacts["nx"] + \
-             (contacts["fny"] + contacts["fty"]) * contacts["ny"]
-        trace = np.bincount(i1, weights=a[i1] * fn, minlength=n) + \
-            np.bincount(i2, weights=a[i2] * fn[pair], minlength=n)
         out["P_bulk_Pa"] = float(-0.5 * trace[zone["bulk"]].sum() / (zone_area["bulk"] * h))
     if "overlap" in contacts:
         ov = contacts["overlap"] / d_ref
@@ -103,6 +103,38 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
     out["wall_contacts_out"] = int(np.sum(contacts["wall"] == 2))
     if "fnx" in contacts and "overlap" in contacts:
         out.update(wall_torques(atoms, contacts, i1))
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _contact_state(i1, i2, fn, a, x, y, n):
+    """One pass over the contacts: each disk's contact count, its sum a f.n (the trace of
+    its stress sum) and the sums cos 6 theta, sin 6 theta over its disk-disk bonds
+    (theta the bond's angle; the reverse bond has the same)."""
+    count, trace, bonds = np.zeros(n), np.zeros(n), np.zeros(n)
+    re6, im6 = np.zeros(n), np.zeros(n)
+    for c in range(i1.shape[0]):
+        p, q = i1[c], i2[c]
+        count[p] += 1.0
+        trace[p] += a[p] * fn[c]
+        if q < 0:
+            continue
+        count[q] += 1.0
+        trace[q] += a[q] * fn[c]
+        dx, dy = x[q] - x[p], y[q] - y[p]
+        r2 = dx * dx + dy * dy
+        if r2 > 0.0:
+            u, v = dx * dx / r2, dy * dy / r2            # cos^2, sin^2
+            cs = dx * dy / r2                              # cos sin
+            c6 = u * u * u - 15.0 * u * u * v + 15.0 * u * v * v - v * v * v
+            s6 = cs * (6.0 * u * u - 20.0 * u * v + 6.0 * v * v)
+            bonds[p] += 1.0
+            bonds[q] += 1.0
+            re6[p] += c6
+            im6[p] += s6
+            re6[q] += c6
+            im6[q] += s6
+    return count, trace, bonds, re6, im6
     return out
 
 
@@ -124,21 +156,14 @@ def wall_torques(atoms, contacts, i1) -> dict:
     return out
 
 
-def _hexatic(x, y, i1, i2, bulk):
-    """Mean |psi_6| of the bulk disks with contacts and the share above 0.8, over the
-    bonds of the contact network (disk pairs i1, i2): psi_6 = <exp(6 i theta)> over a
-    disk's contacts. One pass over the contacts; rattlers (no contact) are left out."""
-    n = len(x)
-    theta = np.arctan2(y[i2] - y[i1], x[i2] - x[i1])
-    both = np.concatenate([i1, i2])
-    c6, s6 = np.cos(6 * theta), np.sin(6 * theta)           # the reverse bond: theta + pi
-    count = np.bincount(both, minlength=n)
-    re = np.bincount(both, np.concatenate([c6, c6]), n)
-    im = np.bincount(both, np.concatenate([s6, s6]), n)
-    keep = bulk & (count > 0)
+def _hexatic(bonds, re6, im6, bulk):
+    """Mean |psi_6| of the bulk disks with bonds and the share above 0.8, over the bonds
+    of the contact network: psi_6 = <exp(6 i theta)> over a disk's disk-disk contacts
+    (the sums from :func:`_contact_state`). Disks without one are left out."""
+    keep = bulk & (bonds > 0)
     if keep.sum() < 3:
         return {}
-    psi = np.hypot(re[keep], im[keep]) / count[keep]
+    psi = np.hypot(re6[keep], im6[keep]) / bonds[keep]
     return {"psi6_bulk": float(psi.mean()), "psi6_bulk_ordered": float(np.mean(psi > 0.8))}
 
 

@@ -18,6 +18,7 @@ from granavg.io.profiles_io import REPLICATES, TIMESERIES, write_profiles
 from granavg.engine import body_forces
 from granavg.pipeline.description import DumpAverage, WithBodyForces
 from granavg.pipeline.on_dask import average_run_dask
+from granavg.pipeline.prefetch import Prefetched
 from granavg.pipeline.runs import average_run
 
 log = logging.getLogger(__name__)
@@ -85,7 +86,7 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     if frames.units.style == "unstated":
         log.info("%s does not say its units: the outputs are labelled 'unstated'; --units "
                  "STYLE names them", atoms)
-    profiles = average(frames, spec.geometry, rho_p=density, quantities=quantities,
+    profiles = average(Prefetched(frames), spec.geometry, rho_p=density, quantities=quantities,
                        t_min=t_min or 0.0, block_time=block_time, progress=progress,
                        units=frames.units, branch=branch, sectors=sectors)
     profiles.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts

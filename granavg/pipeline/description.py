@@ -21,6 +21,7 @@ from granavg.engine.average import MAX_BLOCKS, CellAverage
 from granavg.engine.body_forces import add_body_forces, base_plate
 from granavg.engine.geometry import Grid, Rings, Slabs
 from granavg.engine.timeseries import TimeSeries
+from granavg.pipeline.prefetch import Prefetched
 from granavg.engine.units import SI
 from granavg.errors import UserError
 from granavg.io import validate
@@ -134,6 +135,8 @@ class RunAverage:
                            scene["d_s"]) if series else None
         if frames is not None and self.body_forces and "body" in self.groups:
             frames = WithBodyForces(frames, self.body_forces, scene["h"], scene["rho_p"])
+        if frames is not None:
+            frames = Prefetched(frames)
         avg = CellAverage(frames, self.geometry, self.groups, scene["rho_p"], self.t_min,
                           self.block_time, state, branch=self.branch,
                           sectors=self.sectors)
