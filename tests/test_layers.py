@@ -86,3 +86,21 @@ def test_importing_the_engine_and_the_cli_loads_no_lammps_no_mpi_no_analysis():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["False", "False", "False"]
+
+
+HEAVY = ("scipy.stats", "scipy.spatial", "pandas", "dask", "matplotlib", "lammps")
+
+
+@pytest.mark.parametrize("modules", [
+    "granavg.engine, granavg.cli",
+    "granavg.pipeline.averaging, granavg.io.lammps_dumps, granavg.io.profiles_io"])
+def test_averaging_imports_nothing_it_does_not_use(modules):
+    """The engine, the CLI and the average command's own modules load no statistics,
+    no triangulation, no dask or plotting; pandas only where the table is written."""
+    code = (f"import sys, {modules}; "
+            f"print(' '.join(m for m in {HEAVY!r} if m in sys.modules))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    loaded = set(proc.stdout.split())
+    allowed = {"pandas"} if "profiles_io" in modules else set()
+    assert loaded <= allowed, loaded

@@ -251,12 +251,22 @@ class _Scanner:
         n, step = head["n"], head["timestep"]
         want, target = self._targets(names)
         end = self._block_end()
-        rows = self.buf.count(b"\n", self.pos, end)
         self.last_step = step
         window = self.reader.steps
-        if window is not None and rows >= n and not (
-                window[0] <= step <= window[1]
-                and (len(window) < 3 or (step - window[0]) % window[2] == 0)):
+        skip = window is not None and not (
+            window[0] <= step <= window[1]
+            and (len(window) < 3 or (step - window[0]) % window[2] == 0))
+        if end < len(self.buf) and not skip and (n == 0 or self.buf[end - 1] == 10):
+            # a complete block (another header follows): parse it, and count its rows
+            # only if it does not hold exactly n (the kernel stops at the first non-number)
+            arr = np.frombuffer(self.buf, dtype=np.uint8)
+            data, status, row, col = parse_block(arr, self.pos, n, len(names), target)
+            if status == OK and col == end:
+                self.pos, first = end, self.line
+                self.line += n
+                return DumpFrame(step, head["time"], want, data, head["box"], first)
+        rows = self.buf.count(b"\n", self.pos, end)
+        if skip and rows >= n:
             self.pos, self.line = end, self.line + rows
             return _SKIPPED
         if rows < n or (n and self.buf[end - 1] != 10):
