@@ -482,3 +482,18 @@ def test_an_error_after_a_signal_counts_as_the_interrupt():
         assert session.interrupt_code(RuntimeError("no compiled object yet")) == 143
     finally:
         session._signalled.clear()
+
+
+def test_a_block_with_fewer_rows_than_its_header_is_never_read_beyond():
+    """The parse kernel stops where the block ends (the next header), however the
+    columns are skipped, and reports the first missing row."""
+    import numpy as np
+    from granavg.io.parse import MALFORMED, parse_block
+    block = b"1 2.5 3\n4 5.5 6\nITEM:"             # two rows, the next header cut short
+    buf = np.frombuffer(block, dtype=np.uint8)
+    end = block.index(b"ITEM:")
+    for target in ([0, 1, 2], [-1, -1, 0]):             # every column; only the last
+        out, status, row, _ = parse_block(buf, 0, 3, 3, np.array(target), end)
+        assert (status, row) == (MALFORMED, 2)
+    out, status, row, col = parse_block(buf, 0, 2, 3, np.array([0, 1, 2]), end)
+    assert status == 0 and col == end and out.tolist() == [[1, 2.5, 3], [4, 5.5, 6]]

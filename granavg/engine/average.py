@@ -282,7 +282,8 @@ def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact",
         er, ephi = rings.basis(cx, cy)
         inside = where >= 0
         if sectors:
-            where = where * sectors + replicas.point_sectors(rings, cx, cy, sectors)
+            where = where * sectors + replicas.sector_shares(   # radius 0: its centre's
+                rings, cx, cy, np.zeros(len(cx)), sectors)[0][:, 0]
         for k, e in ((INDEX["wall_r"], er), (INDEX["wall_phi"], ephi)):
             sums[:, k] += np.bincount(where[inside], (fx * e[:, 0] + fy * e[:, 1])[inside],
                                       minlength=n)

@@ -59,27 +59,31 @@ CHANNELS = ("vol", "mass", "mom_r", "mom_phi", "spin", "ncontact",
 #: delta / 2 and makes sigma too large by about delta / d.
 BRANCHES = {"contact": 0.5, "paper": 0.0}
 INDEX = {name: k for k, name in enumerate(CHANNELS)}
-#: First columns of the channels the compiled kernels fill.
-NC, FAB, SIG, KIN, DEF, BODY = (INDEX[c] for c in ("ncontact", "fab_rr", "sig_rr", "kin_rr",
-                                                   "def_rr", "body_r"))
+#: First columns of the channels the compiled kernels fill (global constants: numba
+#: compiles them in, and its cache is renewed when this file changes - change the
+#: channels here, never elsewhere).
+VOL, MASS, MOM, SPIN, NC, FAB, SIG, KIN, DEF, BODY = (
+    INDEX[c] for c in ("vol", "mass", "mom_r", "spin", "ncontact", "fab_rr", "sig_rr",
+                       "kin_rr", "def_rr", "body_r"))
 
 
-_last_rows: list = [None, None]          # (the arrays looked up, their rows)
+_last_rows = (None, None)               # (the arrays looked up, their rows), replaced whole
 
 
 def contact_rows(atoms, contacts):
     """Rows of each contact's disks among the atoms: (i1, i2), i2 = -1 for a wall
     contact. The last frame's are kept: the cell sums and the per-frame state of one
     frame look them up once."""
+    global _last_rows
     key = (atoms["id"], contacts["id1"], contacts["id2"], contacts["wall"])
-    last = _last_rows[0]
+    last, rows = _last_rows                 # one read: another thread may replace it
     if last is not None and all(a is b for a, b in zip(key, last)):
-        return _last_rows[1]
+        return rows
     pair = contacts["wall"] == 0
     i1 = rows_of(atoms["id"], contacts["id1"])
     i2 = np.full(len(i1), -1, dtype=np.int64)
     i2[pair] = rows_of(atoms["id"], contacts["id2"][pair])
-    _last_rows[:] = [key, (i1, i2)]
+    _last_rows = (key, (i1, i2))
     return i1, i2
 
 
@@ -141,17 +145,17 @@ def _fill_particles(q, vol, mass, vx, vy, omz, bx, by, er, ephi, moving, kinetic
     """The particles' own channels in one pass: volume, mass, momentum, the kinetic
     tensor m v (x) v, spin and body force, in the basis (er, ephi)."""
     for p in range(q.shape[0]):
-        q[p, 0], q[p, 1] = vol[p], mass[p]
+        q[p, VOL], q[p, MASS] = vol[p], mass[p]
         if moving:
             v_r = vx[p] * er[p, 0] + vy[p] * er[p, 1]
             v_phi = vx[p] * ephi[p, 0] + vy[p] * ephi[p, 1]
-            q[p, 2], q[p, 3] = vol[p] * v_r, vol[p] * v_phi
+            q[p, MOM], q[p, MOM + 1] = vol[p] * v_r, vol[p] * v_phi
             if kinetic:
                 m = mass[p]
                 q[p, KIN], q[p, KIN + 1] = m * v_r * v_r, m * v_r * v_phi
                 q[p, KIN + 2], q[p, KIN + 3] = m * v_phi * v_r, m * v_phi * v_phi
         if spin:
-            q[p, 4] = vol[p] * omz[p]
+            q[p, SPIN] = vol[p] * omz[p]
         if body:
             q[p, BODY] = bx[p] * er[p, 0] + by[p] * er[p, 1]
             q[p, BODY + 1] = bx[p] * ephi[p, 0] + by[p] * ephi[p, 1]

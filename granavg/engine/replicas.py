@@ -160,17 +160,6 @@ def sector_sums(particle, cell, w, sector, share, k, q, n_cells):
     return out
 
 
-def point_sectors(geometry, x, y, k):
-    """The sector of each point (a wall's contact point), shape (P,)."""
-    if geometry.kind == "rings":
-        width = 2.0 * np.pi / k
-        phi = np.arctan2(y - geometry.center[1], x - geometry.center[0]) % (2 * np.pi)
-        return np.minimum((phi / width).astype(np.int64), k - 1)
-    lo, hi = geometry.span
-    u = y if geometry.axis == "x" else x
-    return np.clip(np.floor((u - lo) / ((hi - lo) / k)).astype(np.int64), 0, k - 1)
-
-
 def merge_sectors(sums, k):
     """Sums over ``k`` sectors from sums over finer ones (adjacent sectors added).
 

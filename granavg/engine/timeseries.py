@@ -64,7 +64,8 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
         ``overlap_max_over_d``, ``ke_J`` (translational + rotational), ``wall_contacts_in``,
         ``wall_contacts_out``, ``torque_in_Nm``, ``torque_out_Nm``
         (:func:`wall_torques`), ``nu_bulk``, ``psi6_bulk`` (mean |psi_6| over the
-        contact network's bonds) and ``psi6_bulk_ordered`` (share with |psi_6| > 0.8).
+        contact network's bonds, disks with at least 3 bonds) and ``psi6_bulk_ordered``
+        (share with |psi_6| > 0.8).
     """
     x, y, a = atoms["x"], atoms["y"], atoms["radius"]
     r = np.hypot(x, y)
@@ -135,7 +136,6 @@ def _contact_state(i1, i2, fn, a, x, y, n):
             re6[q] += c6
             im6[q] += s6
     return count, trace, bonds, re6, im6
-    return out
 
 
 def wall_torques(atoms, contacts, i1) -> dict:
@@ -157,10 +157,11 @@ def wall_torques(atoms, contacts, i1) -> dict:
 
 
 def _hexatic(bonds, re6, im6, bulk):
-    """Mean |psi_6| of the bulk disks with bonds and the share above 0.8, over the bonds
-    of the contact network: psi_6 = <exp(6 i theta)> over a disk's disk-disk contacts
-    (the sums from :func:`_contact_state`). Disks without one are left out."""
-    keep = bulk & (bonds > 0)
+    """Mean |psi_6| of the bulk disks with at least 3 bonds and the share above 0.8, over
+    the bonds of the contact network: psi_6 = <exp(6 i theta)> over a disk's disk-disk
+    contacts (the sums from :func:`_contact_state`). Disks with fewer bonds are left out:
+    one bond alone gives |psi_6| = 1, two often more than 0.8."""
+    keep = bulk & (bonds >= 3)
     if keep.sum() < 3:
         return {}
     psi = np.hypot(re6[keep], im6[keep]) / bonds[keep]

@@ -6,9 +6,10 @@ digits times an exact power of ten, |exponent| <= 22), which is correctly rounde
 values equal Python's ``float()`` of the same text. LAMMPS' ``%g``-style numbers always
 take that path; longer numbers go through a slower loop that may differ in the last bit.
 
-The caller guarantees that the block holds exactly ``nrows`` newline-terminated rows
-(:class:`granavg.io.reader.DumpReader` counts them first); every scan in the kernel stops
-at a newline, so the last one is a sentinel and no byte is bounds-checked.
+Every scan in the kernel stops at a newline, and a row may not start at or beyond the
+block's end (``limit``), so a block of newline-terminated rows is never read beyond,
+whether it holds ``nrows`` rows or fewer (then MALFORMED: the caller counts the rows for
+its message); within a row no byte is bounds-checked.
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ def _long_number(buf, pos, pow10):
 
 
 @njit(cache=True, nogil=True)
-def parse_rows(buf, pos, nrows, ncol, target, out, pow10):
+def parse_rows(buf, pos, nrows, ncol, target, out, pow10, limit):
     """Parse ``nrows`` rows of ``ncol`` numbers from ``buf[pos:]``.
 
     Parameters
@@ -94,6 +95,9 @@ def parse_rows(buf, pos, nrows, ncol, target, out, pow10):
         Filled in place.
     pow10 : ndarray of float64
         10**0 ... 10**22.
+    limit : int
+        Where the block ends: a row starting there is not one of its rows (MALFORMED),
+        so a block holding fewer rows than ``nrows`` is never read beyond.
 
     Returns
     -------
@@ -103,6 +107,8 @@ def parse_rows(buf, pos, nrows, ncol, target, out, pow10):
         (col = ncol: too many values in the row).
     """
     for row in range(nrows):
+        if pos >= limit:
+            return MALFORMED, row, 0
         for col in range(ncol):
             while _blank(buf[pos]):
                 pos += 1
@@ -163,12 +169,15 @@ def parse_rows(buf, pos, nrows, ncol, target, out, pow10):
     return OK, nrows, pos
 
 
-def parse_block(buf: np.ndarray, start: int, nrows: int, ncol: int, target: np.ndarray):
-    """Parse a block of ``nrows`` newline-terminated rows; returns (out, status, row, col).
+def parse_block(buf: np.ndarray, start: int, nrows: int, ncol: int, target: np.ndarray,
+                limit: int | None = None):
+    """Parse a block of ``nrows`` newline-terminated rows ending before ``limit`` (default
+    the buffer's end); returns (out, status, row, col).
 
     ``out`` has shape (nrows, max(target) + 1); see :func:`parse_rows`.
     """
     n_out = int(target.max()) + 1 if len(target) and target.max() >= 0 else 0
     out = np.empty((nrows, n_out))
-    status, row, col = parse_rows(buf, start, nrows, ncol, target, out, _POW10)
+    status, row, col = parse_rows(buf, start, nrows, ncol, target, out, _POW10,
+                                  len(buf) if limit is None else limit)
     return out, int(status), int(row), int(col)

@@ -260,7 +260,7 @@ class _Scanner:
             # a complete block (another header follows): parse it, and count its rows
             # only if it does not hold exactly n (the kernel stops at the first non-number)
             arr = np.frombuffer(self.buf, dtype=np.uint8)
-            data, status, row, col = parse_block(arr, self.pos, n, len(names), target)
+            data, status, row, col = parse_block(arr, self.pos, n, len(names), target, end)
             if status == OK and col == end:
                 self.pos, first = end, self.line
                 self.line += n
