@@ -289,3 +289,32 @@ def test_the_sectors_option_is_checked(sectors, ok):
     else:
         with pytest.raises(ParameterError, match="sectors"):
             CellAverage([], rings, ["nu"], 1060.0, 0.0, 1.0, sectors=sectors)
+
+
+def test_a_report_of_tables_with_different_sectors_falls_back_to_time(small_run, tmp_path):
+    """The real CLI: a run averaged twice with different --sectors; the report says its
+    derived numbers carry time errors, with a warning, instead of failing or mixing."""
+    import json
+
+    from .conftest import run_cli
+    for n, k in ((8, 4), (16, 6)):
+        proc = run_cli("average", small_run, "--bins", n, "--t-min", 1.5, "--sectors", k,
+                       "--out", tmp_path / f"p{n}.csv", "--no-progress")
+        assert proc.returncode == 0, proc.stderr
+    proc = run_cli("analyze", tmp_path / "p8.csv", tmp_path / "p16.csv", "--out",
+                   tmp_path / "r")
+    assert proc.returncode == 0, proc.stderr
+    assert "do not split their rings into the same sectors" in proc.stderr
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert summary["errors"]["kind"] == "jackknife"
+    assert np.isfinite(summary["numbers"]["density"]["nu_bulk_err"])
+    for n in (8, 16):
+        proc = run_cli("average", small_run, "--bins", n, "--t-min", 1.5, "--sectors", 4,
+                       "--out", tmp_path / f"s{n}.csv", "--no-progress")
+        assert proc.returncode == 0, proc.stderr
+    proc = run_cli("analyze", tmp_path / "s8.csv", tmp_path / "s16.csv", "--out",
+                   tmp_path / "s")
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "s" / "summary.json").read_text())
+    assert summary["errors"]["kind"] == "structure"
+    assert summary["errors"]["parts"]["sectors"] == 4
