@@ -81,7 +81,8 @@ def test_the_analysis_of_an_ensemble_uses_between_run_errors(ensemble, tmp_path)
     p8, p16 = (read_profiles(_avg(runs, n, tmp_path)) for n in (8, 16))
     summary = analyze(p8, p16, p8.meta["run_manifest"])
     assert summary["errors"] == {**summary["errors"], "kind": "runs", "replicates": 3}
-    assert np.isfinite(summary["numbers"]["shear_band"]["s_m_err"])
+    assert np.isfinite(summary["numbers"]["shear_band"]["decades_err"])
+    assert np.isfinite(summary["numbers"]["stress_exponents"]["sigma_rr_err"])
     assert len(summary["runs"]) == 3
     # the window judged from the spread between the realisations, beside each run's verdict
     per_run = [r["stationarity"] for r in summary["runs"]]

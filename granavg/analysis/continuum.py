@@ -20,105 +20,9 @@ Pure functions of arrays over rings (radius r in m); no plotting. Conventions:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from granavg.errors import UserError
-
-
-@dataclass(frozen=True)
-class ShearBand:
-    """Fit v_phi = v0 exp(-(r - R_i)/s) over the decay range (Fig. 2).
-
-    Attributes
-    ----------
-    v0, v0_err : float
-        Velocity at R_i, m/s, and its standard error.
-    s, s_err : float
-        Decay length, m, and its standard error.
-    r_max : float
-        Outer end of the decay range (m): where v_phi reaches the noise level.
-    noise : float
-        The noise level of v_phi, m/s.
-    n_rings : int
-        Rings in the fit.
-    """
-
-    v0: float
-    v0_err: float
-    s: float
-    s_err: float
-    r_max: float
-    noise: float
-    n_rings: int
-
-
-def noise_level(v, sem):
-    """Noise level of a velocity profile (m/s): the larger of three times the median
-    standard error and the spread of v over the outer half of the rings, where the
-    band has decayed."""
-    v, sem = np.asarray(v, float), np.asarray(sem, float)
-    tail = v[len(v) // 2:]
-    tail = tail[np.isfinite(tail)]
-    spread = np.sqrt(np.mean(tail**2)) if len(tail) else 0.0
-    finite_sem = sem[np.isfinite(sem)]
-    return max(3.0 * np.median(finite_sem) if len(finite_sem) else 0.0, spread)
-
-
-def decay_range(v, sem):
-    """Number of inner rings over which v_phi decays above the noise level."""
-    noise = noise_level(v, sem)
-    above = np.isfinite(v) & (np.asarray(v) > noise)
-    n = int(np.argmin(above)) if not above.all() else len(above)
-    return n, noise
-
-
-def fit_shear_band(r, v, sem, R_i, n_rings=None) -> ShearBand:
-    """Weighted least-squares fit of ln v = ln v0 - (r - R_i)/s over the decay range.
-
-    Parameters
-    ----------
-    r, v, sem : ndarray, shape (n_rings,)
-        Ring radius (m), v_phi and its standard error (m/s).
-    R_i : float
-        Inner ring radius (m).
-    n_rings : int, optional
-        Fit this many inner rings instead of the decay range (for replicates and the
-        range-sensitivity of s). Rings among them with v_phi <= 0 get zero weight (the
-        limit of their weight as v_phi -> 0+), as do rings without an error; the first
-        ring must have both.
-
-    The errors ``v0_err`` and ``s_err`` treat the rings as independent; the analysis
-    replaces them by errors from replicates (:mod:`granavg.engine.uncertainty`).
-    """
-    r, v, sem = (np.asarray(x, float) for x in (r, v, sem))
-    n, noise = decay_range(v, sem)
-    use = np.ones(n, bool)
-    if n_rings is not None:
-        n = int(min(max(n_rings, 0), len(r)))
-        # a ring whose v_phi is <= 0 (a replicate's noise near the band's end) gets zero
-        # weight: the limit of the weight (v/sem)^2 as v -> 0+; the ring count stays n
-        use = np.isfinite(v[:n]) & (v[:n] > 0) & np.isfinite(sem[:n]) & (sem[:n] > 0)
-        if n and not use[0]:
-            raise UserError("v_phi next to the inner wall is not positive (or has no "
-                            "error): no decay to fit")
-    if use.sum() < 3:
-        raise UserError(f"v_phi is above its noise level ({noise:.3g} m/s) in only "
-                        f"{int(use.sum())} ring(s) next to the inner wall; no decay to fit "
-                        "(use finer rings or a longer run)")
-    x, y = r[:n][use] - R_i, np.log(v[:n][use])
-    sig = np.where(np.isfinite(sem[:n][use]) & (sem[:n][use] > 0),
-                   sem[:n][use] / v[:n][use], 1.0)
-    A = np.column_stack([np.ones(len(x)), x]) / sig[:, None]
-    coef, *_ = np.linalg.lstsq(A, y / sig, rcond=None)
-    resid = (y - coef[0] - coef[1] * x) / sig
-    chi2 = max(np.sum(resid**2) / max(len(x) - 2, 1), 1.0)  # scatter beyond the errors
-    cov = np.linalg.inv(A.T @ A) * chi2
-    v0, s = np.exp(coef[0]), -1.0 / coef[1]
-    return ShearBand(v0=v0, v0_err=v0 * np.sqrt(cov[0, 0]), s=s,
-                     s_err=np.sqrt(cov[1, 1]) / coef[1] ** 2, r_max=r[n - 1], noise=noise,
-                     n_rings=n)
 
 
 def power_law(r, y, sem=None):
@@ -225,8 +129,9 @@ def deformation_rate_and_spin(r, v_phi):
     return 0.5 * (dv - v_phi / r), 0.5 * (dv + v_phi / r)
 
 
-def deformation_rate_and_spin_fit(r, band: ShearBand, R_i):
-    """D_rphi and W_rphi (1/s) of the fitted exponential (Eq. 15 and its spin twin)."""
+def deformation_rate_and_spin_fit(r, band, R_i):
+    """D_rphi and W_rphi (1/s) of the fitted exponential (Eq. 15 and its spin twin);
+    ``band`` has v0 (m/s) and s (m), e.g. a :class:`granavg.analysis.shear_band.ShearBand`."""
     v = band.v0 * np.exp(-(np.asarray(r) - R_i) / band.s)
     return -0.5 * v * (1 / band.s + 1 / r), -0.5 * v * (1 / band.s - 1 / r)
 

@@ -51,10 +51,11 @@ def fig2(p20, p60, summary, axes=None):
     ax[0].set(xlabel="r (m)", ylabel="volume fraction nu (-)", title="density")
     _both(ax[1], p20, p60, lambda p: p.values["v_phi"] / (Omega * p.rings.centre), 1, "v_phi/(Omega r)")
     sb = summary["numbers"]["shear_band"]
-    r = np.linspace(R_i, sb["decay_range_end_m"], 100)
-    ax[1].plot(r, sb["v0_over_omega_Ri"] * Omega * R_i * np.exp(-(r - R_i) / sb["s_m"]) / (Omega * r),
-               color="k", ls=":", label=f"fit: v0/(Omega R_i)={sb['v0_over_omega_Ri']:.3f}, "
-               f"s={sb['s_m'] * 1e3:.1f} mm")
+    if np.isfinite(sb["s_m"]):
+        r = np.linspace(R_i, sb["decay_range_end_m"], 100)
+        ax[1].plot(r, sb["v0_over_omega_Ri"] * R_i * np.exp(-(r - R_i) / sb["s_m"]) / r,
+                   color="k", ls=":", label=f"fit: v0/(Omega R_i)={sb['v0_over_omega_Ri']:.3f}, "
+                   f"s={sb['s_m'] * 1e3:.1f} mm")
     ax[1].set(yscale="log", xlabel="r (m)", ylabel="v_phi / (Omega r) (-)", title="velocity")
     for a in ax:
         a.legend(fontsize=7)

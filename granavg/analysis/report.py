@@ -15,8 +15,6 @@ _NUMBERS = [  # (section, key, label, unit, paper key)
     ("shear_band", "v0_over_omega_Ri", "v0 / (Omega R_i)", "-", "v0_over_omega_Ri"),
     ("shear_band", "s_m", "decay length s", "m", "s_m"),
     ("shear_band", "s_over_d_mean", "s / mean diameter", "-", None),
-    ("shear_band", "s_m_fit_minus_2_rings", "s, fitting 2 rings fewer", "m", None),
-    ("shear_band", "s_m_fit_plus_2_rings", "s, fitting 2 rings more", "m", None),
     ("shear_band", "decades", "decay before the noise", "decades", None),
     ("density", "nu_inner", "nu, inner ring", "-", None),
     ("density", "nu_bulk", "nu, bulk", "-", None),
@@ -65,9 +63,11 @@ def headline_rows(summary):
         block = summary["numbers"].get(section) or {}
         if key not in block:
             continue
-        err = block.get(f"{key}_err")
+        err, sys = block.get(f"{key}_err"), block.get(f"{key}_sys")
         value = f"{block[key]:.4g}" + (f" &plusmn; {err:.2g}" if err is not None and
                                        math.isfinite(err) else "")
+        if sys is not None and math.isfinite(sys):
+            value += f" (statistical) &plusmn; {sys:.2g} (estimator)"
         rows.append((label, value, unit, "" if paper is None else f"{PAPER[paper]:g}"))
     return rows
 
