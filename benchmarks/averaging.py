@@ -21,7 +21,7 @@ from pathlib import Path
 from granavg.engine.average import CellAverage, frame_sums
 from granavg.engine.geometry import Rings
 from granavg.pipeline.runs import average_run
-from granavg.engine.kernels import CHANNELS
+from granavg.engine.channels import BLOCKS
 from granavg.engine.quantities import groups_for
 from granavg.engine.replicas import FINE_SECTORS
 from granavg.engine.timeseries import frame_state
@@ -69,11 +69,11 @@ def engine_rows(run: Path, m):
                                               DumpReader(run / "contacts.dump.gz"),
                                               dt=m["derived"]["dt_s"]), 40))
     rows = []
-    every = [c for c in CHANNELS if not c.startswith("body")]   # no body forces in the dumps
+    every = [b for b in BLOCKS if b != "body"]            # no body forces in the dumps
     for n in (20, 60):
         rings = Rings.count(n, scene["R_i"], scene["R_o"], scene["h"])
         for label, channels in (("all quantities", every),
-                                ("nu and v", ("vol", "mom_r", "mom_phi"))):
+                                ("nu and v", ("vol", "mom"))):
             for sectors in (FINE_SECTORS, 0):
                 frame_sums(frames[0], rings, scene["rho_p"], channels, sectors=sectors)
                 dt = best_of(lambda: [frame_sums(f, rings, scene["rho_p"], channels,

@@ -11,9 +11,12 @@ import pytest
 from granavg.engine import Grid, Rings, Slabs, average
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.average import CellAverage, frame_sums
-from granavg.engine.kernels import CHANNELS, INDEX
+from granavg.engine.channels import BLOCKS, Layout
 from granavg.engine import replicas
 from granavg.engine.uncertainty import combine_errors, interaction_variance
+
+LAYOUT = Layout(("r", "phi"))
+CHANNELS, INDEX = LAYOUT.names, LAYOUT.index
 
 
 def monte_carlo_shares(x, y, a, geometry, k, n=400_000, seed=0):
@@ -40,8 +43,8 @@ def monte_carlo_shares(x, y, a, geometry, k, n=400_000, seed=0):
 ])
 def test_sector_shares_are_the_disk_areas_beyond_each_boundary(geometry, disk):
     k, a = 8, 0.004
-    sector, share = replicas.sector_shares(geometry, np.array([disk[0]]),
-                                           np.array([disk[1]]), np.array([a]), k)
+    sector, share = replicas.sector_shares(geometry, (np.array([disk[0]]),
+                                           np.array([disk[1]])), np.array([a]), k)
     exact = np.zeros(k)
     np.add.at(exact, sector[0], share[0])
     assert exact.sum() == pytest.approx(1.0, abs=1e-14)
@@ -51,8 +54,8 @@ def test_sector_shares_are_the_disk_areas_beyond_each_boundary(geometry, disk):
 
 def test_a_disk_wider_than_a_sector_or_a_point_goes_whole_to_its_centre():
     rings = Rings.count(2, 0.0, 0.1, 0.006)
-    sector, share = replicas.sector_shares(rings, np.array([0.001, 0.05]),
-                                           np.array([0.0, 0.0]), np.array([0.004, 0.0]), 24)
+    sector, share = replicas.sector_shares(rings, (np.array([0.001, 0.05]),
+                                           np.array([0.0, 0.0])), np.array([0.004, 0.0]), 24)
     assert share[:, 0].tolist() == [1.0, 1.0]
 
 
@@ -79,9 +82,9 @@ def random_frame(n=600, seed=3):
 ])
 def test_sector_sums_add_up_to_the_cells_sums(geometry):
     frame = random_frame()
-    channels = [c for c in CHANNELS if not c.startswith(("wall", "body"))]
-    cells = frame_sums(frame, geometry, 1060.0, channels)
-    sectors = frame_sums(frame, geometry, 1060.0, channels, sectors=24)
+    blocks = [b for b in BLOCKS if b not in ("wall", "body")]
+    cells = frame_sums(frame, geometry, 1060.0, blocks)
+    sectors = frame_sums(frame, geometry, 1060.0, blocks, sectors=24)
     assert sectors.shape == (geometry.n, 24, len(CHANNELS))
     assert np.allclose(sectors.sum(axis=1), cells, rtol=1e-12, atol=1e-15)
     vol = sectors[:, :, INDEX["vol"]]                  # every sector holds disks
@@ -181,32 +184,34 @@ def test_the_frozen_structures_correlation_chooses_the_sectors():
     V = np.ones(n)
     independent = rng.normal(0.8, 0.02, (n, kf))
     per_q, common, unresolved, table = replicas.choose_sectors(
-        *halves_of(independent, 0.01, rng), V, 1.0, ["nu"])
+        *halves_of(independent, 0.01, rng), V, 1.0, ["nu"], LAYOUT)
     assert (per_q["nu"], common, unresolved) == (24, 24, [])
     assert table["frozen_share"]["nu"] == pytest.approx(0.8, abs=0.1)   # 0.02^2 / 0.0005
     smooth = np.repeat(rng.normal(0.8, 0.02, (n, kf // 3)), 3, axis=1)   # 3 sectors alike
     per_q, common, unresolved, table = replicas.choose_sectors(
-        *halves_of(smooth, 0.01, rng), V, 1.0, ["nu"])
+        *halves_of(smooth, 0.01, rng), V, 1.0, ["nu"], LAYOUT)
     assert per_q["nu"] <= 6 and common == per_q["nu"] and not unresolved
     assert table["fine"]["nu"][0] == pytest.approx(2 / 3, abs=0.1)
     halves_alike = np.repeat(rng.normal(0.8, 0.04, (n, 2)), 12, axis=1)
     per_q, common, unresolved, _ = replicas.choose_sectors(
-        *halves_of(halves_alike, 0.01, rng), V, 1.0, ["nu"])
+        *halves_of(halves_alike, 0.01, rng), V, 1.0, ["nu"], LAYOUT)
     assert (common, unresolved) == (replicas.MIN_REPLICAS, ["nu"])
     # noise alone, no frozen part: not detected, so it sets nothing
     per_q, common, unresolved, table = replicas.choose_sectors(
-        *halves_of(np.full((n, kf), 0.8), 0.01, rng), V, 1.0, ["nu"])
+        *halves_of(np.full((n, kf), 0.8), 0.01, rng), V, 1.0, ["nu"], LAYOUT)
     assert (per_q["nu"], common, unresolved, table["fine"]) == (24, 24, [], {})
     # a quantity the balance fixes takes no part
     assert replicas.choose_sectors(*halves_of(halves_alike, 0.01, rng), V, 1.0, ["nu"],
-                                   exclude={"nu"})[:3] == ({}, 24, [])
+                                   LAYOUT, exclude={"nu"})[:3] == ({}, 24, [])
 
 
 def test_the_balance_fixes_the_stress_across_the_cells_and_the_walls():
     from granavg.engine.quantities import balanced_names
-    rings = balanced_names(["nu", "sigma", "boundary", "eps"], "r")
+    rings = balanced_names(["nu", "sigma", "boundary", "eps"], ("r", "phi"), "r")
     assert rings == {"sigma_rr", "sigma_rphi", "sigma_phir", "boundary_r", "boundary_phi"}
-    assert balanced_names(["sigma"], "phi") == {"sigma_rphi", "sigma_phir", "sigma_phiphi"}
+    assert balanced_names(["sigma"], ("x", "y"), "y") == {"sigma_xy", "sigma_yx", "sigma_yy"}
+    shells = balanced_names(["sigma"], ("r", "phi", "z"), "r")
+    assert shells == {"sigma_rr", "sigma_rphi", "sigma_rz", "sigma_phir", "sigma_zr"}
 
 
 def test_grids_and_slabs_without_a_span_keep_time_errors():

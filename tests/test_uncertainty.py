@@ -3,10 +3,13 @@
 import numpy as np
 import pytest
 
-from granavg.engine.kernels import CHANNELS, INDEX
+from granavg.engine.channels import Layout
 from granavg.engine.profiles import standard_errors
 from granavg.engine.uncertainty import (MIN_BLOCKS, Replicates, blocking_errors,
                                         jackknife_sums, merge_levels, spread_error)
+
+LAYOUT = Layout(("r", "phi"))
+CHANNELS, INDEX = LAYOUT.names, LAYOUT.index
 
 
 def ar1(n, phi, rng):
@@ -96,7 +99,7 @@ def test_profile_errors_with_a_ring_empty_in_some_blocks():
     v = rng.standard_normal((n, 2))
     sums[:, :, INDEX["vol"]] = vol
     sums[:, :, INDEX["mom_phi"]] = vol * v
-    sem, lower, reps = standard_errors(np.ones(n), sums, np.ones(2), 1000.0, ["v"])
+    sem, lower, reps = standard_errors(np.ones(n), sums, np.ones(2), 1000.0, ["v"], LAYOUT)
     finite = v[vol[:, 1] > 0, 1]
     naive = np.std(finite, ddof=1) / np.sqrt(len(finite))
     assert sem["v_phi"][1] == pytest.approx(naive, rel=0.5)     # white noise: ~ naive
@@ -106,5 +109,5 @@ def test_profile_errors_with_a_ring_empty_in_some_blocks():
 
 def test_fewer_than_two_blocks_give_no_error():
     sums = np.ones((1, 3, len(CHANNELS)))
-    sem, lower, reps = standard_errors(np.ones(1), sums, np.ones(3), 1000.0, ["nu"])
+    sem, lower, reps = standard_errors(np.ones(1), sums, np.ones(3), 1000.0, ["nu"], LAYOUT)
     assert np.all(np.isnan(sem["nu"])) and np.all(lower["nu"]) and reps is None

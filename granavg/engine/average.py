@@ -16,14 +16,13 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.kernels import (BRANCHES, CHANNELS, INDEX, contact_rows,
-                                   particle_channels, ring_sums, wall_points)
+from granavg.engine.kernels import (BRANCHES, cell_sums, contact_rows, particle_channels,
+                                   wall_points)
 from granavg.engine.profiles import Profiles, flags, standard_errors, values
 from granavg.engine.quantities import QUANTITIES
 from granavg.engine import replicas
 from granavg.engine.timeseries import DRIFT_Z, TimeSeries, stationarity
 from granavg.engine.uncertainty import Replicates
-from granavg.engine.geometry import rename
 from granavg.errors import ParameterError
 
 log = logging.getLogger(__name__)
@@ -80,7 +79,7 @@ class CellAverage:
         self.k_fine = (replicas.FINE_SECTORS if self.sectors == "auto"
                        else self.sectors or 0)
         self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
-        self.channels = sorted({c for g in self.groups for c in QUANTITIES[g][1]})
+        self.channels = sorted({b for g in self.groups for b in QUANTITIES[g].blocks})
         self.series = series
         self.results: Profiles | None = None
         self.meta: dict = {}
@@ -95,9 +94,10 @@ class CellAverage:
 
     def prepare(self):
         """Start with an empty accumulator (and time series)."""
-        self.acc = CellAccumulator((self.rings.n, len(CHANNELS)), self.t_min, self.block_time)
+        n_channels = self.rings.layout.n
+        self.acc = CellAccumulator((self.rings.n, n_channels), self.t_min, self.block_time)
         self.replica_acc = CellAccumulator(
-            (self.rings.n, self.k_fine, len(CHANNELS)), self.t_min, self.block_time,
+            (self.rings.n, self.k_fine, n_channels), self.t_min, self.block_time,
             replicas.REPLICA_BLOCKS) if self.k_fine else None
         if self.series is not None:
             self.series.rows = []
@@ -127,19 +127,20 @@ class CellAverage:
 
     def conclude(self) -> Profiles:
         """Profiles of the frames added so far."""
-        acc, V = self.acc, self.rings.volume
+        acc, V, layout = self.acc, self.rings.volume, self.rings.layout
         if acc.n_frames == 0:
             raise ParameterError("t_min", f"no frame at t >= {self.t_min:g}, the start of "
                                  "the average ({param}); lower it")
         S = acc.mean()
-        vals = values(S, V, self.rho_p, self.groups)
+        vals = values(S, V, self.rho_p, self.groups, layout)
         counts, sums = acc.block_sums()
-        sem, lower, replicates = standard_errors(counts, sums, V, self.rho_p, self.groups)
+        sem, lower, replicates = standard_errors(counts, sums, V, self.rho_p, self.groups,
+                                                 layout)
         meta = {**self.meta, "frames": {**self.meta.get("frames", {}), "n": acc.n_frames}}
         if {"sigma", "eps"} & set(self.groups):
             meta["branch"] = self.branch
         if "boundary" in self.groups:
-            seen = bool(np.any(S[:, INDEX["wall_r"]:INDEX["wall_r"] + 2] != 0))
+            seen = bool(np.any(layout.block(S, "wall") != 0))
             meta["boundary"] = "wall contacts at their contact points" if seen else (
                 "absent: no wall contact in the contact data (walls made by fix wall/gran "
                 "leave none: their force on the packing is not in the balance; wall atoms "
@@ -147,7 +148,7 @@ class CellAverage:
             if not seen:
                 log.info("no wall contact in the contact data: the boundary force density "
                          "is absent (walls as fix wall/gran leave no contact rows)")
-        ring_flags = flags(S, self.groups)
+        ring_flags = flags(S, self.groups, layout)
         extra = [[] for _ in ring_flags]
         if len(counts) < 2:
             log.warning("all %d frames fall in one time block: no standard errors (NaN, flag "
@@ -166,8 +167,9 @@ class CellAverage:
                         "from time alone")
         elif len(counts) >= 2 and self.replica_acc is not None:
             sem, replicates, info, time_part = replicas.structure_errors(
-                *self.replica_acc.block_sums(), V, self.rho_p, self.groups, sem, replicates,
-                sectors=self.sectors, periodic=self.rings.periodic, across=self.rings.across)
+                *self.replica_acc.block_sums(), V, self.rho_p, self.groups, layout, sem,
+                replicates, sectors=self.sectors, periodic=self.rings.periodic,
+                across=self.rings.across)
             lower = {n: lb & time_part[n] for n, lb in lower.items()}
             meta["errors"].update(kind="time+structure", sectors={
                 "axis": self.rings.symmetry, **info}, method=(
@@ -201,29 +203,9 @@ class CellAverage:
             series = self.series.frame()
             meta["stationarity"] = stationarity(series, self.t_min)
             warn_if_drifting(meta["stationarity"], self.t_min)
-        if self.rings.axes != ("r", "phi"):                 # Cartesian cells: x, y names
-            vals, sem = ({rename(k, self.rings): v for k, v in d.items()} for d in (vals, sem))
-            if replicates is not None:
-                replicates.values = {rename(k, self.rings): v
-                                     for k, v in replicates.values.items()}
-            meta["errors"]["lower_bound"] = {rename(k, self.rings): v for k, v in
-                                             meta["errors"]["lower_bound"].items()}
-            if "sectors" in meta["errors"]:
-                meta["errors"]["sectors"] = _renamed(meta["errors"]["sectors"], self.rings)
         self.results = Profiles(self.rings, vals, sem, ring_flags, acc.n_frames, meta,
                                     replicates, timeseries=series)
         return self.results
-
-
-def _renamed(info, geometry):
-    """The sectors' sidecar entry with profile names in the geometry's basis."""
-    def names(x):
-        if isinstance(x, dict):
-            return {rename(k, geometry) if isinstance(k, str) else k: names(v)
-                    for k, v in x.items()}
-        return [rename(v, geometry) for v in x] if isinstance(x, list) and x and \
-            isinstance(x[0], str) else x
-    return {k: v if k in ("axis", "chosen") else names(v) for k, v in info.items()}
 
 
 def warn_if_drifting(judged: dict, t_min: float) -> list:
@@ -253,9 +235,10 @@ def warn_if_drifting(judged: dict, t_min: float) -> list:
     return drifting
 
 
-def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact",
+def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
                sectors: int = 0) -> np.ndarray:
-    """Cell sums of one frame for any geometry of :mod:`granavg.engine.geometry`.
+    """Cell sums of one frame for any geometry (:mod:`granavg.engine.geometry`,
+    :mod:`granavg.engine.cells3d`).
 
     Returns
     -------
@@ -265,26 +248,32 @@ def frame_sums(frame, rings, rho_p: float, channels, branch: str = "contact",
     """
     a = frame.atoms
     contacts = frame.contacts
+    pos = tuple(a[c] for c in cells.position_names)
+    radius = a["radius"]
     rows = contact_rows(a, contacts) if contacts is not None and (
-        {"ncontact", "fab_rr", "sig_rr", "def_rr", "wall_r"} & set(channels)) else None
-    q = particle_channels(a, contacts, rings.h, rho_p, channels,
-                          basis=rings.basis(a["x"], a["y"]), branch=branch, rows=rows)
-    particle, cell, w = rings.weights(a["x"], a["y"], a["radius"])
-    n = rings.n * max(sectors, 1)
+        {"ncontact", "fab", "sig", "def", "wall"} & set(blocks)) else None
+    q = particle_channels(a, contacts, cells.layout, cells.particle_volume(radius),
+                          cells.def_factor(radius), rho_p, blocks, basis=cells.basis(pos),
+                          branch=branch, rows=rows)
+    particle, cell, w = cells.weights(pos, radius)
+    n = cells.n * max(sectors, 1)
     if sectors:
-        sector, share = replicas.sector_shares(rings, a["x"], a["y"], a["radius"], sectors)
-        sums = replicas.sector_sums(particle, cell, w, sector, share, sectors, q, rings.n)
+        sector, share = replicas.sector_shares(cells, pos, radius, sectors)
+        sums = replicas.sector_sums(particle, cell, w, sector, share, sectors, q, cells.n)
     else:
-        sums = ring_sums(particle, cell, w, q, n)
-    if "wall_r" in channels and frame.contacts is not None:
-        cx, cy, fx, fy = wall_points(a, contacts, branch, rows)
-        where = rings.cell_of(cx, cy, slack=float(a["radius"].max(initial=0.0)))
-        er, ephi = rings.basis(cx, cy)
+        sums = cell_sums(particle, cell, w, q, n)
+    if "wall" in blocks and frame.contacts is not None:
+        points, forces = wall_points(a, contacts, cells.dim, branch, rows)
+        at = tuple(points.T)
+        where = cells.cell_of(at, slack=float(radius.max(initial=0.0)))
+        E = cells.basis(at)
         inside = where >= 0
         if sectors:
             where = where * sectors + replicas.sector_shares(   # radius 0: its centre's
-                rings, cx, cy, np.zeros(len(cx)), sectors)[0][:, 0]
-        for k, e in ((INDEX["wall_r"], er), (INDEX["wall_phi"], ephi)):
-            sums[:, k] += np.bincount(where[inside], (fx * e[:, 0] + fy * e[:, 1])[inside],
-                                      minlength=n)
-    return sums.reshape(rings.n, sectors, -1) if sectors else sums
+                cells, at, np.zeros(len(points)), sectors)[0][:, 0]
+        first = cells.layout.first("wall")
+        for i in range(cells.dim):
+            along = np.einsum("pj,pj->p", forces, E[:, i, :]) if cells.dim == 3 else \
+                forces[:, 0] * E[:, i, 0] + forces[:, 1] * E[:, i, 1]
+            sums[:, first + i] += np.bincount(where[inside], along[inside], minlength=n)
+    return sums.reshape(cells.n, sectors, -1) if sectors else sums

@@ -1,11 +1,16 @@
-"""Averaging cells: rings (the Couette default), Cartesian slabs and a rectangular grid.
+"""Averaging cells: rings (the Couette default), Cartesian slabs and a rectangular grid
+of disks in 2D.
 
-Each geometry object (freud's ``Box`` in spirit) knows its cells' volumes, the exact
-area weights of disks in them (:mod:`granavg.engine.weights`), the basis in which
-vectors and tensors are expressed (polar about the centre for rings, Cartesian for slabs
-and grids), the names of the components in that basis and the coordinate columns of a
-profile table. Volumes are h x cell area: 2D disks of height ``h``. Lengths are in the
-frames' units (m for granavg's own runs).
+Each geometry object (freud's ``Box`` in spirit) knows its dimension, its cells'
+volumes, the exact volume weights of particles in them (:mod:`granavg.engine.weights`),
+the particles' own volumes, the basis in which vectors and tensors are expressed (polar
+about the centre for rings, Cartesian for slabs and grids), the names of its axes (and
+with them the channels, :mod:`granavg.engine.channels`) and the coordinate columns of a
+profile table. In 2D volumes are h x area: disks of height ``h``. The 3D cells are in
+:mod:`granavg.engine.cells3d`. Lengths are in the frames' units (m for granavg's own
+runs).
+
+Positions are handed over as a tuple of coordinate arrays, ``(x, y)`` in 2D.
 """
 
 from __future__ import annotations
@@ -14,8 +19,44 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from granavg.engine.channels import Layout
 from granavg.engine.weights import grid_weights, ring_weights, strip_weights
 from granavg.errors import ParameterError, UserError
+
+
+class Disks:
+    """What the 2D cells share: disks of height ``h`` (volume pi h a^2, Eq. 7's factor
+    V^p / a^2 = pi h), positions ``(x, y)``."""
+
+    dim = 2
+    position_names = ("x", "y")
+
+    @property
+    def layout(self) -> Layout:
+        return _layout(self.axes)
+
+    def particle_volume(self, a):
+        """V^p = pi h a^2 of each disk."""
+        return np.pi * self.h * a * a
+
+    def def_factor(self, a):
+        """Eq. 7's pi h = V^p / a^2, one per disk."""
+        return np.full(len(a), np.pi * self.h)
+
+
+_LAYOUTS = {}
+
+
+def _layout(axes) -> Layout:
+    """One Layout per set of axes (they are immutable)."""
+    if axes not in _LAYOUTS:
+        _LAYOUTS[axes] = Layout(axes)
+    return _LAYOUTS[axes]
+
+
+def cartesian_basis(n, dim):
+    """The Cartesian basis at n points, shape (n, dim, dim)."""
+    return np.broadcast_to(np.eye(dim), (n, dim, dim))
 
 def _edges(values, what) -> np.ndarray:
     e = np.asarray(values, dtype=float)
@@ -25,7 +66,7 @@ def _edges(values, what) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Rings:
+class Rings(Disks):
     """Rings [r_lo, r_hi) about ``center`` (m) of height h: volumes pi h (r_hi^2 - r_lo^2).
 
     Vectors and tensors are in each particle's polar basis (e_r, e_phi) about the centre.
@@ -69,26 +110,24 @@ class Rings:
         """Mid radius of each ring, m."""
         return 0.5 * (self.edges[1:] + self.edges[:-1])
 
-    def weights(self, x, y, a):
+    def weights(self, pos, a):
         """(particle, ring, fraction of the disk's area in it); exact lens areas."""
+        x, y = pos
         return ring_weights(np.hypot(x - self.center[0], y - self.center[1]), a, self.edges)
 
-    def basis(self, x, y):
-        """e_r and e_phi at each disk centre, shape (P, 2) each."""
-        dx, dy = x - self.center[0], y - self.center[1]
-        r = np.hypot(dx, dy)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            er = np.column_stack([dx / r, dy / r])
-        return er, np.column_stack([-er[:, 1], er[:, 0]])
+    def basis(self, pos):
+        """e_r and e_phi (rows) at each point, shape (P, 2, 2)."""
+        return polar_basis(pos[0] - self.center[0], pos[1] - self.center[1])
 
     def coordinates(self) -> dict:
         return {"r_lo": self.edges[:-1], "r_hi": self.edges[1:], "r": self.centre}
 
-    def cell_of(self, x, y, slack=0.0):
+    def cell_of(self, pos, slack=0.0):
         """The ring of each point; points less than ``slack`` beyond the first or last
         edge (a wall's contact points, a disk radius from the disk's centre) go to the
         edge rings (:func:`_cell_of`)."""
-        return _cell_of(np.hypot(x - self.center[0], y - self.center[1]), self.edges, slack)
+        return _cell_of(np.hypot(pos[0] - self.center[0], pos[1] - self.center[1]),
+                        self.edges, slack)
 
     def describe(self) -> dict:
         return {"kind": "rings", "edges": list(self.edges), "h": self.h,
@@ -96,7 +135,7 @@ class Rings:
 
 
 @dataclass(frozen=True)
-class Slabs:
+class Slabs(Disks):
     """Strips [u_k, u_k+1) across ``axis`` (``"x"`` or ``"y"``), each ``length`` m long
     in the other direction; volumes h (u_k+1 - u_k) length. A disk's weight is the
     fraction of its area between the strip's edges (the strips are taken to span the
@@ -118,8 +157,8 @@ class Slabs:
 
     @property
     def across(self):
-        """The direction across the slabs in the engine's (polar) names: x is "r"."""
-        return "r" if self.axis == "x" else "phi"
+        """The direction across the slabs."""
+        return self.axis
 
     @property
     def symmetry(self):
@@ -148,16 +187,15 @@ class Slabs:
     def volume(self) -> np.ndarray:
         return self.h * np.diff(self.edges) * self.length
 
-    def weights(self, x, y, a):
-        return strip_weights(x if self.axis == "x" else y, a, self.edges)
+    def weights(self, pos, a):
+        return strip_weights(pos["xy".index(self.axis)], a, self.edges)
 
-    def basis(self, x, y):
-        n = len(x)
-        return (np.tile([1.0, 0.0], (n, 1)), np.tile([0.0, 1.0], (n, 1)))
+    def basis(self, pos):
+        return cartesian_basis(len(pos[0]), 2)
 
-    def cell_of(self, x, y, slack=0.0):
+    def cell_of(self, pos, slack=0.0):
         """The slab of each point (edge slabs take points up to ``slack`` beyond)."""
-        return _cell_of(x if self.axis == "x" else y, self.edges, slack)
+        return _cell_of(pos["xy".index(self.axis)], self.edges, slack)
 
     def coordinates(self) -> dict:
         u = self.axis
@@ -171,7 +209,7 @@ class Slabs:
 
 
 @dataclass(frozen=True)
-class Grid:
+class Grid(Disks):
     """Rectangles [x_i, x_i+1) x [y_j, y_j+1); cell k = i n_y + j; volumes h dx dy.
     Exact weights (disk-rectangle areas in closed form); Cartesian basis."""
 
@@ -195,15 +233,15 @@ class Grid:
     def volume(self) -> np.ndarray:
         return self.h * np.outer(np.diff(self.xedges), np.diff(self.yedges)).ravel()
 
-    def weights(self, x, y, a):
-        return grid_weights(x, y, a, self.xedges, self.yedges)
+    def weights(self, pos, a):
+        return grid_weights(pos[0], pos[1], a, self.xedges, self.yedges)
 
     basis = Slabs.basis
 
-    def cell_of(self, x, y, slack=0.0):
+    def cell_of(self, pos, slack=0.0):
         """The cell k = i n_y + j of each point (edge cells take points up to ``slack``
         beyond)."""
-        i, j = _cell_of(x, self.xedges, slack), _cell_of(y, self.yedges, slack)
+        i, j = _cell_of(pos[0], self.xedges, slack), _cell_of(pos[1], self.yedges, slack)
         return np.where((i >= 0) & (j >= 0), i * (len(self.yedges) - 1) + j, -1)
 
     def coordinates(self) -> dict:
@@ -230,16 +268,14 @@ def _cell_of(u, edges, slack=0.0):
     return np.where((k >= 0) & (k < n), k, -1)
 
 
-def rename(name: str, geometry) -> str:
-    """A profile value's name in the geometry's basis: ``v_r`` -> ``v_x``,
-    ``sigma_rphi`` -> ``sigma_xy`` for Cartesian cells; unchanged for rings."""
-    if geometry.axes == ("r", "phi"):
-        return name
-    for old, new in (("_rphi", "_xy"), ("_phir", "_yx"), ("_phiphi", "_yy"), ("_rr", "_xx"),
-                     ("_phi", "_y"), ("_r", "_x")):
-        if name.endswith(old):
-            return name[: -len(old)] + new
-    return name
+def polar_basis(dx, dy):
+    """e_r and e_phi (rows) of the points at (dx, dy) from the axis, shape (P, 2, 2)."""
+    r = np.hypot(dx, dy)
+    E = np.empty((len(r), 2, 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        E[:, 0, 0], E[:, 0, 1] = dx / r, dy / r
+    E[:, 1, 0], E[:, 1, 1] = -E[:, 0, 1], E[:, 0, 0]
+    return E
 
 
 def from_description(d: dict):

@@ -24,9 +24,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from granavg.engine.kernels import INDEX
-from granavg.engine.quantities import TENSOR
+from granavg.engine.channels import Layout, pairs
 from granavg.engine.geometry import Rings
+from granavg.engine.quantities import columns
 from granavg.engine.uncertainty import Replicates, blocking_errors, jackknife_sums
 
 if TYPE_CHECKING:
@@ -85,134 +85,134 @@ class Profiles:
         return pd.DataFrame(cols)
 
 
-def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups) -> dict:
-    """Profile values from mean ring sums.
+def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups, layout: Layout) -> dict:
+    """Profile values from mean cell sums.
 
     Parameters
     ----------
-    S : ndarray, shape (n_rings, n_channels)
-        Ring sums averaged over frames.
-    V : ndarray, shape (n_rings,)
-        Ring volumes pi h (r_hi^2 - r_lo^2), m^3.
+    S : ndarray, shape (n_cells, layout.n)
+        Cell sums averaged over frames.
+    V : ndarray, shape (n_cells,)
+        Cell volumes.
     rho_p : float
-        Material density, kg/m^3.
+        Material density.
     groups : iterable of str
-        Keys of :data:`QUANTITIES`.
+        Keys of :data:`granavg.engine.quantities.QUANTITIES`.
+    layout : Layout
+        The channels, in the cells' basis (:mod:`granavg.engine.channels`).
 
     Returns
     -------
-    dict of str -> ndarray, shape (n_rings,)
-        NaN where a value is undefined (no disk in the ring; singular fabric).
+    dict of str -> ndarray, shape (n_cells,)
+        Named in the cells' basis (:func:`granavg.engine.quantities.columns`); NaN where
+        a value is undefined (no particle in the cell; singular fabric).
     """
-    col = {name: S[:, k] for name, k in INDEX.items()}
-    vol = col["vol"]
+    vol, mass = S[:, layout.index["vol"]], S[:, layout.index["mass"]]
     with np.errstate(invalid="ignore", divide="ignore"):
         inv_vol = np.where(vol > 0, 1.0 / vol, np.nan)
         out = {}
         for g in groups:
+            names = columns(g, layout.axes)
             if g == "nu":
                 out["nu"] = vol / V
             elif g == "rho":
-                out["rho"] = col["mass"] / V
-            elif g == "v":
-                out["v_r"], out["v_phi"] = col["mom_r"] * inv_vol, col["mom_phi"] * inv_vol
-            elif g == "omega":
-                out["omega"] = col["spin"] * inv_vol
+                out["rho"] = mass / V
             elif g == "coordination":
-                out["coordination"] = col["ncontact"] * inv_vol
-            elif g in ("F", "sigma", "dsigma"):
-                first = {"F": "fab_rr", "sigma": "sig_rr", "dsigma": "kin_rr"}[g]
-                for c in TENSOR:
-                    out[f"{g}_{c}"] = S[:, INDEX[first] + TENSOR.index(c)] / V
+                out["coordination"] = S[:, layout.index["ncontact"]] * inv_vol
+            elif g in ("v", "omega"):
+                block = layout.block(S, "mom" if g == "v" else "spin")
+                out.update({n: block[:, k] * inv_vol for k, n in enumerate(names)})
+            elif g in ("F", "sigma", "dsigma", "boundary", "body"):
+                block = layout.block(S, {"F": "fab", "sigma": "sig", "dsigma": "kin",
+                                         "boundary": "wall", "body": "body"}[g])
+                out.update({n: block[:, k] / V for k, n in enumerate(names)})
             elif g == "dsigma_fluct":
-                mean = (col["mom_r"], col["mom_phi"])
-                for i, c in enumerate(TENSOR):
-                    a, b = mean[i // 2], mean[i % 2]
-                    mean_flow = col["mass"] * a * b * inv_vol * inv_vol   # rho v v
-                    out[f"dsigma_fluct_{c}"] = (S[:, INDEX["kin_rr"] + i] - mean_flow) / V
+                mom, kin, D = layout.block(S, "mom"), layout.block(S, "kin"), layout.dim
+                for k, n in enumerate(names):
+                    a, b = mom[:, k // D], mom[:, k % D]
+                    mean_flow = mass * a * b * inv_vol * inv_vol        # rho v v
+                    out[n] = (kin[:, k] - mean_flow) / V
             elif g == "eps":
-                out.update(_eps(S))
-            elif g in ("boundary", "body"):
-                first = "wall_r" if g == "boundary" else "body_r"
-                out[f"{g}_r"] = S[:, INDEX[first]] / V
-                out[f"{g}_phi"] = S[:, INDEX[first] + 1] / V
+                out.update(_eps(S, layout))
     return out
 
 
-def _eps(S):
-    """eps = (pi h sum Delta (x) l) . (V^-1 sum V^p n (x) n)^-1 ... per ring (Eq. 7)."""
-    fab = S[:, INDEX["fab_rr"]:INDEX["fab_rr"] + 4].reshape(-1, 2, 2)
-    dfm = S[:, INDEX["def_rr"]:INDEX["def_rr"] + 4].reshape(-1, 2, 2)
+def _eps(S, layout):
+    """eps = ((V^p/a^2) sum Delta (x) l) . (sum V^p n (x) n)^-1 per cell (Eq. 7)."""
+    D = layout.dim
+    fab = layout.block(S, "fab").reshape(-1, D, D)
+    dfm = layout.block(S, "def").reshape(-1, D, D)
     det = np.linalg.det(fab)
     scale = np.einsum("kij,kij->k", fab, fab)
-    ok = np.abs(det) > 1e-12 * scale
+    ok = np.abs(det) > 1e-12 * scale ** (D / 2)
     eps = np.full(dfm.shape, np.nan)
     if np.any(ok):
         eps[ok] = dfm[ok] @ np.linalg.inv(fab[ok])
-    return {f"eps_{c}": eps.reshape(-1, 4)[:, k] for k, c in enumerate(TENSOR)}
+    return {f"eps_{c}": eps.reshape(-1, D * D)[:, k] for k, c in enumerate(pairs(layout.axes))}
 
 
-def flags(S: np.ndarray, groups) -> np.ndarray:
-    """Per-ring flags (';'-joined): ``empty`` (no disk), ``no_contacts``,
+def flags(S: np.ndarray, groups, layout: Layout) -> np.ndarray:
+    """Per-cell flags (';'-joined): ``empty`` (no particle), ``no_contacts``,
     ``singular_fabric`` (eps undefined); :class:`~granavg.engine.average.CellAverage` adds
     ``one_block`` when the frames span a single time block (no standard errors)."""
     out = [[] for _ in range(S.shape[0])]
-    vol = S[:, INDEX["vol"]]
+    D = layout.dim
+    vol = S[:, layout.index["vol"]]
     contact = {"coordination", "F", "sigma", "eps"} & set(groups)
-    fab = S[:, INDEX["fab_rr"]:INDEX["fab_rr"] + 4].reshape(-1, 2, 2)
-    contact_channels = [INDEX["ncontact"], *(INDEX[p] + i for p in ("fab_rr", "sig_rr", "def_rr")
-                                              for i in range(4))]
+    fab = layout.block(S, "fab").reshape(-1, D, D)
+    contact_sums = np.concatenate([layout.block(S, b) for b in ("ncontact", "fab", "sig",
+                                                                "def")], axis=-1)
     for k in range(S.shape[0]):
         if not vol[k] > 0:
             out[k].append("empty")
-        if contact and vol[k] > 0 and not np.any(S[k, contact_channels] != 0):
+        if contact and vol[k] > 0 and not np.any(contact_sums[k] != 0):
             out[k].append("no_contacts")
         if "eps" in groups:
             det, scale = np.linalg.det(fab[k]), np.sum(fab[k] ** 2)
-            if not abs(det) > 1e-12 * scale:
+            if not abs(det) > 1e-12 * scale ** (D / 2):
                 out[k].append("singular_fabric")
     return np.array([";".join(f) for f in out], dtype=object)
 
 
-def block_values(mean_sums, V, rho_p, groups) -> dict:
+def block_values(mean_sums, V, rho_p, groups, layout: Layout) -> dict:
     """Profile values of many blocks at once.
 
     Parameters
     ----------
-    mean_sums : ndarray, shape (m, n_rings, n_channels)
-        Mean ring sums of m blocks (or replicates).
+    mean_sums : ndarray, shape (m, n_cells, n_channels)
+        Mean cell sums of m blocks (or replicates).
 
     Returns
     -------
-    dict of name -> ndarray, shape (m, n_rings)
+    dict of name -> ndarray, shape (m, n_cells)
     """
     m, n = mean_sums.shape[:2]
-    flat = values(mean_sums.reshape(m * n, -1), np.tile(V, m), rho_p, groups)
+    flat = values(mean_sums.reshape(m * n, -1), np.tile(V, m), rho_p, groups, layout)
     return {k: v.reshape(m, n) for k, v in flat.items()}
 
 
-def standard_errors(counts, sums, V, rho_p, groups):
+def standard_errors(counts, sums, V, rho_p, groups, layout: Layout):
     """Standard errors of every value by blocking analysis (:mod:`granavg.engine.uncertainty`).
 
     Parameters
     ----------
     counts : ndarray, shape (n_blocks,)
         Frames in each time block.
-    sums : ndarray, shape (n_blocks, n_rings, n_channels)
-        Summed ring sums of each block.
+    sums : ndarray, shape (n_blocks, n_cells, n_channels)
+        Summed cell sums of each block.
 
     Returns
     -------
-    sem : dict of name -> ndarray (n_rings,)
+    sem : dict of name -> ndarray (n_cells,)
         NaN with fewer than two blocks.
-    lower_bound : dict of name -> ndarray of bool (n_rings,)
+    lower_bound : dict of name -> ndarray of bool (n_cells,)
         True where the blocking analysis reached no plateau (the error is a lower bound).
     replicates : Replicates or None
         Delete-one-block jackknife profiles (None with fewer than two blocks).
     """
-    evaluate = lambda m: block_values(m, V, rho_p, groups)      # noqa: E731
+    evaluate = lambda m: block_values(m, V, rho_p, groups, layout)      # noqa: E731
     if len(counts) < 2:
-        names = list(values(np.zeros((len(V), len(INDEX))), V, rho_p, groups))
+        names = list(values(np.zeros((len(V), layout.n)), V, rho_p, groups, layout))
         nan = {n: np.full(len(V), np.nan) for n in names}
         return nan, {n: np.ones(len(V), bool) for n in names}, None
     sem, lower = blocking_errors(counts, sums, evaluate)

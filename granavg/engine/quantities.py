@@ -2,33 +2,58 @@
 columns each channel reads (Eqs. 2-7). A catalogue without numerics, so that a caller can
 decide what to read or simulate (e.g. whether contacts are needed) without the engine.
 
-Tensor components are named ``rr, rphi, phir, phiphi`` (first index the force or the
-deformation, second the branch vector) in the cells' basis; Cartesian cells rename them
-(``xx, xy, yx, yy``; :func:`granavg.engine.geometry.rename`).
+Profile columns are named in the cells' basis (:func:`columns`): ``v_r, v_phi`` and
+tensors ``rr, rphi, phir, phiphi`` (first index the force or the deformation, second the
+branch vector) for rings; ``x, y`` and ``xx, xy, yx, yy`` for 2D slabs and grids; three
+axes in 3D (``x, y, z``, or ``r, phi, z`` for cylindrical shells).
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+from granavg.engine.channels import pairs
 from granavg.errors import ParameterError
 
-#: Tensor components in the engine's channel order.
-TENSOR = ("rr", "rphi", "phir", "phiphi")
-#: quantity group -> (profile columns, channels it needs, needs contacts)
+#: Tensor components of the 2D rings (the paper's), in channel order.
+TENSOR = pairs(("r", "phi"))
+
+
+class Quantity(NamedTuple):
+    """A quantity group: the channel blocks it needs (:mod:`granavg.engine.channels`)
+    and whether it needs the contacts."""
+    blocks: tuple
+    contacts: bool
+
+
 QUANTITIES = {
-    "nu": (["nu"], ["vol"], False),
-    "rho": (["rho"], ["vol", "mass"], False),
-    "v": (["v_r", "v_phi"], ["vol", "mom_r", "mom_phi"], False),
-    "omega": (["omega"], ["vol", "spin"], False),
-    "coordination": (["coordination"], ["vol", "ncontact"], True),
-    "F": ([f"F_{c}" for c in TENSOR], ["fab_rr"], True),
-    "sigma": ([f"sigma_{c}" for c in TENSOR], ["sig_rr"], True),
-    "dsigma": ([f"dsigma_{c}" for c in TENSOR], ["kin_rr"], False),
-    "dsigma_fluct": ([f"dsigma_fluct_{c}" for c in TENSOR],
-                     ["vol", "mass", "mom_r", "mom_phi", "kin_rr"], False),
-    "eps": ([f"eps_{c}" for c in TENSOR], ["fab_rr", "def_rr"], True),
-    "boundary": (["boundary_r", "boundary_phi"], ["wall_r"], True),
-    "body": (["body_r", "body_phi"], ["body_r"], False),
+    "nu": Quantity(("vol",), False),
+    "rho": Quantity(("vol", "mass"), False),
+    "v": Quantity(("vol", "mom"), False),
+    "omega": Quantity(("vol", "spin"), False),
+    "coordination": Quantity(("vol", "ncontact"), True),
+    "F": Quantity(("fab",), True),
+    "sigma": Quantity(("sig",), True),
+    "dsigma": Quantity(("kin",), False),
+    "dsigma_fluct": Quantity(("vol", "mass", "mom", "kin"), False),
+    "eps": Quantity(("fab", "def"), True),
+    "boundary": Quantity(("wall",), True),
+    "body": Quantity(("body",), False),
 }
+
+
+def columns(group: str, axes) -> list:
+    """Profile columns of a quantity group in a basis with these axes (``v_r, v_phi``
+    for rings, ``v_x, v_y, v_z`` for 3D boxes, ...)."""
+    if group in ("nu", "rho", "coordination"):
+        return [group]
+    if group == "omega":
+        return ["omega"] if len(axes) == 2 else [f"omega_{i}" for i in axes]
+    if group in ("v", "boundary", "body"):
+        return [f"{group}_{i}" for i in axes]
+    return [f"{group}_{c}" for c in pairs(axes)]
+
+
 #: What the balance of forces fixes in a whole cell: the tractions on the cell's own
 #: faces. A cell's summed stress is the traction on its boundary, and the components
 #: with the normal across the cells (rr, phir and, the static stress being symmetric,
@@ -44,40 +69,46 @@ QUANTITIES = {
 BALANCED = ("sigma", "boundary")
 
 
-def balanced_names(groups, across: str = "r") -> set:
+def balanced_names(groups, axes, across: str) -> set:
     """Profile names that the balance of forces fixes in a whole cell (:data:`BALANCED`):
-    every boundary component and all stress components but (along, along), with
-    ``across`` ("r" or "phi", in the engine's names) the direction across the cells."""
-    along = "phi" if across == "r" else "r"
-    out = {f"sigma_{c}" for c in TENSOR if c != along * 2} if "sigma" in groups else set()
-    return out | ({"boundary_r", "boundary_phi"} if "boundary" in groups else set())
+    every boundary component and the stress components with an index ``across`` (the
+    direction across the cells, one of ``axes``)."""
+    out = {f"sigma_{i}{j}" for i in axes for j in axes if across in (i, j)} \
+        if "sigma" in groups else set()
+    return out | (set(columns("boundary", axes)) if "boundary" in groups else set())
 
 
-#: the atom-dump and contact-dump columns each channel reads
-ATOM_COLUMNS = {"vol": ["x", "y", "radius"], "mom_r": ["vx", "vy"], "mom_phi": ["vx", "vy"],
-                "kin_rr": ["vx", "vy"], "spin": ["omegaz"], "ncontact": ["id"],
-                "fab_rr": ["id"], "sig_rr": ["id"], "def_rr": ["id"], "wall_r": ["id"],
-                "body_r": ["bx", "by"]}
-CONTACT_COLUMNS = {"ncontact": ["id1", "id2", "wall"],
-                   "fab_rr": ["id1", "id2", "wall", "nx", "ny"],
-                   "sig_rr": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny",
-                              "overlap"],
-                   "def_rr": ["id1", "id2", "wall", "nx", "ny", "overlap"],
-                   "wall_r": ["id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny",
-                              "overlap"]}
+def atom_columns(block: str, dim: int) -> list:
+    """The atom-dump columns a channel block reads (positions and radii for every block:
+    the cells' weights)."""
+    xyz = ["x", "y", "z"][:dim]
+    v = ["vx", "vy", "vz"][:dim]
+    return {"mom": v, "kin": v, "spin": ["omegaz"] if dim == 2 else
+            ["omegax", "omegay", "omegaz"], "body": ["bx", "by", "bz"][:dim],
+            **{b: ["id"] for b in ("ncontact", "fab", "sig", "def", "wall")}
+            }.get(block, []) if block != "vol" else [*xyz, "radius"]
 
 
+def contact_columns(block: str, dim: int) -> list:
+    """The contact columns a channel block reads."""
+    n = ["nx", "ny", "nz"][:dim]
+    f = [*["fnx", "fny", "fnz"][:dim], *["ftx", "fty", "ftz"][:dim]]
+    return {"ncontact": ["id1", "id2", "wall"], "fab": ["id1", "id2", "wall", *n],
+            "sig": ["id1", "id2", "wall", *f, *n, "overlap"],
+            "def": ["id1", "id2", "wall", *n, "overlap"],
+            "wall": ["id1", "id2", "wall", *f, *n, "overlap"]}.get(block, [])
 
-def needed_columns(groups):
+
+def needed_columns(groups, dim: int = 2):
     """Atom-dump and contact-dump columns (with what needs each) for these groups; every
-    group needs the disks' positions and radii (their weights in the cells)."""
-    atoms, contacts = {"x": "the cells' weights", "y": "the cells' weights",
-                       "radius": "the cells' weights"}, {}
+    group needs the particles' positions and radii (their weights in the cells)."""
+    atoms = {c: "the cells' weights" for c in [*["x", "y", "z"][:dim], "radius"]}
+    contacts = {}
     for g in groups:
-        for ch in QUANTITIES[g][1]:
-            for c in ATOM_COLUMNS.get(ch, []):
+        for b in QUANTITIES[g].blocks:
+            for c in atom_columns(b, dim):
                 atoms.setdefault(c, g)
-            for c in CONTACT_COLUMNS.get(ch, []):
+            for c in contact_columns(b, dim):
                 contacts.setdefault(c, g)
     return atoms, contacts
 
@@ -87,13 +118,13 @@ def groups_for(quantities, have_contacts: bool, have_body: bool = False) -> list
     data allow (without contacts, only those that need none; ``body`` only where the
     frames carry body forces)."""
     if quantities is None:
-        return [g for g, (_, _, needs) in QUANTITIES.items()
-                if (have_contacts or not needs) and (have_body or g != "body")]
+        return [g for g, q in QUANTITIES.items()
+                if (have_contacts or not q.contacts) and (have_body or g != "body")]
     unknown = [q for q in quantities if q not in QUANTITIES]
     if unknown:
         raise ParameterError("quantities", f"{{param}}: unknown quantity {unknown[0]!r}; "
                              f"choose from {', '.join(QUANTITIES)}")
-    lacking = [q for q in quantities if QUANTITIES[q][2] and not have_contacts]
+    lacking = [q for q in quantities if QUANTITIES[q].contacts and not have_contacts]
     if lacking:
         raise ParameterError("contacts", f"{lacking[0]} needs the contact dump, and none was "
                              "found; give the contacts ({param}) or run the simulation "

@@ -44,7 +44,7 @@ from granavg.engine.profiles import block_values
 from granavg.engine.quantities import balanced_names
 from granavg.engine.uncertainty import (Replicates, combine_errors, interaction_variance,
                                        jackknife_error, merge_levels)
-from granavg.engine.weights import _below
+from granavg.engine.weights import below_fraction
 from granavg.errors import ParameterError
 
 #: Sectors accumulated per cell when K is chosen from the data; every candidate K
@@ -70,8 +70,10 @@ REPLICA_BLOCKS = 32
 
 
 @njit(cache=True, nogil=True)
-def _ring_shares(x, y, a, cx, cy, k):
-    """Sector of each disk's centre and its neighbours, and the disk's share in each."""
+def _ring_shares(x, y, a, cx, cy, k, dim):
+    """Sector of each particle's centre and its neighbours, and the particle's share in
+    each (disks in 2D, spheres in 3D: the sector boundaries are planes through the
+    axis)."""
     n = x.shape[0]
     sector = np.empty((n, 3), np.int64)
     share = np.zeros((n, 3))
@@ -92,14 +94,13 @@ def _ring_shares(x, y, a, cx, cy, k):
         d_hi = dx * sin_b[s + 1] - dy * cos_b[s + 1]
         if d_lo >= a[p] and d_hi >= a[p]:              # inside its sector (most disks)
             continue
-        full = math.pi * a[p] * a[p]
-        lo, hi = _below(-d_lo, a[p]) / full, _below(-d_hi, a[p]) / full
+        lo, hi = below_fraction(-d_lo, a[p], dim), below_fraction(-d_hi, a[p], dim)
         share[p, 0], share[p, 1], share[p, 2] = 1.0 - lo - hi, lo, hi
     return sector, share
 
 
 @njit(cache=True, nogil=True)
-def _segment_shares(u, a, lo, length, k):
+def _segment_shares(u, a, lo, length, k, dim):
     """As :func:`_ring_shares` for segments [lo + i L/K, lo + (i+1) L/K) of a line; the
     first and last segments extend to infinity, so every disk's shares sum to 1."""
     n = u.shape[0]
@@ -112,16 +113,16 @@ def _segment_shares(u, a, lo, length, k):
         if a[p] <= 0.0 or 2.0 * a[p] >= width:
             share[p, 0] = 1.0
             continue
-        full = math.pi * a[p] * a[p]
-        below = _below(lo + s * width - u[p], a[p]) / full if s > 0 else 0.0
-        above = _below(u[p] - lo - (s + 1) * width, a[p]) / full if s < k - 1 else 0.0
+        below = below_fraction(lo + s * width - u[p], a[p], dim) if s > 0 else 0.0
+        above = below_fraction(u[p] - lo - (s + 1) * width, a[p], dim) if s < k - 1 else 0.0
         share[p, 0], share[p, 1], share[p, 2] = 1.0 - below - above, below, above
     return sector, share
 
 
-def sector_shares(geometry, x, y, a, k):
-    """Each disk's sector (of ``k`` along the geometry's symmetry direction) and its
-    neighbours', with the disk's area share in each.
+def sector_shares(geometry, pos, a, k):
+    """Each particle's sector (of ``k`` along the geometry's symmetry direction) and its
+    neighbours', with the particle's volume share in each (``pos``: the coordinate
+    arrays, x and y first).
 
     Returns
     -------
@@ -130,12 +131,12 @@ def sector_shares(geometry, x, y, a, k):
     share : ndarray, shape (P, 3)
         Fractions of the disk's area in them; rows sum to 1.
     """
-    x, y, a = (np.ascontiguousarray(v, float) for v in (x, y, a))
-    if geometry.kind == "rings":
-        return _ring_shares(x, y, a, *map(float, geometry.center), int(k))
+    x, y, a = (np.ascontiguousarray(v, float) for v in (pos[0], pos[1], a))
+    if geometry.symmetry == "phi":
+        return _ring_shares(x, y, a, *map(float, geometry.center), int(k), geometry.dim)
     lo, hi = geometry.span
     u = y if geometry.axis == "x" else x
-    return _segment_shares(u, a, float(lo), float(hi - lo), int(k))
+    return _segment_shares(u, a, float(lo), float(hi - lo), int(k), geometry.dim)
 
 
 @njit(cache=True, nogil=True)
@@ -173,7 +174,7 @@ def merge_sectors(sums, k):
     return sums.reshape(*lead, n, k, kf // k, c).sum(axis=-2)
 
 
-def sector_values(sums, V, rho_p, groups):
+def sector_values(sums, V, rho_p, groups, layout):
     """Profile values of every sector of every cell.
 
     Parameters
@@ -189,7 +190,8 @@ def sector_values(sums, V, rho_p, groups):
     """
     m, n, k, c = sums.shape
     flat = np.moveaxis(sums, 2, 1).reshape(m * k, n, c) * k
-    return {q: v.reshape(m, k, n) for q, v in block_values(flat, V, rho_p, groups).items()}
+    return {q: v.reshape(m, k, n)
+            for q, v in block_values(flat, V, rho_p, groups, layout).items()}
 
 
 def frozen_correlation(first, second, periodic=True):
@@ -255,8 +257,8 @@ def adjacent_correlation(corr, se, m):
     return float(cov / var)
 
 
-def choose_sectors(first, second, V, rho_p, groups, periodic=True, fine=FINE_SECTORS,
-                   exclude=()):
+def choose_sectors(first, second, V, rho_p, groups, layout, periodic=True,
+                   fine=FINE_SECTORS, exclude=()):
     """How many sectors each quantity's frozen structure allows, from the data.
 
     The frozen part's correlation between fine sectors (:func:`frozen_correlation`)
@@ -287,7 +289,7 @@ def choose_sectors(first, second, V, rho_p, groups, periodic=True, fine=FINE_SEC
         frozen correlation at lags 1, 2, ... fine sectors; ``"frozen_share"``: its frozen
         part's share of the fine sectors' variance.
     """
-    halves = [sector_values(h[None], V, rho_p, groups) for h in (first, second)]
+    halves = [sector_values(h[None], V, rho_p, groups, layout) for h in (first, second)]
     measured = {q: frozen_correlation(halves[0][q][0], halves[1][q][0], periodic)
                 for q in halves[0] if q not in exclude}
     share = {q: f for q, (_, _, f) in measured.items() if np.isfinite(f)}
@@ -310,7 +312,7 @@ def choose_sectors(first, second, V, rho_p, groups, periodic=True, fine=FINE_SEC
     return per_quantity, min(frozen, default=fine), unresolved, table
 
 
-def structure_parts(counts, sums, V, rho_p, groups, evaluate):
+def structure_parts(counts, sums, V, rho_p, groups, layout, evaluate):
     """Replicate profiles of the sectors and of the sector x time-block interaction.
 
     Parameters
@@ -344,7 +346,7 @@ def structure_parts(counts, sums, V, rho_p, groups, evaluate):
         return sectors, {}, (k, 0)
     c, s = usable[0]
     b = len(c)
-    x = sector_values(s / c[:, None, None, None], V, rho_p, groups)   # (B, K, n)
+    x = sector_values(s / c[:, None, None, None], V, rho_p, groups, layout)   # (B, K, n)
     full = evaluate(total.sum(axis=1)[None])
     cells = {}
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
@@ -356,7 +358,7 @@ def structure_parts(counts, sums, V, rho_p, groups, evaluate):
     return sectors, cells, (k, b)
 
 
-def structure_errors(counts, sums, V, rho_p, groups, sem_time, jackknife, *,
+def structure_errors(counts, sums, V, rho_p, groups, layout, sem_time, jackknife, *,
                      sectors="auto", periodic=True, across="r"):
     """Errors that count the frozen structure, from the sectors of every cell.
 
@@ -374,9 +376,11 @@ def structure_errors(counts, sums, V, rho_p, groups, sem_time, jackknife, *,
         accumulated).
     periodic : bool
         The sectors close on themselves (rings).
-    across : {"r", "phi"}
-        The direction across the cells, in the engine's names (rings and slabs across x:
-        "r"; slabs across y: "phi"), for :func:`~granavg.engine.quantities.balanced_names`.
+    layout : Layout
+        The channels (:mod:`granavg.engine.channels`).
+    across : str
+        The direction across the cells, one of the layout's axes ("r" for rings, the
+        slabs' axis), for :func:`~granavg.engine.quantities.balanced_names`.
 
     Returns
     -------
@@ -394,25 +398,26 @@ def structure_errors(counts, sums, V, rho_p, groups, sem_time, jackknife, *,
     time_dominated : dict of name -> ndarray of bool (n_cells,)
         Where the time part is the larger (there a time lower bound still matters).
     """
-    evaluate = lambda m: block_values(m, V, rho_p, groups)          # noqa: E731
+    evaluate = lambda m: block_values(m, V, rho_p, groups, layout)          # noqa: E731
     fine = sums.shape[2]
-    balanced = balanced_names(groups, across)
+    balanced = balanced_names(groups, layout.axes, across)
     if sectors == "auto":
         per_q, common, unresolved, table = choose_sectors(*halves(counts, sums), V, rho_p,
-                                                          groups, periodic, fine, balanced)
+                                                          groups, layout, periodic, fine,
+                                                          balanced)
     elif fine % int(sectors) == 0:
         per_q, common, unresolved, table = {}, int(sectors), [], {}
     else:
         raise ParameterError("sectors", f"{{param}} {sectors}: must divide the "
                              f"{fine} sectors accumulated")
     parts = {common: structure_parts(counts, merge_sectors(sums, common), V, rho_p, groups,
-                                     evaluate)}
+                                     layout, evaluate)}
     sem, time_dominated, b = {}, {}, parts[common][2][1]
     for q in parts[common][0]:
         k = per_q.get(q, common)
         if k not in parts:
             parts[k] = structure_parts(counts, merge_sectors(sums, k), V, rho_p, groups,
-                                       evaluate)
+                                       layout, evaluate)
         by_sector, cells, (_, bk) = parts[k]
         vs = np.array([jackknife_error(v) ** 2 for v in by_sector[q].T])
         vi = (np.array([interaction_variance(c, k, bk) for c in cells[q].T]) if cells

@@ -142,6 +142,29 @@ def _below(u, a):
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _below_sphere(u, a):
+    """Volume of a sphere of radius a (centre 0) with x < u: 0, a cap, or all of it; the
+    smaller side is always the cap pi h^2 (3a - h) / 3, so thin parts keep precision."""
+    if u <= -a:
+        return 0.0
+    if u >= a:
+        return 4.0 / 3.0 * math.pi * a * a * a
+    if u < 0.0:
+        h = a + u
+        return math.pi * h * h * (3.0 * a - h) / 3.0
+    h = a - u
+    return 4.0 / 3.0 * math.pi * a * a * a - math.pi * h * h * (3.0 * a - h) / 3.0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def below_fraction(u, a, dim):
+    """Fraction of a disk (dim 2) or sphere (dim 3) of radius a, centre 0, with x < u."""
+    if dim == 2:
+        return _below(u, a) / (math.pi * a * a)
+    return _below_sphere(u, a) / (4.0 / 3.0 * math.pi * a * a * a)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _antideriv(x, a):
     """Integral of sqrt(a^2 - x^2) dx from 0 to x (|x| <= a)."""
     return 0.5 * (x * math.sqrt(max(a * a - x * x, 0.0)) + a * a * math.asin(x / a))

@@ -55,7 +55,7 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
     if "body" in groups:                  # computed from the disks' velocities, not read
         atom_cols = {**{c: g for c, g in atom_cols.items() if c not in ("bx", "by")},
                      "vx": "body", "vy": "body"}
-    need_contacts = any(QUANTITIES[g][2] for g in groups)
+    need_contacts = any(QUANTITIES[g].contacts for g in groups)
     reader_a = DumpReader(atoms, list(atom_cols), atom_cols, steps)
     reader_c = DumpReader(contacts, list(contact_cols), contact_cols, steps) \
         if need_contacts else None

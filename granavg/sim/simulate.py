@@ -155,7 +155,7 @@ def scene_for(scene: Scene, quantities) -> Scene:
     if quantities is None:
         return scene
     groups_for(quantities, have_contacts=True)        # unknown names are refused
-    needs = [q for q in quantities if QUANTITIES[q][2]]
+    needs = [q for q in quantities if QUANTITIES[q].contacts]
     if needs and not scene.contacts:
         raise UserError(f"--quantities {needs[0]} needs contact forces, but the scene has "
                         "contacts=0; drop the quantity or the setting")
