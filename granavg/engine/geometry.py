@@ -292,4 +292,12 @@ def from_description(d: dict):
     if kind == "grid":
         return Grid(np.asarray(d["xedges"], float), np.asarray(d["yedges"], float),
                     float(d["h"]))
+    from granavg.engine.cells3d import Boxes, Shells, Slabs3D
+    if kind == "slabs3d":
+        return Slabs3D(np.asarray(d["edges"], float), d["axis"], float(d["area"]))
+    if kind == "boxes":
+        return Boxes(*(np.asarray(d[k], float) for k in ("xedges", "yedges", "zedges")))
+    if kind == "shells":
+        return Shells(np.asarray(d["edges"], float), np.asarray(d["zedges"], float),
+                      tuple(d.get("center", (0.0, 0.0))))
     raise UserError(f"unknown geometry kind {kind!r}")

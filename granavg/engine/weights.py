@@ -64,16 +64,18 @@ area_inside_circle.__doc__ = _area.__doc__
 def _cumulative(mode, pos, a, edge):
     """Area of a disk (centre coordinate pos, radius a) on the inner side of a cell edge:
     inside the circle of radius ``edge`` (mode 0, rings) or below x = edge (mode 1,
-    strips)."""
+    strips); mode 2: the volume of a sphere below x = edge (3D slabs)."""
     if mode == 0:
         return _area_scalar(pos, a, edge)
-    return _below(edge - pos, a)
+    if mode == 1:
+        return _below(edge - pos, a)
+    return _below_sphere(edge - pos, a)
 
 
 @njit(cache=True, nogil=True)
 def _triplets(pos, a, edges, mode):
-    """(particle, cell, weight) of disks in 1D cells, from differences of cumulative
-    areas at consecutive edges."""
+    """(particle, cell, weight) of disks (or spheres, mode 2) in 1D cells, from
+    differences of cumulative areas (volumes) at consecutive edges."""
     n = edges.shape[0] - 1
     cap = pos.shape[0] * 4
     particle = np.empty(cap, np.int64)
@@ -83,7 +85,7 @@ def _triplets(pos, a, edges, mode):
     for p in range(pos.shape[0]):
         lo = min(max(np.searchsorted(edges, pos[p] - a[p], side="right") - 1, 0), n - 1)
         hi = min(max(np.searchsorted(edges, pos[p] + a[p], side="left") - 1, 0), n - 1)
-        full = math.pi * a[p] * a[p]
+        full = math.pi * a[p] * a[p] if mode < 2 else 4.0 / 3.0 * math.pi * a[p] * a[p] * a[p]
         inner = _cumulative(mode, pos[p], a[p], edges[lo])
         for k in range(lo, hi + 1):
             outer = _cumulative(mode, pos[p], a[p], edges[k + 1])
