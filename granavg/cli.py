@@ -17,7 +17,7 @@ FLAGS = {"t_min": "--t-min", "block_time": "--block-time", "rho_p": "--density",
 #: Options that only plain dumps take (a run directory's manifest says them).
 PLAIN_ONLY = ("thickness", "density", "dt", "r_range", "slabs", "grid", "wall_types",
               "atom_columns", "contact_columns", "units", "format", "gravity", "center",
-              "range", "length", "x_range", "y_range")
+              "range", "length", "x_range", "y_range", "z_range", "layers", "area", "dim")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -88,27 +88,38 @@ def _parser() -> argparse.ArgumentParser:
     plain.add_argument("--units", metavar="STYLE", help="LAMMPS units style of the dumps "
                        "(si, lj, real, metal, cgs, electron, micro, nano) when they have no "
                        "ITEM: UNITS header (dump_modify units yes); only labels the outputs")
-    plain.add_argument("--thickness", type=float, metavar="H", help="disk height h "
-                       "(2D disks of volume pi h a^2); required")
+    plain.add_argument("--dim", type=int, choices=[2, 3], help="2 (disks) or 3 "
+                       "(spheres); default from the dump: 3 where the atoms' z differ")
+    plain.add_argument("--thickness", type=float, metavar="H", help="2D: disk height h "
+                       "(disks of volume pi h a^2); required in 2D")
     plain.add_argument("--density", type=float, metavar="RHO", help="material density "
-                       "(masses rho pi h a^2); or the dump's mass column")
+                       "(masses rho pi h a^2 for disks, rho 4/3 pi a^3 for spheres); or the "
+                       "dump's mass column")
     plain.add_argument("--dt", type=float, help="time step, for dumps without ITEM: TIME")
     plain.add_argument("--center", type=float, nargs=2, metavar=("X", "Y"),
-                       help="centre of the rings (default 0 0)")
+                       help="centre of the rings (3D: the axis of the cylindrical shells, "
+                       "parallel to z; default 0 0)")
     plain.add_argument("--r-range", type=float, nargs=2, metavar=("R1", "R2"),
-                       help="rings: --bins equal rings from R1 to R2")
-    plain.add_argument("--slabs", choices=["x", "y"], help="Cartesian strips across x or y "
-                       "(--bins over --range, or --edges) instead of rings")
+                       help="rings (3D: cylindrical shells): --bins equal rings from R1 to R2")
+    plain.add_argument("--layers", type=int, metavar="NZ", help="3D shells: NZ layers over "
+                       "--z-range (default 1)")
+    plain.add_argument("--slabs", choices=["x", "y", "z"], help="Cartesian slabs across x, "
+                       "y (or z in 3D) (--bins over --range, or --edges) instead of rings")
     plain.add_argument("--range", type=float, nargs=2, metavar=("LO", "HI"),
                        help="slabs: from LO to HI (default the box)")
-    plain.add_argument("--length", type=float, help="slabs: their length along the other "
-                       "axis (default the box's)")
-    plain.add_argument("--grid", type=int, nargs=2, metavar=("NX", "NY"),
-                       help="a grid of NX x NY rectangles over --x-range, --y-range")
+    plain.add_argument("--length", type=float, help="2D slabs: their length along the "
+                       "other axis (default the box's)")
+    plain.add_argument("--area", type=float, help="3D slabs: their cross-section (default "
+                       "the box's)")
+    plain.add_argument("--grid", type=int, nargs="+", metavar="N",
+                       help="a grid: NX NY rectangles (2D) or NX NY NZ boxes (3D) over "
+                       "--x-range, --y-range (--z-range)")
     plain.add_argument("--x-range", type=float, nargs=2, metavar=("X1", "X2"))
     plain.add_argument("--y-range", type=float, nargs=2, metavar=("Y1", "Y2"))
-    plain.add_argument("--gravity", type=float, nargs=2, metavar=("GX", "GY"),
-                       help="gravitational acceleration: a body force m g on every disk")
+    plain.add_argument("--z-range", type=float, nargs=2, metavar=("Z1", "Z2"))
+    plain.add_argument("--gravity", type=float, nargs="+", metavar="G",
+                       help="gravitational acceleration GX GY (3D: GX GY GZ): a body force "
+                       "m g on every particle")
     plain.add_argument("--wall-types", type=int, nargs="+", metavar="T", default=[],
                        help="atom types that are walls: left out of the packing, their "
                        "contacts with disks kept")
@@ -210,9 +221,10 @@ def _average(args):
         cells = dict(thickness=args.thickness, bins=args.bins, edges=args.edges,
                      center=args.center or (0.0, 0.0), r_range=args.r_range, slabs=args.slabs,
                      range=args.range, length=args.length, grid=args.grid,
-                     x_range=args.x_range, y_range=args.y_range)
+                     x_range=args.x_range, y_range=args.y_range, z_range=args.z_range,
+                     layers=args.layers, area=args.area)
         options = dict(common, cells=cells, fmt=args.format, density=args.density,
-                       dt=args.dt, units=args.units, wall_types=args.wall_types,
+                       dt=args.dt, units=args.units, wall_types=args.wall_types, dim=args.dim,
                        gravity=args.gravity,
                        atom_map=parse_map(args.atom_columns),
                        contact_map=parse_map(args.contact_columns))

@@ -187,7 +187,7 @@ def test_the_base_plate_force_is_what_lammps_applied(tmp_path):
     term = base_plate(scene.mu_base, scene.v_base)
     atoms = {"x": np.zeros(disk.sum()), "radius": rad[disk], "vx": v[disk, 0],
              "vy": v[disk, 1]}
-    gx, gy = term(atoms, scene.h, scene.rho_p)                 # masses rho_p pi h a^2
+    gx, gy = term(atoms, lambda a: np.pi * scene.h * a * a, scene.rho_p)   # rho_p pi h a^2
     scale = np.abs(fbx[disk]).max()
     assert scale > 0
     assert np.allclose(gx, fbx[disk], rtol=1e-12, atol=1e-12 * scale)

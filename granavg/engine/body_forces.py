@@ -1,9 +1,12 @@
-"""Body forces on the disks, as the atoms' ``bx by`` columns the engine averages into a
-body force density (N/m^3 in SI): gravity, and the base-plate friction of granavg's
-Couette scene (the deck's own law, so that it equals what LAMMPS applied).
+"""Body forces on the particles, as the atoms' ``bx by [bz]`` columns the engine
+averages into a body force density (N/m^3 in SI): gravity (2D or 3D), and the
+base-plate friction of granavg's Couette scene (the deck's own law, so that it equals
+what LAMMPS applied).
 
-Each term is a function ``term(atoms, h, rho_p) -> (fx, fy)``, shapes (P,); masses are
-the atoms' ``mass`` column where there is one, else rho_p pi h a^2.
+Each term is a function ``term(atoms, volume, rho_p) -> (fx, fy[, fz])``, shapes (P,),
+with ``volume(radius)`` the particles' volumes (the cells' ``particle_volume``: pi h a^2
+for disks, 4/3 pi a^3 for spheres); masses are the atoms' ``mass`` column where there is
+one, else rho_p times the volume.
 """
 
 from __future__ import annotations
@@ -16,30 +19,30 @@ from granavg.errors import ParameterError
 G_BASE = 9.81
 
 
-def masses(atoms, h: float, rho_p: float | None) -> np.ndarray:
-    """Each disk's mass: the ``mass`` column, else rho_p pi h a^2 (shape (P,))."""
+def masses(atoms, volume, rho_p: float | None) -> np.ndarray:
+    """Each particle's mass: the ``mass`` column, else rho_p volume(radius), shape (P,)."""
     if "mass" in atoms:
         return atoms["mass"]
     if rho_p is None:
         raise ParameterError("rho_p", "body forces need masses: give the material density "
                              "({param}) or a mass column")
-    return rho_p * np.pi * h * atoms["radius"] ** 2
+    return rho_p * volume(atoms["radius"])
 
 
-def gravity(gx: float, gy: float):
-    """The term m g (g in the frames' units of acceleration)."""
-    def term(atoms, h, rho_p):
-        m = masses(atoms, h, rho_p)
-        return m * gx, m * gy
-    term.describe = {"gravity": [gx, gy]}
+def gravity(*g: float):
+    """The term m g (g: 2 or 3 components, in the frames' units of acceleration)."""
+    def term(atoms, volume, rho_p):
+        m = masses(atoms, volume, rho_p)
+        return tuple(m * gi for gi in g)
+    term.describe = {"gravity": list(g)}
     return term
 
 
 def base_plate(mu: float, v_base: float, g: float = G_BASE):
     """The deck's friction with the base plate: F = -mu m g v / sqrt(v^2 + v_base^2)
     (Coulomb's mu m g against the motion, linear below v_base; SI units)."""
-    def term(atoms, h, rho_p):
-        m = masses(atoms, h, rho_p)
+    def term(atoms, volume, rho_p):
+        m = masses(atoms, volume, rho_p)
         vx, vy = atoms["vx"], atoms["vy"]
         scale = -mu * g * m / np.sqrt(vx * vx + vy * vy + v_base * v_base)
         return scale * vx, scale * vy
@@ -47,12 +50,12 @@ def base_plate(mu: float, v_base: float, g: float = G_BASE):
     return term
 
 
-def add_body_forces(atoms: dict, terms, h: float, rho_p: float | None) -> dict:
-    """``atoms`` with ``bx by`` the sum of the terms (added to any ``bx by`` the atoms
-    already carry, e.g. a force column of the dump)."""
-    bx = np.array(atoms["bx"], float) if "bx" in atoms else np.zeros(len(atoms["x"]))
-    by = np.array(atoms["by"], float) if "by" in atoms else np.zeros(len(atoms["x"]))
+def add_body_forces(atoms: dict, terms, volume, rho_p: float | None) -> dict:
+    """``atoms`` with ``bx by [bz]`` the sum of the terms (added to any such columns the
+    atoms already carry, e.g. a force column of the dump)."""
+    out = dict(atoms)
     for term in terms:
-        fx, fy = term(atoms, h, rho_p)
-        bx, by = bx + fx, by + fy
-    return {**atoms, "bx": bx, "by": by}
+        for name, f in zip(("bx", "by", "bz"), term(atoms, volume, rho_p)):
+            out[name] = (np.array(out[name], float) if name in out else
+                         np.zeros(len(atoms["x"]))) + f
+    return out

@@ -20,12 +20,56 @@ from granavg.engine.sphere_weights import box_weights, layer_weights, shell_weig
 from granavg.errors import UserError
 
 
+def with_images(pos, a, periods):
+    """The spheres and, along each axis with a period (the cells spanning a periodic box),
+    the images of those that reach across its ends, so that their volume beyond one end
+    lands in the cells at the other.
+
+    Parameters
+    ----------
+    pos : tuple of 3 ndarray, shape (P,)
+    a : ndarray, shape (P,)
+    periods : tuple of 3 (lo, hi) or None
+        The periodic span along each axis.
+
+    Returns
+    -------
+    pos, a, index : the extended arrays and, for each entry, the sphere it is of.
+    """
+    index = np.arange(len(a))
+    pos = [np.asarray(u, float) for u in pos]
+    for k, span in enumerate(periods):
+        if span is None:
+            continue
+        lo, hi = span
+        low, high = pos[k] - a < lo, pos[k] + a > hi
+        if not (low.any() or high.any()):
+            continue
+        extra = np.concatenate([np.flatnonzero(low), np.flatnonzero(high)])
+        shift = np.concatenate([np.full(low.sum(), hi - lo), np.full(high.sum(), lo - hi)])
+        pos = [np.concatenate([u, u[extra] + (shift if j == k else 0.0)])
+               for j, u in enumerate(pos)]
+        a = np.concatenate([a, a[extra]])
+        index = np.concatenate([index, index[extra]])
+    return tuple(pos), a, index
+
+
 class Spheres:
-    """What the 3D cells share: spheres (volume 4/3 pi a^3), positions ``(x, y, z)``."""
+    """What the 3D cells share: spheres (volume 4/3 pi a^3), positions ``(x, y, z)``;
+    ``periods``: per axis, the span over which the packing is periodic (the cells then
+    take the spheres' images across its ends, :func:`with_images`), or None."""
 
     dim = 3
     position_names = ("x", "y", "z")
     periodic = False
+
+    def _imaged(self, weigh, pos, a):
+        periods = getattr(self, "periods", None)
+        if not periods or all(p is None for p in periods):
+            return weigh(pos, a)
+        pos, a, index = with_images(pos, a, periods)
+        particle, cell, w = weigh(pos, a)
+        return index[particle], cell, w
 
     @property
     def layout(self):
@@ -49,6 +93,7 @@ class Slabs3D(Spheres):
     edges: np.ndarray
     axis: str = "z"
     area: float = 1.0
+    periods: tuple | None = None
 
     kind = "slabs3d"
     axes = ("x", "y", "z")
@@ -75,7 +120,8 @@ class Slabs3D(Spheres):
         return self.area * np.diff(self.edges)
 
     def weights(self, pos, a):
-        return layer_weights(pos["xyz".index(self.axis)], a, self.edges)
+        k = "xyz".index(self.axis)
+        return self._imaged(lambda p, r: layer_weights(p[k], r, self.edges), pos, a)
 
     def basis(self, pos):
         return cartesian_basis(len(pos[0]), 3)
@@ -90,7 +136,7 @@ class Slabs3D(Spheres):
 
     def describe(self) -> dict:
         return {"kind": self.kind, "edges": list(self.edges), "axis": self.axis,
-                "area": self.area}
+                "area": self.area, "periods": _spans(self.periods)}
 
 
 @dataclass(frozen=True)
@@ -101,6 +147,7 @@ class Boxes(Spheres):
     xedges: np.ndarray
     yedges: np.ndarray
     zedges: np.ndarray
+    periods: tuple | None = None
 
     kind = "boxes"
     axes = ("x", "y", "z")
@@ -125,7 +172,8 @@ class Boxes(Spheres):
         return (dx[:, None, None] * dy[None, :, None] * dz[None, None, :]).ravel()
 
     def weights(self, pos, a):
-        return box_weights(*pos, a, self.xedges, self.yedges, self.zedges)
+        return self._imaged(lambda p, r: box_weights(*p, r, self.xedges, self.yedges,
+                                                     self.zedges), pos, a)
 
     def basis(self, pos):
         return cartesian_basis(len(pos[0]), 3)
@@ -150,7 +198,7 @@ class Boxes(Spheres):
 
     def describe(self) -> dict:
         return {"kind": self.kind, "xedges": list(self.xedges), "yedges": list(self.yedges),
-                "zedges": list(self.zedges)}
+                "zedges": list(self.zedges), "periods": _spans(self.periods)}
 
 
 @dataclass(frozen=True)
@@ -163,6 +211,7 @@ class Shells(Spheres):
     edges: np.ndarray
     zedges: np.ndarray
     center: tuple = (0.0, 0.0)
+    periods: tuple | None = None
 
     kind = "shells"
     axes = ("r", "phi", "z")
@@ -193,7 +242,8 @@ class Shells(Spheres):
         return np.hypot(pos[0] - self.center[0], pos[1] - self.center[1])
 
     def weights(self, pos, a):
-        return shell_weights(self._radius(pos), pos[2], a, self.edges, self.zedges)
+        return self._imaged(lambda p, r: shell_weights(self._radius(p), p[2], r, self.edges,
+                                                       self.zedges), pos, a)
 
     def basis(self, pos):
         """e_r, e_phi, e_z (rows) at each point, shape (P, 3, 3)."""
@@ -216,4 +266,9 @@ class Shells(Spheres):
 
     def describe(self) -> dict:
         return {"kind": self.kind, "edges": list(self.edges), "zedges": list(self.zedges),
-                "center": list(self.center)}
+                "center": list(self.center), "periods": _spans(self.periods)}
+
+
+def _spans(periods):
+    """The periods for the sidecar (lists, None where not periodic)."""
+    return None if periods is None else [None if p is None else list(p) for p in periods]

@@ -293,11 +293,14 @@ def from_description(d: dict):
         return Grid(np.asarray(d["xedges"], float), np.asarray(d["yedges"], float),
                     float(d["h"]))
     from granavg.engine.cells3d import Boxes, Shells, Slabs3D
+    periods = tuple(None if p is None else tuple(p) for p in d["periods"]) \
+        if d.get("periods") else None
     if kind == "slabs3d":
-        return Slabs3D(np.asarray(d["edges"], float), d["axis"], float(d["area"]))
+        return Slabs3D(np.asarray(d["edges"], float), d["axis"], float(d["area"]), periods)
     if kind == "boxes":
-        return Boxes(*(np.asarray(d[k], float) for k in ("xedges", "yedges", "zedges")))
+        return Boxes(*(np.asarray(d[k], float) for k in ("xedges", "yedges", "zedges")),
+                     periods)
     if kind == "shells":
         return Shells(np.asarray(d["edges"], float), np.asarray(d["zedges"], float),
-                      tuple(d.get("center", (0.0, 0.0))))
+                      tuple(d.get("center", (0.0, 0.0))), periods)
     raise UserError(f"unknown geometry kind {kind!r}")

@@ -8,7 +8,8 @@ disk. Every contact source goes through it: the in-process writer and the conver
 LAMMPS-written ``contacts_raw`` dump (:func:`contact_table`) and anyone's pair/local
 dumps (:mod:`granavg.io.lammps_dumps`).
 
-Columns of the contact dump (SI units; documented in docs/outputs.md):
+Columns of the contact dump (SI units; documented in docs/outputs.md; in 3D with
+``fnz``, ``ftz`` and ``nz`` too):
 
 =========  =========================================================================
 id1, id2   atom ids; id1 is always a disk, id2 a disk or a wall disk
@@ -31,40 +32,48 @@ RAW_COLUMNS = ["id1", "id2", "type1", "type2", "dx", "dy", "dist", "fnx", "fny",
 WALL_FLAG_OF_TYPE = np.array([0, 0, 0, 1, 2])
 
 
-def contact_columns(id1, id2, dx, dy, dist, fnx, fny, ftx, fty, wall1, wall2, r1, r2) -> dict:
+def contact_columns(id1, id2, d, dist, fn, ft, wall1, wall2, r1, r2) -> dict:
     """Pair/local quantities of atom pairs -> granavg's contact columns: the one
-    conversion every contact source goes through.
+    conversion every contact source goes through, in 2D or 3D.
 
     Parameters
     ----------
     id1, id2 : ndarray, shape (n,)
         Atom ids of each pair.
-    dx, dy, dist : ndarray, shape (n,)
-        ``x_1 - x_2`` and the centre distance (as printed: they agree only to the
-        printed precision; the normal is (dx, dy) over its own length).
-    fnx, fny, ftx, fty : ndarray, shape (n,)
+    d : ndarray, shape (n, D)
+        ``x_1 - x_2`` (dx, dy[, dz]), and ``dist`` shape (n,) the centre distance (as
+        printed: they agree only to the printed precision; the normal is d over its own
+        length).
+    fn, ft : ndarray, shape (n, D)
         Normal and tangential force on atom 1.
     wall1, wall2 : ndarray of int, shape (n,)
-        Wall code of each atom: 0 a disk of the packing, 1 or 2 a wall.
+        Wall code of each atom: 0 a particle of the packing, 1 or 2 a wall.
     r1, r2 : ndarray, shape (n,)
         Radii.
 
     Returns
     -------
     dict of str -> ndarray, shape (n,)
-        :data:`COLUMNS` with the wall atom second (its forces and normal as seen by the
-        disk), plus ``packing`` (False for wall-wall pairs) and ``reach`` (r1 + r2).
+        ``id1 id2 wall``, ``fn<x>``, ``ft<x>``, ``n<x>`` for the D axes x, y[, z] and
+        ``overlap``, with the wall atom second (its forces and normal as seen by the
+        particle), plus ``packing`` (False for wall-wall pairs) and ``reach`` (r1 + r2).
     """
-    swap = (wall1 > 0) & (wall2 == 0)                 # the disk goes first
+    d, fn, ft = (np.asarray(v, float) for v in (d, fn, ft))
+    swap = (wall1 > 0) & (wall2 == 0)                 # the particle goes first
     sign = np.where(swap, -1.0, 1.0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        length = np.hypot(dx, dy)
-        nx, ny = -dx / length, -dy / length           # from atom 1 towards atom 2
-    return {"id1": np.where(swap, id2, id1), "id2": np.where(swap, id1, id2),
-            "wall": np.where(swap, wall1, wall2).astype(float),
-            "fnx": sign * fnx, "fny": sign * fny, "ftx": sign * ftx, "fty": sign * fty,
-            "nx": sign * nx, "ny": sign * ny, "overlap": r1 + r2 - dist,
-            "packing": (wall1 == 0) | (wall2 == 0), "reach": r1 + r2}
+        length = np.sqrt(np.sum(d * d, axis=1)) if d.shape[1] == 3 else np.hypot(d[:, 0],
+                                                                                   d[:, 1])
+        n = -d / length[:, None]                      # from atom 1 towards atom 2
+    out = {"id1": np.where(swap, id2, id1), "id2": np.where(swap, id1, id2),
+           "wall": np.where(swap, wall1, wall2).astype(float)}
+    for k, x in enumerate("xyz"[:d.shape[1]]):
+        out[f"fn{x}"], out[f"ft{x}"] = sign * fn[:, k], sign * ft[:, k]
+    for k, x in enumerate("xyz"[:d.shape[1]]):
+        out[f"n{x}"] = sign * n[:, k]
+    out.update({"overlap": r1 + r2 - dist, "packing": (wall1 == 0) | (wall2 == 0),
+                "reach": r1 + r2})
+    return out
 
 
 def contact_table(raw: np.ndarray, radius_of_id: np.ndarray) -> np.ndarray:
@@ -86,7 +95,8 @@ def contact_table(raw: np.ndarray, radius_of_id: np.ndarray) -> np.ndarray:
     """
     raw = np.asarray(raw, dtype=float).reshape(-1, len(RAW_COLUMNS))
     id1, id2, t1, t2, dx, dy, dist, fnx, fny, ftx, fty = raw.T
-    c = contact_columns(id1, id2, dx, dy, dist, fnx, fny, ftx, fty,
+    c = contact_columns(id1, id2, np.column_stack([dx, dy]), dist,
+                        np.column_stack([fnx, fny]), np.column_stack([ftx, fty]),
                         WALL_FLAG_OF_TYPE[t1.astype(int)], WALL_FLAG_OF_TYPE[t2.astype(int)],
                         radius_of_id[id1.astype(int)], radius_of_id[id2.astype(int)])
     keep = c["packing"] & (c["overlap"] > 0)

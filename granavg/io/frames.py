@@ -107,13 +107,16 @@ def check_contacts(path, frame) -> dict:
             fail(np.flatnonzero(same)[0], f"atom {int(cols['id1'][same][0])} is in contact "
                  "with itself")
     if "nx" in cols and "ny" in cols:
-        norm = np.hypot(cols["nx"], cols["ny"])
+        axes = [n for n in ("nx", "ny", "nz") if n in cols]
+        norm = np.hypot(cols["nx"], cols["ny"]) if len(axes) == 2 else \
+            np.sqrt(cols["nx"] ** 2 + cols["ny"] ** 2 + cols["nz"] ** 2)
         off = np.abs(norm - 1.0)
         if np.any(off > CONSISTENCY):
             k = int(np.argmax(off))
-            fail(k, f"the contact normal ({cols['nx'][k]:g}, {cols['ny'][k]:g}) is not a unit "
-                 f"vector (|n| - 1 = {norm[k] - 1:.2g}, more than printing's rounding)")
-        cols = {**cols, "nx": cols["nx"] / norm, "ny": cols["ny"] / norm}
+            shown = ", ".join(f"{cols[n][k]:g}" for n in axes)
+            fail(k, f"the contact normal ({shown}) is not a unit vector (|n| - 1 = "
+                 f"{norm[k] - 1:.2g}, more than printing's rounding)")
+        cols = {**cols, **{n: cols[n] / norm for n in axes}}
     return cols
 
 

@@ -1,31 +1,41 @@
-"""Anyone's LAMMPS dumps, no manifest: column aliases, raw pair/local contacts, walls.
+"""Anyone's LAMMPS dumps, no manifest: column aliases, raw pair/local contacts, walls,
+in 2D or 3D.
 
 :class:`LammpsDumps` turns a per-atom ``dump custom`` and, optionally, a ``dump local``
-of contacts into the frames the engine averages (SI units):
+of contacts into the frames the engine averages (in the dumps' own units):
 
-- atom columns by name or alias: ``x``/``xu``/``xs`` (scaled by the box), ``y`` likewise,
-  ``radius`` or ``diameter``, ``vx vy``, ``omegaz``, ``id``, ``type``, ``mass``; or an
-  explicit map for positional columns (``omegaz=c_spin[3]``);
-- contacts in granavg's format (``id1 id2 wall fnx fny ftx fty nx ny overlap``), the
-  deck's raw format (``id1 id2 type1 type2 dx dy dist fnx fny ftx fty``), or any
-  ``compute pair/local`` + ``compute property/local patom1 patom2`` dump through a map
-  (``id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],
-  ftx=c_pl[5],fty=c_pl[6]``); the normal is -(dx, dy)/|(dx, dy)| (dx = x_1 - x_2),
-  the normal force fnx, fny or force times the same unit vector, the overlap
-  r_1 + r_2 - dist from the atoms' own radii;
+- the dimension from the dump (3 where the atoms' z coordinates differ, 2 where there is
+  none or all share one) or given (``dim``);
+- atom columns by name or alias: ``x``/``xu``/``xs`` (scaled by the box), ``y`` and ``z``
+  likewise, ``radius`` or ``diameter``, ``vx vy [vz]``, ``omegaz`` (2D) or ``omegax
+  omegay omegaz`` (3D), ``id``, ``type``, ``mass``; or an explicit map for positional
+  columns (``omegaz=c_spin[3]``);
+- positions are wrapped into the box along its periodic axes (``pp`` in ``ITEM: BOX
+  BOUNDS``: unwrapped ``xu`` coordinates, or atoms just outside between re-neighbouring);
+- contacts in granavg's format (``id1 id2 wall fnx fny [fnz] ftx fty [ftz] nx ny [nz]
+  overlap``), the deck's raw format (``id1 id2 type1 type2 dx dy dist fnx fny ftx fty``),
+  or any ``compute pair/local`` + ``compute property/local patom1 patom2`` dump through a
+  map (``id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],[dz=c_pl[4],]
+  force=...,ftx=...,fty=...[,ftz=...]``); the normal is -d/|d| (d = x_1 - x_2, the
+  minimum image pair/local gives across periodic boundaries), the normal force fn or
+  force times the same unit vector, the overlap r_1 + r_2 - dist from the atoms' own
+  radii;
 - LAMMPS' default ``%g`` (6 significant digits) is read as it is: numbers that must
-  agree (|(dx, dy)| and dist) are compared within
-  :data:`~granavg.io.reader.CONSISTENCY`, never to the last digit;
-- a row is a contact where the disks overlap or the pair carries a normal force
+  agree (|d| and dist) are compared within :data:`~granavg.io.reader.CONSISTENCY`, never
+  to the last digit;
+- a row is a contact where the particles overlap or the pair carries a normal force
   (pair/local lists neighbours within the cutoff, with zero force): a pair touching by
   less than the printed rounding keeps its force with overlap 0; the others are dropped
-  and counted; a force between disks that are apart by more than rounding is refused;
-- atoms of ``wall_types`` are left out of the packing; their contacts with disks are
-  kept as wall contacts (forces and normal as seen by the disk);
-- the units are the dump's (``ITEM: UNITS`` or ``units=``; :mod:`granavg.io.units`).
+  and counted; a force between particles that are apart by more than rounding is refused;
+- atoms of ``wall_types`` are left out of the packing; their contacts with particles are
+  kept as wall contacts (forces and normal as seen by the particle);
+- the units are the dump's (``ITEM: UNITS`` or ``units=``; :mod:`granavg.io.units`);
+- a path with a ``*`` is a series of files (``dump.*.txt``; :mod:`granavg.io.reader`).
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 from isal import igzip
@@ -37,14 +47,25 @@ from granavg.io.dumpfile import open_text
 from granavg.io.formats import Format
 from granavg.io.frames import (CONSISTENCY, Columns, Frame, PairedDumps, check_atoms,
                                check_contacts, check_integers)
-from granavg.io.reader import DumpReader
+from granavg.io.reader import DumpReader, series
 from granavg.io.units import choose_units
 
 ATOM_ALIASES = {"x": ("x", "xu", "xs", "xsu"), "y": ("y", "yu", "ys", "ysu"),
-                "radius": ("radius", "diameter"), "vx": ("vx",), "vy": ("vy",),
-                "omegaz": ("omegaz",), "id": ("id",), "type": ("type",), "mass": ("mass",),
-                "bx": (), "by": ()}             # a body force on each atom: named only
-GRANAVG = ("id1", "id2", "wall", "fnx", "fny", "ftx", "fty", "nx", "ny", "overlap")
+                "z": ("z", "zu", "zs", "zsu"),
+                "radius": ("radius", "diameter"), "vx": ("vx",), "vy": ("vy",), "vz": ("vz",),
+                "omegax": ("omegax",), "omegay": ("omegay",), "omegaz": ("omegaz",),
+                "id": ("id",), "type": ("type",), "mass": ("mass",),
+                "bx": (), "by": (), "bz": ()}   # a body force on each atom: named only
+#: Atom columns that exist only in 3D.
+ONLY_3D = ("z", "vz", "omegax", "omegay", "bz")
+SCALED = ("xs", "xsu", "ys", "ysu", "zs", "zsu")
+
+
+def granavg_columns(dim: int) -> tuple:
+    """granavg's own contact columns in ``dim`` dimensions."""
+    xyz = "xyz"[:dim]
+    return ("id1", "id2", "wall", *(f"fn{x}" for x in xyz), *(f"ft{x}" for x in xyz),
+            *(f"n{x}" for x in xyz), "overlap")
 
 
 def parse_map(text) -> dict:
@@ -61,6 +82,7 @@ def parse_map(text) -> dict:
 def dump_header(path):
     """The column names of a dump's first ``ITEM: ATOMS`` / ``ITEM: ENTRIES`` line, and
     its ``ITEM: UNITS`` as ``(style, "file:line")`` (None if the dump does not say)."""
+    path = series(path)[0]
     opener = igzip.open if str(path).endswith(".gz") else open
     units, previous = None, ""
     try:
@@ -80,7 +102,7 @@ def dump_header(path):
                     "dump custom (atoms) or dump local (contacts)")
 
 
-def resolve_atoms(path, explicit: dict) -> dict:
+def resolve_atoms(path, explicit: dict, dim: int) -> dict:
     """Our atom name -> the dump's column, by the explicit map, then by alias."""
     names, _ = dump_header(path)
     out = {}
@@ -91,38 +113,66 @@ def resolve_atoms(path, explicit: dict) -> dict:
                                 f"dump (columns: {' '.join(names)})")
             out[ours] = explicit[ours]
             continue
+        if dim == 2 and ours in ONLY_3D:
+            continue
         found = [a for a in aliases if a in names]
         if found:
             out[ours] = found[0]
-    for need in ("x", "y", "radius"):
+    for need in ("x", "y", *(("z",) if dim == 3 else ()), "radius"):
         if need not in out:
             raise UserError(f"{path}: no column for {need} (columns: {' '.join(names)}); "
                             f"dump it, or name it with --atom-columns {need}=COLUMN")
     return out
 
 
-def resolve_contacts(path, explicit: dict) -> dict:
+def resolve_contacts(path, explicit: dict, dim: int) -> dict:
     """Our contact name -> the dump's column (granavg's, the deck's raw, or a map)."""
     names, _ = dump_header(path)
-    if not explicit and all(c in names for c in GRANAVG):
-        return {c: c for c in GRANAVG}
+    own = granavg_columns(dim)
+    if not explicit and all(c in names for c in own):
+        return {c: c for c in own}
+    xyz = "xyz"[:dim]
     out = {k: v for k, v in explicit.items()}
-    for ours in ("id1", "id2", "dx", "dy", "dist", "fnx", "fny", "ftx", "fty", "force"):
+    for ours in ("id1", "id2", *(f"d{x}" for x in xyz), "dist", *(f"fn{x}" for x in xyz),
+                 *(f"ft{x}" for x in xyz), "force"):
         if ours not in out and ours in names:
             out[ours] = ours
     for ours, col in out.items():
         if col not in names:
             raise UserError(f"{path}: column {col!r} (for {ours}) is not in the dump "
                             f"(columns: {' '.join(names)})")
-    missing = [c for c in ("id1", "id2", "dx", "dy", "dist") if c not in out]
-    if not ("fnx" in out and "fny" in out) and "force" not in out:
-        missing.append("force (or fnx, fny)")
+    missing = [c for c in ("id1", "id2", *(f"d{x}" for x in xyz), "dist") if c not in out]
+    if not all(f"fn{x}" in out for x in xyz) and "force" not in out:
+        missing.append("force (or " + ", ".join(f"fn{x}" for x in xyz) + ")")
     if missing:
+        example = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
+                   "ftx=c_pl[5],fty=c_pl[6]") if dim == 2 else (
+                   "id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
+                   "force=c_pl[5],ftx=c_pl[6],fty=c_pl[7],ftz=c_pl[8]")
         raise UserError(f"{path}: no column for {missing[0]}; map the pair/local and "
-                        "property/local columns with --contact-columns, e.g. id1=c_pp[1],"
-                        "id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
-                        "ftx=c_pl[5],fty=c_pl[6]")
+                        f"property/local columns with --contact-columns, e.g. {example}")
     return out
+
+
+def dimension(path, explicit_map, dim=None) -> int:
+    """The dump's dimension: ``dim`` if given (3 needs a z column), else 3 where the
+    first frame's z coordinates differ, 2 where there is no z column or all share one
+    (a 2D LAMMPS run writes z = 0)."""
+    names, _ = dump_header(path)
+    zcol = explicit_map.get("z") or next((a for a in ATOM_ALIASES["z"] if a in names), None)
+    if dim not in (None, 2, 3):
+        raise UserError(f"--dim {dim}: give 2 or 3")
+    if dim == 3 and zcol is None:
+        raise UserError(f"{path}: --dim 3 needs a z column (columns: {' '.join(names)}); "
+                        "dump z, or name it with --atom-columns z=COLUMN")
+    if dim is not None:
+        return dim
+    if zcol is None:
+        return 2
+    for frame in DumpReader(path, [zcol]):
+        z = frame.column(zcol)
+        return 3 if len(z) and np.ptp(z) > 0 else 2
+    return 2
 
 
 class LammpsDumps(PairedDumps):
@@ -131,7 +181,7 @@ class LammpsDumps(PairedDumps):
     Parameters
     ----------
     atoms, contacts : path
-        Per-atom dump; per-contact dump or None.
+        Per-atom dump; per-contact dump or None (a ``*`` in a name: a file series).
     atom_map, contact_map : dict, optional
         Explicit column maps (our name -> the dump's column).
     wall_types : sequence of int, optional
@@ -141,25 +191,30 @@ class LammpsDumps(PairedDumps):
     units : str, optional
         LAMMPS units style of dumps without ``ITEM: UNITS``; must agree with the header
         where there is one.
+    dim : {2, 3}, optional
+        The dimension (default from the dump: :func:`dimension`).
 
     Attributes
     ----------
     units : UnitSystem
         The dumps' units (:func:`granavg.io.units.choose_units`).
+    dim : int
     amap, cmap : dict
         The column maps used (our name -> the dump's column), for the sidecar.
     """
 
     def __init__(self, atoms, contacts=None, *, atom_map=None, contact_map=None,
-                 wall_types=(), dt=None, units=None):
+                 wall_types=(), dt=None, units=None, dim=None):
         unit_system = choose_units(dump_header(atoms)[1], units)
         if contacts is not None and (said := dump_header(contacts)[1]) is not None:
             if choose_units(said, None).style != unit_system.style:
                 raise UserError(f"{said[1]}: the contact dump says 'units {said[0]}', the "
                                 f"atom dump's units are {unit_system.style}; use the dumps "
                                 "of one run")
-        self.amap = resolve_atoms(atoms, atom_map or {})
-        self.cmap = resolve_contacts(contacts, contact_map or {}) if contacts else None
+        self.dim = dimension(atoms, atom_map or {}, dim)
+        self.amap = resolve_atoms(atoms, atom_map or {}, self.dim)
+        self.cmap = resolve_contacts(contacts, contact_map or {}, self.dim) \
+            if contacts else None
         self.wall_types = np.asarray(list(wall_types), dtype=float)
         if len(self.wall_types) and "type" not in self.amap:
             raise UserError(f"{atoms}: --wall-types needs the atoms' type column")
@@ -174,13 +229,27 @@ class LammpsDumps(PairedDumps):
     def describe(self) -> dict:
         """The options the frames were read with, for the sidecar."""
         return {"atom_columns": self.amap, "contact_columns": self.cmap,
-                "wall_types": [int(t) for t in self.wall_types], "dt": self.dt}
+                "wall_types": [int(t) for t in self.wall_types], "dt": self.dt,
+                "dim": self.dim}
 
     def box(self):
-        """The box bounds (x, y) of the atom dump's first frame."""
-        for frame in DumpReader(self.atoms.path, []):
-            return frame.box[0], frame.box[1]
-        raise UserError(f"{self.atoms.path}: holds no frame")
+        """The box bounds of the atom dump's first frame, one (lo, hi) per axis of the
+        dimension."""
+        return self.first().box[:self.dim]
+
+    def periodic(self) -> tuple:
+        """Per axis of the dimension, whether the box is periodic along it (``pp``)."""
+        return tuple(b == "pp" for b in self.first().boundary[:self.dim])
+
+    def first(self):
+        """The atom dump's first frame (its box and boundary)."""
+        if not hasattr(self, "_first"):
+            for frame in DumpReader(self.atoms.path, []):
+                self._first = frame
+                break
+            else:
+                raise UserError(f"{self.atoms.path}: holds no frame")
+        return self._first
 
     def frame(self, fa, fc) -> Frame:
         atoms, walls = self._atoms(fa)
@@ -190,10 +259,15 @@ class LammpsDumps(PairedDumps):
     def _atoms(self, fa):
         raw = fa.as_dict()
         col = {ours: raw[theirs] for ours, theirs in self.amap.items()}
-        for axis, k in (("x", 0), ("y", 1)):
-            if self.amap[axis] in ("xs", "xsu", "ys", "ysu"):
-                lo, hi = fa.box[k]
+        for k, axis in enumerate("xyz"[:self.dim]):
+            lo, hi = fa.box[k]
+            if self.amap[axis] in SCALED:
                 col[axis] = lo + col[axis] * (hi - lo)
+            if fa.boundary[k] == "pp" and not fa.triclinic and hi > lo:
+                u = col[axis]
+                outside = (u < lo) | (u >= hi)
+                if outside.any():                    # wrap into the periodic box
+                    col[axis] = np.where(outside, lo + np.mod(u - lo, hi - lo), u)
         if self.amap["radius"] == "diameter":
             col["radius"] = 0.5 * col["radius"]
         col = check_atoms(self.atoms.path, Columns(col, fa))
@@ -220,10 +294,12 @@ class LammpsDumps(PairedDumps):
 
     def _touching(self, rows, fc):
         """Contacts among the rows: overlap > 0, or a normal force (the overlap of a pair
-        touching by less than the printed rounding, set to 0). A force between disks
+        touching by less than the printed rounding, set to 0). A force between particles
         apart by more than rounding is refused: the radius column is not the radius."""
         overlap = rows["overlap"]
-        force = (rows["fnx"] != 0) | (rows["fny"] != 0)
+        force = np.zeros(len(overlap), bool)
+        for x in "xyz"[:self.dim]:
+            force |= rows[f"fn{x}"] != 0
         gap = force & (overlap <= 0)
         reach = rows.pop("reach", None)
         if gap.any():
@@ -246,34 +322,41 @@ class LammpsDumps(PairedDumps):
                                   np.ones(len(walls.get("id", [])), int)])
         (i1, found1), (i2, found2) = lookup(ids, c["id1"]), lookup(ids, c["id2"])
         self.unknown_ids(fc, c, found1 & found2)
+        xyz = "xyz"[:self.dim]
         dist = c["dist"]
-        length = np.hypot(c["dx"], c["dy"])
+        d = np.column_stack([c[f"d{x}"] for x in xyz])
+        length = np.sqrt(np.sum(d * d, axis=1)) if self.dim == 3 else np.hypot(d[:, 0],
+                                                                                 d[:, 1])
         off = np.abs(length - dist) > CONSISTENCY * dist
         if off.any():
             k = int(np.flatnonzero(off)[0])
-            raise UserError(f"{self.contacts.path}:{fc.line + k}: |(dx, dy)| = {length[k]:g} "
+            what = "(dx, dy)" if self.dim == 2 else "(dx, dy, dz)"
+            raise UserError(f"{self.contacts.path}:{fc.line + k}: |{what}| = {length[k]:g} "
                             f"but dist = {dist[k]:g} (timestep {fc.timestep}), more apart "
                             "than printing's rounding; the dump is damaged or the column map "
                             "names the wrong columns")
-        if "fnx" in c:
-            fnx, fny = c["fnx"], c["fny"]
-        else:                                                 # repulsive along dx
-            fnx, fny = c["force"] * c["dx"] / length, c["force"] * c["dy"] / length
+        if all(f"fn{x}" in c for x in xyz):
+            fn = np.column_stack([c[f"fn{x}"] for x in xyz])
+        else:                                                 # repulsive along d
+            fn = c["force"][:, None] * d / length[:, None]
         zero = np.zeros(len(dist))
-        return contact_columns(c["id1"], c["id2"], c["dx"], c["dy"], dist, fnx, fny,
-                               c.get("ftx", zero), c.get("fty", zero), is_wall[i1],
-                               is_wall[i2], radii[i1], radii[i2])
+        ft = np.column_stack([c.get(f"ft{x}", zero) for x in xyz])
+        return contact_columns(c["id1"], c["id2"], d, dist, fn, ft, is_wall[i1], is_wall[i2],
+                               radii[i1], radii[i2])
 
 
 def _claims(path) -> bool:
-    """A LAMMPS text dump (plain or gzip) starts with an ``ITEM:`` line."""
+    """A LAMMPS text dump (plain or gzip; the first of a series) starts with an ``ITEM:``
+    line."""
     try:
+        if "*" in Path(path).name:
+            path = series(path)[0]
         with open_text(path) as fh:
             return fh.read(5) == "ITEM:"
-    except (OSError, EOFError, UnicodeDecodeError):
+    except (OSError, EOFError, UnicodeDecodeError, UserError):
         return False
 
 
 FORMAT = Format("lammps", "LAMMPS text dumps: dump custom (atoms) and dump local (contacts: "
                 "pair/local + property/local, or granavg's own columns)", _claims, LammpsDumps,
-                ("atom_map", "contact_map", "wall_types", "dt", "units"))
+                ("atom_map", "contact_map", "wall_types", "dt", "units", "dim"))

@@ -5,6 +5,10 @@ change their row count every frame). The file is read in chunks of bytes, so mem
 stays flat whatever the number of frames; each frame's rows are parsed as one block by
 :mod:`granavg.io.parse`, converting only the columns asked for.
 
+A path with a ``*`` is a series of files, one or more frames each, as ``dump custom N
+dump.*.txt`` writes them: they are read in the order of the number that stands for the
+``*`` (LAMMPS' time step), as one dump.
+
 Bad input: a truncated last frame is skipped with a warning naming it; a malformed row,
 a non-finite value, or a missing column is a :class:`~granavg.errors.UserError` naming
 the file and line (and, for a missing column, what needs it).
@@ -13,6 +17,7 @@ the file and line (and, for a missing column, what needs it).
 from __future__ import annotations
 
 import logging
+import re
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,6 +50,12 @@ class DumpFrame:
     box : ndarray, shape (3, 2)
     line : int
         1-based line number of the frame's first row in its file.
+    boundary : tuple of str
+        The box's boundary flags per axis (``pp`` periodic, ``ff``, ``fs``, ...), as
+        ``ITEM: BOX BOUNDS`` gives them; ``("", "", "")`` if it gives none.
+    triclinic : bool
+        The box is tilted (``ITEM: BOX BOUNDS xy xz yz ...``): ``box`` holds the bounds
+        of its bounding box.
     """
 
     timestep: int
@@ -53,6 +64,8 @@ class DumpFrame:
     data: np.ndarray
     box: np.ndarray = field(repr=False)
     line: int = 0
+    boundary: tuple = ("", "", "")
+    triclinic: bool = False
 
     def column(self, name: str) -> np.ndarray:
         """The column called ``name``, shape (n_rows,)."""
@@ -82,22 +95,54 @@ class DumpReader:
 
     def __init__(self, path, columns=None, needed_by=None, steps=None):
         self.path = Path(path)
-        if not self.path.exists():
-            raise UserError(f"{self.path}: no such file")
+        self.files = series(self.path)
         self.columns = list(columns) if columns is not None else None
         self.needed_by = dict(needed_by or {})
         self.steps = steps
 
     def __iter__(self):
-        yield from _Scanner(self).frames()
+        if len(self.files) == 1:
+            yield from _Scanner(self, self.files[0]).frames()
+            return
+        last = None
+        for path in self.files:
+            for frame in _Scanner(self, path).frames(must_hold=False):
+                if last is not None and frame.timestep <= last[0]:
+                    raise UserError(
+                        f"{path}:{frame.line}: timestep {frame.timestep} does not follow "
+                        f"timestep {last[0]} of {last[1]}; the files of a series must hold "
+                        "increasing time steps (remove the repeated or stray file)")
+                last = (frame.timestep, path)
+                yield frame
+
+
+def series(path) -> list:
+    """The files of ``path``: itself, or for a name with a ``*`` every file matching it,
+    ordered by the number that stands for the ``*`` (one-line refusal if none)."""
+    path = Path(path)
+    if "*" not in path.name:
+        if not path.exists():
+            raise UserError(f"{path}: no such file")
+        return [path]
+    head, tail = path.name.split("*", 1)
+    pattern = re.compile(re.escape(head) + r"(\d+)" + re.escape(tail).replace(r"\*", r"\d+") + "$")
+    found = []
+    for p in path.parent.glob(path.name):
+        m = pattern.match(p.name)
+        if m and p.is_file():
+            found.append((int(m.group(1)), p))
+    if not found:
+        raise UserError(f"{path}: no file matches (the * stands for the time step, as in "
+                        "LAMMPS' dump.*.txt); give an existing file or pattern")
+    return [p for _, p in sorted(found)]
 
 
 class _Scanner:
     """Walks one file: a byte buffer refilled in chunks, a running line count."""
 
-    def __init__(self, reader: DumpReader):
+    def __init__(self, reader: DumpReader, path):
         self.reader = reader
-        self.path = reader.path
+        self.path = path
         self.buf = b""
         self.pos = 0
         self.line = 1
@@ -108,7 +153,7 @@ class _Scanner:
         self.complete = None            # timestep of the last complete frame
         self.seen = 0
 
-    def frames(self):
+    def frames(self, must_hold=True):
         if self.path.is_dir():
             raise UserError(f"{self.path}: is a directory; give the dump file")
         self.gzip = self.path.suffix == ".gz"
@@ -124,7 +169,7 @@ class _Scanner:
                     yield frame
                 elif self.reader.steps and self.last_step > self.reader.steps[1]:
                     return
-        if self.seen == 0 and self.reader.steps is None:
+        if self.seen == 0 and self.reader.steps is None and must_hold:
             raise UserError(f"{self.path}: holds no complete frame (the file is empty or "
                             "damaged); give a dump written by LAMMPS' dump command")
 
@@ -199,7 +244,8 @@ class _Scanner:
 
     # -- one frame ----------------------------------------------------------------------
     def _frame(self):
-        head = {"time": None, "box": np.zeros((3, 2))}
+        head = {"time": None, "box": np.zeros((3, 2)), "boundary": ("", "", ""),
+                "triclinic": False}
         start_line = self.line
         while True:
             text = self._readline()
@@ -232,6 +278,11 @@ class _Scanner:
                         self._truncated(head.get("timestep"), start_line)
                         return None
                     head["box"] = np.array([ln.split()[:2] for ln in lines], dtype=float)
+                    flags = item.split()[2:]
+                    head["triclinic"] = flags[:3] == ["xy", "xz", "yz"]
+                    flags = flags[3:] if head["triclinic"] else flags
+                    if len(flags) == 3:
+                        head["boundary"] = tuple(flags)
             except ValueError:
                 raise UserError(f"{self.path}:{self.line - 1}: cannot read the {item!r} "
                                 f"header value {value!r}; the file is damaged") from None
@@ -264,7 +315,8 @@ class _Scanner:
             if status == OK and col == end:
                 self.pos, first = end, self.line
                 self.line += n
-                return DumpFrame(step, head["time"], want, data, head["box"], first)
+                return DumpFrame(step, head["time"], want, data, head["box"], first,
+                                 head["boundary"], head["triclinic"])
         rows = self.buf.count(b"\n", self.pos, end)
         if skip and rows >= n:
             self.pos, self.line = end, self.line + rows
@@ -285,7 +337,8 @@ class _Scanner:
         self.pos = end
         first = self.line
         self.line += rows
-        return DumpFrame(step, head["time"], want, data, head["box"], first)
+        return DumpFrame(step, head["time"], want, data, head["box"], first,
+                         head["boundary"], head["triclinic"])
 
     def _block_end(self) -> int:
         """Offset of the next ``ITEM:`` header (or of the end of the file)."""

@@ -118,10 +118,18 @@ def free_output(path: Path, suffixes=("",)) -> Path:
 
 
 def existing_file(name, path):
-    """A path that is an existing regular file (not a directory)."""
+    """A path that is an existing regular file (not a directory), or a pattern with a
+    ``*`` that matches some (a file series, :func:`granavg.io.reader.series`)."""
     if path is None:
         return None
     p = Path(path)
+    if "*" in p.name:
+        from granavg.io.reader import series
+        try:
+            series(p)
+        except UserError as exc:
+            raise UserError(f"{name} {exc}") from None
+        return p
     if not p.exists():
         raise UserError(f"{name} {p}: no such file")
     if not p.is_file():

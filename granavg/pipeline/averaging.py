@@ -53,15 +53,16 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     atoms, contacts : path
         Per-atom file; per-contact file or None.
     cells : dict
-        Options of :meth:`~granavg.pipeline.description.DumpAverage.of` (``thickness``,
-        rings, ``slabs`` or ``grid``).
+        Options of :meth:`~granavg.pipeline.description.DumpAverage.of` (``thickness`` in
+        2D; rings or shells, ``slabs`` or ``grid``).
     fmt : str, optional
         Input format (:func:`granavg.io.formats.available`); default the one that claims
         the files.
     density : float, optional
-        Material density (masses rho pi h a^2), unless the atoms carry masses.
-    gravity : (float, float), optional
-        Gravitational acceleration (gx, gy): a body force m g on every disk.
+        Material density (masses rho V^p: pi h a^2 disks, 4/3 pi a^3 spheres), unless the
+        atoms carry masses.
+    gravity : tuple of float, optional
+        Gravitational acceleration (gx, gy[, gz]): a body force m g on every particle.
     branch : {"contact", "paper"}
         Where the branch vectors of Eqs. 5 and 7 end.
     sectors : "auto", int or None
@@ -75,14 +76,19 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     validate.positive("--block-time", block_time)
     validate.finite("--t-min", t_min)
     frames = formats.open_frames(atoms, contacts, fmt=fmt, **source_options)
-    spec = DumpAverage.of(frames.box, **cells)
+    dim = getattr(frames, "dim", 2)
+    spec = DumpAverage.of(frames.box, dim=dim, periodic=getattr(frames, "periodic", None) or
+                          (lambda: (False,) * 3), **cells)
     if gravity and frames.units.momentum_flux:
         raise UserError(f"--gravity with LAMMPS units {frames.units.style}: m g is not in "
                         "that style's force unit; give the body force as a per-atom column "
                         "(--atom-columns bx=COL,by=COL)")
+    if gravity and len(gravity) != dim:
+        raise UserError(f"--gravity {' '.join(map(str, gravity))}: give {dim} components "
+                        f"for a {dim}D dump")
     terms = [body_forces.gravity(*gravity)] if gravity else []
     if terms:
-        frames = WithBodyForces(frames, terms, cells["thickness"], density)
+        frames = WithBodyForces(frames, terms, spec.geometry, density)
     if frames.units.style == "unstated":
         log.info("%s does not say its units: the outputs are labelled 'unstated'; --units "
                  "STYLE names them", atoms)
@@ -92,8 +98,8 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     profiles.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
                                     else None},
                           "inputs": {"format": frames.format_name,
-                                     "thickness": cells["thickness"], "density": density,
-                                     **frames.describe()},
+                                     **({"thickness": cells["thickness"]} if dim == 2 else {}),
+                                     "density": density, **frames.describe()},
                           "body_forces": [t.describe for t in terms]})
     if any(frames.dropped.values()):
         profiles.meta["dropped"] = dict(frames.dropped)

@@ -19,6 +19,7 @@ import numpy as np
 from granavg import __version__
 from granavg.engine.average import MAX_BLOCKS, CellAverage
 from granavg.engine.body_forces import add_body_forces, base_plate
+from granavg.engine.cells3d import Boxes, Shells, Slabs3D
 from granavg.engine.geometry import Grid, Rings, Slabs
 from granavg.engine.timeseries import TimeSeries
 from granavg.pipeline.prefetch import Prefetched
@@ -53,17 +54,18 @@ def scene_body_forces(manifest: dict) -> list:
 
 
 class WithBodyForces:
-    """A frame source whose frames carry the body forces of ``terms`` (atoms' ``bx by``);
-    every other attribute is the source's."""
+    """A frame source whose frames carry the body forces of ``terms`` (atoms' ``bx by
+    [bz]``), masses from the ``cells``' particle volumes; every other attribute is the
+    source's."""
 
-    def __init__(self, source, terms, h: float, rho_p: float | None):
-        self.source, self.terms, self.h, self.rho_p = source, list(terms), h, rho_p
+    def __init__(self, source, terms, cells, rho_p: float | None):
+        self.source, self.terms, self.cells, self.rho_p = source, list(terms), cells, rho_p
 
     def frame(self, f) -> Frame:
         if not self.terms:
             return f
-        return Frame(f.timestep, f.time, add_body_forces(f.atoms, self.terms, self.h,
-                                                         self.rho_p), f.contacts)
+        return Frame(f.timestep, f.time, add_body_forces(
+            f.atoms, self.terms, self.cells.particle_volume, self.rho_p), f.contacts)
 
     def __iter__(self):
         return (self.frame(f) for f in self.source)
@@ -134,7 +136,7 @@ class RunAverage:
         state = TimeSeries(scene["R_i"], scene["R_o"], scene["h"], scene["rho_p"],
                            scene["d_s"]) if series else None
         if frames is not None and self.body_forces and "body" in self.groups:
-            frames = WithBodyForces(frames, self.body_forces, scene["h"], scene["rho_p"])
+            frames = WithBodyForces(frames, self.body_forces, self.geometry, scene["rho_p"])
         if frames is not None:
             frames = Prefetched(frames)
         avg = CellAverage(frames, self.geometry, self.groups, scene["rho_p"], self.t_min,
@@ -149,27 +151,44 @@ class DumpAverage:
     """The cells of an average of anyone's dumps, from the options (lengths in the
     dumps' units).
 
-    Parameters of :meth:`of`: ``thickness`` (the disks' height h), ``bins`` or ``edges``;
-    rings: ``r_range`` (or ``edges``) and ``center``; ``slabs`` ("x" or "y") with
-    ``range`` (default the box) and ``length`` (default the box's other side; the slabs
-    span it from the box's lower bound, their segments the errors' spatial replicas);
-    ``grid`` (nx, ny) over ``x_range``, ``y_range`` (default the box). ``box`` is called
-    for the first frame's box bounds where an option leaves a length to it.
+    Parameters of :meth:`of`: ``dim`` (2 or 3); in 2D ``thickness`` (the disks' height
+    h); ``bins`` or ``edges``; rings (2D) or cylindrical shells (3D): ``r_range`` (or
+    ``edges``) and ``center``, in 3D with ``layers`` layers over ``z_range`` (default the
+    box, one layer); ``slabs`` (x, y or z in 3D) with ``range`` (default the box) and, in
+    2D, ``length`` (default the box's other side; the slabs span it from the box's lower
+    bound, their segments the errors' spatial replicas), in 3D ``area`` (default the
+    box's cross-section); ``grid`` (nx, ny or nx, ny, nz) over ``x_range``, ``y_range``
+    (``z_range``), default the box. ``box`` is called for the first frame's box bounds
+    where an option leaves a length to it; ``periodic`` for its periodic axes: 3D cells
+    that span a periodic box along an axis take the spheres' images across its ends.
     """
 
     geometry: object
 
     @classmethod
-    def of(cls, box, *, thickness, bins=None, edges=None, center=(0.0, 0.0), r_range=None,
-           slabs=None, range=None, length=None, grid=None, x_range=None,
-           y_range=None) -> "DumpAverage":
+    def of(cls, box, *, dim=2, thickness=None, bins=None, edges=None, center=(0.0, 0.0),
+           r_range=None, slabs=None, range=None, length=None, grid=None, x_range=None,
+           y_range=None, z_range=None, layers=None, area=None,
+           periodic=lambda: (False,) * 3) -> "DumpAverage":
+        validate.ring_options(bins, edges)
+        if dim == 3:
+            return cls(_cells3d(box, periodic, bins=bins, edges=edges, center=center,
+                                r_range=r_range, slabs=slabs, range=range, grid=grid,
+                                x_range=x_range, y_range=y_range, z_range=z_range,
+                                layers=layers, area=area, thickness=thickness,
+                                length=length))
+        for flag, value in (("--z-range", z_range), ("--layers", layers), ("--area", area)):
+            if value is not None:
+                raise UserError(f"{flag} is for 3D dumps (spheres); these are 2D (give --dim "
+                                "3 if the dump is 3D)")
         if thickness is None:
             raise UserError("--thickness H: give the disks' height, in the dump's length "
                             "unit (2D disks have volume pi h a^2)")
         validate.positive("--thickness", thickness)
-        validate.ring_options(bins, edges)
         h = thickness
         if grid:
+            if len(grid) != 2:
+                raise UserError(f"--grid {' '.join(map(str, grid))}: give NX NY for a 2D dump")
             if min(grid) < 1 or grid[0] * grid[1] > validate.MAX_BINS:
                 raise UserError(f"--grid {grid[0]} {grid[1]}: give between 1 and "
                                 f"{validate.MAX_BINS} cells")
@@ -177,6 +196,8 @@ class DumpAverage:
             xr, yr = x_range or bx[0], y_range or bx[1]
             return cls(Grid(np.linspace(*xr, grid[0] + 1), np.linspace(*yr, grid[1] + 1), h))
         if slabs:
+            if slabs not in ("x", "y"):
+                raise UserError(f"--slabs {slabs}: a 2D dump has slabs across x or y")
             k = "xy".index(slabs)
             bx = box()
             lo_hi = range or bx[k]
@@ -189,3 +210,57 @@ class DumpAverage:
                             "--slabs or --grid")
         cuts = np.asarray(edges, float) if edges else equal_edges(*r_range, bins)
         return cls(Rings(cuts, h, tuple(center)))
+
+
+def _cells3d(box, periodic, *, bins, edges, center, r_range, slabs, range, grid, x_range,
+             y_range, z_range, layers, area, thickness, length):
+    """The 3D cells of the options (:class:`DumpAverage`)."""
+    for flag, value in (("--thickness", thickness), ("--length", length)):
+        if value is not None:
+            raise UserError(f"{flag} is for 2D disks; the dump is 3D (spheres: volume 4/3 pi "
+                            "a^3" + ("; slabs take --area" if flag == "--length" else "") + ")")
+    ranges = {"x": x_range, "y": y_range, "z": z_range}
+    bx = None
+
+    def span(axis):
+        nonlocal bx
+        if ranges[axis] is not None:
+            return tuple(ranges[axis])
+        bx = box() if bx is None else bx
+        return tuple(bx["xyz".index(axis)])
+
+    def periods(axes):
+        """The spans of the cells along periodic axes where they cover the whole box."""
+        flags = periodic()
+        out = []
+        for k, axis in enumerate("xyz"):
+            whole = axis in axes and ranges[axis] is None and flags[k]
+            out.append(span(axis) if whole else None)
+        return tuple(out) if any(out) else None
+
+    if grid:
+        if len(grid) != 3:
+            raise UserError(f"--grid {' '.join(map(str, grid))}: give NX NY NZ for a 3D dump")
+        if min(grid) < 1 or int(np.prod(grid)) > validate.MAX_BINS:
+            raise UserError(f"--grid {' '.join(map(str, grid))}: give between 1 and "
+                            f"{validate.MAX_BINS} cells")
+        e = [np.linspace(*span(a), n + 1) for a, n in zip("xyz", grid)]
+        return Boxes(*e, periods("xyz"))
+    if slabs:
+        k = "xyz".index(slabs)
+        lo_hi = tuple(range) if range else span(slabs)
+        cuts = np.asarray(edges, float) if edges else equal_edges(*lo_hi, bins)
+        if area is None:
+            others = [span(a) for a in "xyz" if a != slabs]
+            area = (others[0][1] - others[0][0]) * (others[1][1] - others[1][0])
+        validate.positive("--area", area)
+        ranges[slabs] = tuple(range) if range else None
+        return Slabs3D(cuts, slabs, float(area), periods(slabs))
+    if edges is None and r_range is None:
+        raise UserError("cylindrical shells need --r-range R1 R2 (with --bins) or --edges; "
+                        "or choose --slabs or --grid")
+    cuts = np.asarray(edges, float) if edges else equal_edges(*r_range, bins)
+    if layers is not None and not 1 <= layers <= validate.MAX_BINS:
+        raise UserError(f"--layers {layers}: give between 1 and {validate.MAX_BINS}")
+    zedges = np.linspace(*span("z"), (layers or 1) + 1)
+    return Shells(cuts, zedges, tuple(center), periods("z"))

@@ -1,0 +1,179 @@
+"""3D LAMMPS dumps of a deck that is not granavg's, written as a user writes them:
+tests/decks/pile_3d_si.lmp, a pile of ~750 spheres at rest on a floor under gravity (SI
+units, periodic in x and y, default %g dumps, pair/local contacts with dz).
+
+Checked against physics and against LAMMPS itself: the pile carries its weight through
+the slab stress, -sigma_zz(z) A = g M_above(z) with M_above each sphere's mass split by
+its volume above the cut (computed here without granavg); the summed stress trace over
+boxes holding the pile is LAMMPS' summed per-atom pair virial; boxes covering the
+periodic box hold every sphere's volume (images across the periodic faces); a dump.*
+file series reads as the single dump; the CLI refuses 2D-only options in one line."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from granavg.engine import Boxes
+from granavg.io.profiles_io import read_profiles
+from granavg.sim.lammps_session import lammps_session
+
+from .conftest import run_cli
+from .test_default_dumps import frames
+
+DECK = Path(__file__).parent / "decks" / "pile_3d_si.lmp"
+MAP = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
+       "force=c_pl[5],ftx=c_pl[6],fty=c_pl[7],ftz=c_pl[8]")
+SIDE, G = 0.016, 9.81
+#: Relative error of a number printed with LAMMPS' default %g (6 digits), with margin.
+PRINTED = 1e-4
+
+
+def run_deck(out, series="no", kn=100.0):
+    """The user's deck in-process; LAMMPS' summed pair virial (xx + yy + zz) of the last
+    dumped frame."""
+    out.mkdir(parents=True, exist_ok=True)
+    with lammps_session(["-log", str(out / "log.lammps"), "-var", "out", str(out),
+                         "-var", "series", series, "-var", "kn", str(kn)]) as lmp:
+        lmp.file(str(DECK))
+        last = lmp.last_thermo()
+    return last["c_t[1]"] + last["c_t[2]"] + last["c_t[3]"]
+
+
+@pytest.fixture(scope="module")
+def pile(tmp_path_factory):
+    """The soft pile (k_n = 20 N/m: overlaps of 1-3% of a diameter near the floor)."""
+    out = tmp_path_factory.mktemp("pile3d")
+    return out, run_deck(out, kn=20.0)
+
+
+def average(pile_dir, dest, *extra, atoms="atoms.dump", contacts="contacts.dump"):
+    proc = run_cli("average", "--atoms", pile_dir / atoms, "--contacts", pile_dir / contacts,
+                   "--contact-columns", MAP, "--out", dest, "--no-progress", *extra)
+    assert proc.returncode == 0, proc.stderr
+    return read_profiles(dest)
+
+
+def weight_above(rows, cols, edges, samples=400):
+    """g M_above(z) averaged over each slab [e_k, e_k+1): each sphere's mass split by its
+    volume above the cut (spherical caps), by quadrature over z."""
+    z, a, m = rows[:, cols.index("z")], 0.5 * rows[:, cols.index("diameter")], \
+        rows[:, cols.index("mass")]
+    out = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        cuts = lo + (np.arange(samples) + 0.5) / samples * (hi - lo)
+        u = np.clip((cuts[:, None] - z[None, :]) / a[None, :], -1, 1)
+        out.append(G * np.mean(((1 - u) ** 2 * (2 + u) / 4) @ m))
+    return np.array(out)
+
+
+def test_a_3d_pile_carries_its_weight(pile, tmp_path):
+    """Slabs two diameters thick across z: in the bulk (above the floor's slab, below the
+    free surface at ~22 mm) the contacts carry the weight above to 1%; Eq. 5's branch
+    vector to the surfaces carries more, by about the overlap over d."""
+    out, _ = pile
+    args = ("--slabs", "z", "--range", 0, 0.024, "--bins", 6, "--gravity", 0, 0, -G)
+    p = average(out, tmp_path / "c.csv", *args)
+    paper = average(out, tmp_path / "p.csv", *args, "--branch", "paper")
+    assert p.rings.kind == "slabs3d" and p.meta["inputs"]["dim"] == 3
+    load = np.mean([weight_above(rows, cols, p.rings.edges)
+                    for _, cols, rows in frames(out / "atoms.dump")], axis=0)
+    ratio = -p.values["sigma_zz"] * SIDE * SIDE / load
+    bulk = slice(1, 5)                                   # 4 to 20 mm
+    assert np.all(np.abs(ratio[bulk] - 1) < 0.01), ratio
+    excess = -paper.values["sigma_zz"][bulk] * SIDE * SIDE / load[bulk] - 1
+    assert np.all(excess > 2 * np.abs(ratio[bulk] - 1)) and np.all(excess > 0.003), excess
+    # the body force density is rho g, the frames' own masses
+    assert np.allclose(p.values["body_z"], -G * p.values["rho"], rtol=1e-9)   # CSV: 10 digits
+    assert np.allclose(p.values["body_x"], 0.0) and p.meta["units"].startswith("SI")
+    # the floor's slab misses the floor's force: fix wall/gran leaves no contact rows
+    assert ratio[0] < 0.9 and p.meta["boundary"].startswith("absent")
+
+
+def test_the_summed_stress_is_lammps_virial(pile, tmp_path):
+    """sum_k V_k tr sigma_k over boxes holding every sphere = LAMMPS' summed per-atom
+    pair virial of the last frame, to the dump's printed precision (contact-point branch
+    vectors: a pair's l_1 - l_2 is its centre distance, as in the virial). The boxes
+    start below the floor: the spheres on it reach into it by their overlap with it."""
+    out, virial = pile
+    head, _, _ = frames(out / "atoms.dump")[-1]
+    last = int(head[head.index("ITEM: TIMESTEP") + 1]) * 1e-5          # the deck's dt
+    p = average(out, tmp_path / "b.csv", "--grid", 2, 2, 3, "--z-range", -0.002, 0.09,
+                "--t-min", last - 1e-6, "--quantities", "nu,sigma")
+    assert p.n_frames == 1 and p.rings.kind == "boxes"
+    ours = np.sum(p.rings.volume * (p.values["sigma_xx"] + p.values["sigma_yy"] +
+                                    p.values["sigma_zz"]))
+    _, _, rows = frames(out / "contacts.dump")[-1]
+    force = rows[:, 6]
+    size = np.sum(np.abs(force * rows[:, 2]))
+    assert abs(ours - virial) <= PRINTED * size, (ours, virial)
+    assert abs(virial) > 0.3 * size                       # a compressed pile, not noise
+
+
+def test_boxes_over_the_periodic_box_hold_every_sphere(pile, tmp_path):
+    """The box is periodic in x and y: spheres across its faces reach into the cells at
+    the other side (their images), so boxes spanning it hold all the spheres' volume;
+    without the images the faces' cells would miss part of it."""
+    out, _ = pile
+    p = average(out, tmp_path / "g.csv", "--grid", 4, 4, 1, "--z-range", -0.002, 0.09,
+                "--quantities", "nu")
+    assert p.rings.periods[:2] == ((0.0, SIDE), (0.0, SIDE)) and p.rings.periods[2] is None
+    _, cols, rows = frames(out / "atoms.dump")[0]
+    a = 0.5 * rows[:, cols.index("diameter")]
+    total = np.sum(4 / 3 * np.pi * a**3)
+    assert np.sum(p.values["nu"] * p.rings.volume) == pytest.approx(total, rel=1e-5)
+    plain = Boxes(p.rings.xedges, p.rings.yedges, p.rings.zedges)      # no images
+    pos = tuple(rows[:, cols.index(c)] for c in "xyz")
+    _, _, w = plain.weights(pos, a)
+    part, _, w_all = p.rings.weights(pos, a)
+    assert np.sum(w_all * 4 / 3 * np.pi * a[part] ** 3) == pytest.approx(total, rel=1e-12)
+    assert w.sum() < len(a) - 1                           # spheres do cross the faces
+
+
+def test_a_dump_series_reads_as_one_dump(tmp_path):
+    """The deck with one file per frame (dump atoms.*.txt): the same profiles as the
+    single dump of the same run."""
+    one, many = tmp_path / "one", tmp_path / "many"
+    run_deck(one, kn=100.0)
+    run_deck(many, series="yes", kn=100.0)
+    assert len(list(many.glob("atoms.*.txt"))) == 11
+    args = ("--slabs", "z", "--range", 0, 0.024, "--bins", 6)
+    a = average(one, tmp_path / "a.csv", *args)
+    b = average(many, tmp_path / "b.csv", *args, atoms="atoms.*.txt",
+                contacts="contacts.*.txt")
+    assert a.n_frames == b.n_frames == 11
+    for name in ("nu", "v_z", "sigma_zz", "F_zz", "omega_x"):
+        assert np.array_equal(a.values[name], b.values[name]), name
+
+
+@pytest.mark.parametrize("extra, message", [
+    (("--thickness", 0.001, "--slabs", "z"), "--thickness is for 2D disks"),
+    (("--slabs", "z", "--length", 0.01), "--length is for 2D disks"),
+    (("--grid", 2, 2), "give NX NY NZ for a 3D dump"),
+    (("--slabs", "z", "--gravity", 0, -9.81), "give 3 components for a 3D dump"),
+    (("--r-range", 0, 0.01, "--layers", 0), "--layers 0"),
+])
+def test_2d_options_on_a_3d_dump_are_one_line(pile, tmp_path, extra, message):
+    out, _ = pile
+    proc = run_cli("average", "--atoms", out / "atoms.dump", "--contacts",
+                   out / "contacts.dump", "--contact-columns", MAP, "--out",
+                   tmp_path / "x.csv", "--no-progress", *map(str, extra))
+    assert proc.returncode == 2 and message in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_the_dimension_comes_from_the_dump(tmp_path):
+    """A 2D dump (no z column, or every z alike) is 2D; --dim 3 on it is refused."""
+    from .test_default_dumps import run_deck as run_2d
+    out = tmp_path / "pile2d"
+    run_2d(out)
+    proc = run_cli("average", "--atoms", out / "atoms.dump", "--dim", "3", "--slabs", "z",
+                   "--out", tmp_path / "x.csv")
+    assert proc.returncode == 2 and "--dim 3 needs a z column" in proc.stderr
+    proc = run_cli("average", "--atoms", out / "atoms.dump", "--slabs", "y",
+                   "--thickness", 1, "--out", tmp_path / "y.csv", "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    assert read_profiles(tmp_path / "y.csv").rings.kind == "slabs"
+    assert math.isfinite(read_profiles(tmp_path / "y.csv").values["nu"][3])
