@@ -145,6 +145,11 @@ def _parser() -> argparse.ArgumentParser:
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
     avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
+    avg.add_argument("--netcdf", action="store_true", help="also write <out>.nc: the "
+                     "profiles as a NetCDF (xarray) dataset on the cells' grid, with units "
+                     "and errors")
+    avg.add_argument("--vtk", action="store_true", help="also write <out>.vtu for ParaView "
+                     "(grids, boxes and cylindrical shells)")
     avg.add_argument("--workers", type=int, help="average on a local dask cluster of this "
                      "many processes (frames split in chunks; same result as serial)")
     avg.add_argument("--scheduler", metavar="ADDRESS", help="average on this dask "
@@ -228,7 +233,8 @@ def _average(args):
                        gravity=args.gravity,
                        atom_map=parse_map(args.atom_columns),
                        contact_map=parse_map(args.contact_columns))
-    return average_to_file(args.run_dir, args.out, parquet=args.parquet, workers=args.workers,
+    return average_to_file(args.run_dir, args.out, parquet=args.parquet, netcdf=args.netcdf,
+                           vtk=args.vtk, workers=args.workers,
                            scheduler=args.scheduler, atoms=args.atoms, contacts=args.contacts,
                            progress=_progress(args), **options)
 

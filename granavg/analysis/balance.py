@@ -9,8 +9,13 @@ the force's, divergence on the second index, (div T)_i = d_j T_ij.
   radial d(r T_rr)/dr - T_phiphi + r f_r (= r dT_rr/dr + T_rr - T_phiphi + r f_r),
   tangential d(r^2 T_phir)/dr / r + T_rphi - T_phir + r f_phi (= r dT_phir/dr + T_rphi
   + T_phir + r f_phi);
-- slabs across u (x or y): dT_xu/du + f_x and dT_yu/du + f_y, times the cell width;
-- a grid: dT_ix/dx + dT_iy/dy + f_i, times the mean cell width (interior cells).
+- slabs across u (2D or 3D): dT_iu/du + f_i for every component i, times the cell width;
+- a grid or a 3D box grid: sum_j dT_ij/dx_j + f_i, times the mean cell width (interior
+  cells, and along a periodic axis every cell);
+- 3D cylindrical shells, axisymmetric: (1/r) d(r T_rr)/dr + dT_rz/dz - T_phiphi / r,
+  (1/r^2) d(r^2 T_phir)/dr + dT_phiz/dz + (T_rphi - T_phir) / r and
+  (1/r) d(r T_zr)/dr + dT_zz/dz, plus f, times the mean cell width (the z derivatives
+  between layers; none with a single layer, where the flow is taken uniform in z).
 
 At a wall the stress ends: the flux through the wall is nil and the wall's action is the
 boundary force density, so the cells next to it are balanced in finite-volume form with
@@ -19,7 +24,7 @@ no flux through their outer face (``closed``).
 Each residual is made the net force on the cell over the area of its face (rings: the
 r-form times dr / r; slabs: times the width), a stress (Pa in SI) that does not grow
 with the number of cells, and compared with the stress scale (the mean |trace sigma|
-/ 2 of the cells with disks): "the cell's forces balance to x of the stress on its
+/ D of the cells with particles): "the cell's forces balance to x of the stress on its
 face". (The paper's Fig. 7 plots the r-form itself, r/dr times larger.) Errors come from
 the profiles' replicates (jackknife blocks or realisations), the same way as every
 derived number.
@@ -40,17 +45,17 @@ def _component(values, name, n):
 
 
 def _axes(geometry):
-    return ("r", "phi") if geometry.axes == ("r", "phi") else ("x", "y")
+    return geometry.axes
 
 
 def tensor_total(values, geometry, dynamic=True):
     """T = sigma - dsigma (or sigma alone) as a dict of components (rr, rphi, ... or
     xx, xy, ...)."""
-    a, b = _axes(geometry)
+    axes = _axes(geometry)
     n = geometry.n
     out = {}
-    for i in (a, b):
-        for j in (a, b):
+    for i in axes:
+        for j in axes:
             s = _component(values, f"sigma_{i}{j}", n)
             d = _component(values, f"dsigma_{i}{j}", n) if dynamic else 0.0
             out[i + j] = s - d
@@ -60,22 +65,33 @@ def tensor_total(values, geometry, dynamic=True):
 def force_density(values, geometry, terms=FORCE_DENSITIES):
     """f = the sum of the force densities present (``body``, ``boundary``), per
     component, shape (n_cells,) each."""
-    a, b = _axes(geometry)
     n = geometry.n
     return {c: sum((_component(values, f"{t}_{c}", n) for t in terms), np.zeros(n))
-            for c in (a, b)}
+            for c in _axes(geometry)}
 
 
-def _faces(T, closed):
+def _faces(T, closed, periodic=False):
     """Face values between neighbouring cells, (T_k + T_k+1) / 2, with the outer faces
     0 where ``closed`` (nothing of the packing beyond: a wall, whose action is the
-    boundary force density, or empty space) and NaN otherwise; shape (n + 1,)."""
+    boundary force density, or empty space), the mean of the two end cells where
+    ``periodic``, and NaN otherwise; shape (n + 1,)."""
+    if periodic:
+        wrap = 0.5 * (T[0] + T[-1])
+        return np.concatenate([[wrap], 0.5 * (T[1:] + T[:-1]), [wrap]])
     outer = 0.0 if closed else np.nan
     return np.concatenate([[outer], 0.5 * (T[1:] + T[:-1]), [outer]])
 
 
+def _divergence(T, widths, closed, periodic):
+    """d T / d u along axis 0 of an array of cells in finite-volume form: the difference
+    of the face values over the cell width (:func:`_faces` at the ends)."""
+    faces = np.apply_along_axis(_faces, 0, T, closed, periodic)
+    shape = (-1,) + (1,) * (T.ndim - 1)
+    return np.diff(faces, axis=0) / widths.reshape(shape)
+
+
 def residuals(values, geometry, terms=FORCE_DENSITIES, dynamic=True, closed=False):
-    """The two components of the balance residual per cell (see the module docstring),
+    """The components of the balance residual per cell (see the module docstring),
     a stress, in finite-volume form: the flux of T through each face from the mean of
     the two cells beside it, and through the outer faces none where ``closed`` (else
     the edge cells are NaN: their outer flux is unknown). Interior cells get the
@@ -90,10 +106,16 @@ def residuals(values, geometry, terms=FORCE_DENSITIES, dynamic=True, closed=Fals
         per_cell = dr / r                                # r (div T + f) -> per cell
         return (per_cell * (flux_rr - T["phiphi"] + r * f["r"]),
                 per_cell * (flux_pr + T["rphi"] - T["phir"] + r * f["phi"]))
-    if geometry.kind == "slabs":
+    if geometry.kind in ("slabs", "slabs3d"):
         k = geometry.axis
-        return tuple(np.diff(_faces(T[c + k], closed)) + np.diff(geometry.edges) * f[c]
-                     for c in ("x", "y"))
+        periods = getattr(geometry, "periods", None)
+        wrap = bool(periods and periods["xyz".index(k)] is not None)
+        return tuple(np.diff(_faces(T[c + k], closed, wrap)) + np.diff(geometry.edges) * f[c]
+                     for c in geometry.axes)
+    if geometry.kind == "boxes":
+        return _boxes(geometry, T, f, closed)
+    if geometry.kind == "shells":
+        return _shells(geometry, T, f, closed)
     nx, ny = len(geometry.xedges) - 1, len(geometry.yedges) - 1
     xc = 0.5 * (geometry.xedges[1:] + geometry.xedges[:-1])
     yc = 0.5 * (geometry.yedges[1:] + geometry.yedges[:-1])
@@ -110,11 +132,59 @@ def residuals(values, geometry, terms=FORCE_DENSITIES, dynamic=True, closed=Fals
     return (width * (div("x") + f["x"]), width * (div("y") + f["y"]))
 
 
+def _boxes(geometry, T, f, closed):
+    """The residuals of a 3D box grid: interior cells (every cell along a periodic axis),
+    finite volumes with the outer faces closed or, else, the edge cells NaN."""
+    shape = geometry.shape
+    edges = (geometry.xedges, geometry.yedges, geometry.zedges)
+    periods = geometry.periods or (None,) * 3
+    width = np.mean([np.mean(np.diff(e)) for e in edges])
+    out = []
+    for c in "xyz":
+        div = np.zeros(shape)
+        for k, (j, e) in enumerate(zip("xyz", edges)):
+            d = _divergence(np.moveaxis(T[c + j].reshape(shape), k, 0), np.diff(e), closed,
+                            periods[k] is not None)
+            div += np.moveaxis(d, 0, k)
+        out.append(width * (div.ravel() + f[c]))
+    return tuple(out)
+
+
+def _shells(geometry, T, f, closed):
+    """The residuals of 3D cylindrical shells (axisymmetric; module docstring)."""
+    nr, nz = geometry.shape
+    e, ze = geometry.edges, geometry.zedges
+    r = geometry.centre_r[:, None]
+    dr = np.diff(e)[:, None]
+    periods = geometry.periods or (None,) * 3
+    wrap = periods[2] is not None
+    width = 0.5 * (np.mean(np.diff(e)) + np.mean(np.diff(ze)))
+
+    def grid(name):
+        return T[name].reshape(nr, nz)
+
+    def radial(name, power):
+        """(1/r^power) d(r^power T)/dr by the faces' fluxes."""
+        faces = np.apply_along_axis(_faces, 0, grid(name), closed)
+        return np.diff(e[:, None] ** power * faces, axis=0) / dr / r ** power
+
+    def axial(name):
+        if nz == 1 and not wrap:
+            return np.zeros((nr, nz))                     # one layer: uniform in z
+        d = _divergence(grid(name).T, np.diff(ze), closed, wrap)
+        return d.T
+
+    res_r = radial("rr", 1) + axial("rz") - grid("phiphi") / r
+    res_phi = radial("phir", 2) + axial("phiz") + (grid("rphi") - grid("phir")) / r
+    res_z = radial("zr", 1) + axial("zz")
+    return tuple(width * (res.ravel() + f[c]) for res, c in
+                 ((res_r, "r"), (res_phi, "phi"), (res_z, "z")))
+
+
 def stress_scale(values, geometry) -> float:
-    """Mean |trace sigma| / 2 over the cells with disks (the residuals' yardstick)."""
-    a, b = _axes(geometry)
-    tr = 0.5 * np.abs(_component(values, f"sigma_{a}{a}", geometry.n) +
-                      _component(values, f"sigma_{b}{b}", geometry.n))
+    """Mean |trace sigma| / D over the cells with particles (the residuals' yardstick)."""
+    axes = _axes(geometry)
+    tr = np.abs(sum(_component(values, f"sigma_{a}{a}", geometry.n) for a in axes)) / len(axes)
     full = np.asarray(values.get("nu", np.ones(geometry.n))) > 0
     return float(np.nanmean(tr[full])) if np.any(full) else float("nan")
 
@@ -126,7 +196,7 @@ def balance(profiles, terms=FORCE_DENSITIES, dynamic=True, closed=False) -> dict
     Returns
     -------
     dict
-        ``scale``; ``residual`` and ``residual_err`` (2, n_cells) relative to it;
+        ``scale``; ``residual`` and ``residual_err`` (D, n_cells) relative to it;
         ``terms`` (the force densities present and used).
     """
     geo = profiles.rings
@@ -145,6 +215,7 @@ def balance(profiles, terms=FORCE_DENSITIES, dynamic=True, closed=False) -> dict
         each = np.array([np.array(residuals({k: v[i] for k, v in reps.values.items()}, geo,
                                             used, dynamic, closed)) / scale
                          for i in range(reps.n)])
-        err = np.array([[reps.error(each[:, c, k]) for k in range(geo.n)] for c in range(2)])
+        err = np.array([[reps.error(each[:, c, k]) for k in range(geo.n)]
+                        for c in range(len(geo.axes))])
     return {"scale": scale, "residual": res, "residual_err": err, "terms": used,
             "closed": bool(closed)}

@@ -1,7 +1,8 @@
-"""Profiles of any cells (rings, slabs, grids; anyone's dumps, no run manifest): the
-fields plotted against position, the balance of forces (:mod:`granavg.analysis.balance`)
-per cell with its errors, and a summary. The paper's ring-specific checks
-(:mod:`granavg.analysis.claims`) are not made here.
+"""Profiles of any cells (rings, slabs, grids; 3D slabs, boxes and shells; anyone's
+dumps, no run manifest): the fields plotted against position (slices through 3D grids),
+the balance of forces (:mod:`granavg.analysis.balance`) per cell with its errors, and a
+summary. The paper's ring-specific checks (:mod:`granavg.analysis.claims`) are not made
+here.
 
 Plotting functions take ``ax=None`` (a new figure) and return the axes.
 """
@@ -28,12 +29,76 @@ PANELS = [("volume fraction and density", ("nu",)), ("velocity", ("v_",)),
 
 
 def position(p):
-    """(name, coordinate per cell) of a 1D profile; None for a grid."""
+    """(name, coordinate per cell) of a 1D profile (rings, slabs, shells of one layer);
+    None for grids, boxes and shells of several layers (:func:`slice_panels`)."""
+    kind = p.rings.kind
+    if kind in ("grid", "boxes") or (kind == "shells" and p.rings.shape[1] > 1):
+        return None
     coords = p.rings.coordinates()
-    for name in ("r", "x", "y"):
-        if name in coords and p.rings.kind != "grid":
-            return name, coords[name]
-    return None
+    name = p.rings.axis if kind in ("slabs", "slabs3d") else "r"
+    return name, coords[name]
+
+
+#: The fields a slice shows, when present: volume fraction, speed and pressure.
+SLICED = ("nu", "speed", "pressure")
+
+
+def _field(p, name):
+    """A field of the slices: a value, the speed |v| or the pressure -tr sigma / D."""
+    axes = p.rings.axes
+    if name == "speed":
+        if not all(f"v_{i}" in p.values for i in axes):
+            return None
+        return np.sqrt(sum(p.values[f"v_{i}"] ** 2 for i in axes))
+    if name == "pressure":
+        if not all(f"sigma_{i}{i}" in p.values for i in axes):
+            return None
+        return -sum(p.values[f"sigma_{i}{i}"] for i in axes) / len(axes)
+    return p.values.get(name)
+
+
+def slices(p):
+    """The planes through a grid of cells to draw: (title, horizontal axis name and
+    edges, vertical axis name and edges, a function of a per-cell array giving the
+    plane's values, shape (n_vertical, n_horizontal)). 2D grid: the whole grid; boxes:
+    the middle z layer and the middle y plane; shells of several layers: the r-z plane."""
+    g = p.rings
+    if g.kind == "grid":
+        nx, ny = len(g.xedges) - 1, len(g.yedges) - 1
+        return [("x-y", ("x", g.xedges), ("y", g.yedges), lambda a: a.reshape(nx, ny).T)]
+    if g.kind == "boxes":
+        nx, ny, nz = g.shape
+        return [(f"x-y, layer {nz // 2 + 1} of {nz} in z", ("x", g.xedges), ("y", g.yedges),
+                 lambda a: a.reshape(nx, ny, nz)[:, :, nz // 2].T),
+                (f"x-z, row {ny // 2 + 1} of {ny} in y", ("x", g.xedges), ("z", g.zedges),
+                 lambda a: a.reshape(nx, ny, nz)[:, ny // 2, :].T)]
+    if g.kind == "shells":
+        nr, nz = g.shape
+        return [("r-z", ("r", g.edges), ("z", g.zedges), lambda a: a.reshape(nr, nz).T)]
+    return []
+
+
+def slice_panels(p, ax=None):
+    """Maps of :data:`SLICED` over the planes of :func:`slices`, one row per plane."""
+    planes = slices(p)
+    fields = [f for f in SLICED if _field(p, f) is not None]
+    if ax is None:
+        _, ax = plt.subplots(len(planes), len(fields), squeeze=False,
+                             figsize=(3.8 * len(fields), 3.2 * len(planes)),
+                             constrained_layout=True)
+    ax = np.atleast_2d(ax)
+    units = p.meta.get("columns", {})
+    for row, (title, (hx, he), (vx, ve), cut) in enumerate(planes):
+        for col, name in enumerate(fields):
+            a = ax[row, col]
+            mesh = a.pcolormesh(he, ve, cut(np.asarray(_field(p, name), float)),
+                                cmap="viridis", shading="flat")
+            unit = units.get({"speed": f"v_{p.rings.axes[0]}",
+                              "pressure": f"sigma_{p.rings.axes[0] * 2}"}.get(name, name), "")
+            a.figure.colorbar(mesh, ax=a, label=f"{name} ({unit})" if unit else name)
+            a.set(xlabel=hx, ylabel=vx, title=f"{name}: {title}")
+            a.set_aspect("equal")
+    return ax
 
 
 def profile_panels(p, ax=None):
@@ -66,10 +131,9 @@ def balance_panel(p, result, ax=None):
         _, ax = plt.subplots(figsize=(4.8, 3.2), constrained_layout=True)
     where = position(p)
     x = where[1] if where else np.arange(p.rings.n)
-    a, b = ("r", "phi") if p.rings.axes == ("r", "phi") else ("x", "y")
-    for k, comp in enumerate((a, b)):
+    for k, comp in enumerate(p.rings.axes):
         ax.errorbar(x, result["residual"][k], yerr=result["residual_err"][k], ls="none",
-                    marker="os"[k], ms=4, color=OKABE_ITO[k], label=f"{comp} component")
+                    marker="os^"[k], ms=4, color=OKABE_ITO[k], label=f"{comp} component")
     ax.axhspan(-0.1, 0.1, color="0.9", zorder=0)
     ax.axhline(0, color="0.5", lw=0.8)
     ax.set_xlabel(where[0] if where else "cell")
@@ -110,7 +174,7 @@ def write_field_report(summary, profiles, out) -> Path:
     (out / "figures").mkdir(parents=True, exist_ok=True)
     rows = []
     for k, (p, s) in enumerate(zip(profiles, summary["profiles"])):
-        ax = profile_panels(p)
+        ax = profile_panels(p) if position(p) else slice_panels(p).ravel()
         ax[0].figure.savefig(out / "figures" / f"profiles{k}.png", dpi=110)
         plt.close(ax[0].figure)
         res = {"residual": np.array(s["balance"]["residual"]),

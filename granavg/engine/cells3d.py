@@ -238,6 +238,11 @@ class Shells(Spheres):
         ring = np.pi * (self.edges[1:] ** 2 - self.edges[:-1] ** 2)
         return (ring[:, None] * np.diff(self.zedges)[None, :]).ravel()
 
+    @property
+    def centre_r(self) -> np.ndarray:
+        """Mid radius of each ring, shape (n_r,)."""
+        return 0.5 * (self.edges[1:] + self.edges[:-1])
+
     def _radius(self, pos):
         return np.hypot(pos[0] - self.center[0], pos[1] - self.center[1])
 

@@ -72,7 +72,7 @@ class UnitSystem:
             return f"rad/{self.time}"
         if head == "V":
             return self.volume
-        if name in ("r", "r_lo", "r_hi", "x", "y", "x_lo", "x_hi", "y_lo", "y_hi"):
+        if name in ("r", "x", "y", "z") or name.endswith(("_lo", "_hi")):
             return self.length
         return "1"          # nu, coordination, F_*, eps_*, counts
 

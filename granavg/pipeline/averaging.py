@@ -106,15 +106,21 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     return profiles
 
 
-def average_to_file(run_dirs, out, *, parquet=False, workers=None, scheduler=None,
-                    atoms=None, contacts=None, progress=None, **options) -> Path:
+def average_to_file(run_dirs, out, *, parquet=False, netcdf=False, vtk=False, workers=None,
+                    scheduler=None, atoms=None, contacts=None, progress=None,
+                    **options) -> Path:
     """The ``average`` command: profiles of run directories (one run, or an ensemble;
     on dask with ``workers`` or ``scheduler``) or, without any, of the dumps ``atoms``
     and ``contacts`` (``options`` as :func:`average_dumps` takes them), written to ``out``
-    (never over an existing result)."""
+    (never over an existing result); with ``netcdf`` and ``vtk`` also as ``<out>.nc``
+    and ``<out>.vtu`` (:mod:`granavg.io.field_files`), the table last."""
     from granavg.analysis.claims import warn_if_inertial     # the analysis, when used
 
-    out = validate.free_output(Path(out), ("", ".json", REPLICATES, TIMESERIES))
+    if vtk and run_dirs:
+        raise UserError("--vtk is for grids, boxes and cylindrical shells of plain dumps; a "
+                        "run's rings are 1D (--netcdf writes them)")
+    extra = (".nc",) * bool(netcdf) + (".vtu",) * bool(vtk)
+    out = validate.free_output(Path(out), ("", ".json", REPLICATES, TIMESERIES, *extra))
     if run_dirs:
         profiles = _average_run_dirs(run_dirs, atoms, contacts, workers, scheduler,
                                      progress, options)
@@ -129,6 +135,13 @@ def average_to_file(run_dirs, out, *, parquet=False, workers=None, scheduler=Non
         profiles = average_dumps(validate.existing_file("--atoms", atoms),
                                  validate.existing_file("--contacts", contacts),
                                  progress=progress, **options)
+    if netcdf or vtk:
+        from granavg.io import field_files
+
+        if vtk:
+            field_files.write_vtk(profiles, out.with_name(out.name + ".vtu"))
+        if netcdf:
+            field_files.write_netcdf(profiles, out.with_name(out.name + ".nc"))
     write_profiles(profiles, out, parquet=parquet)
     log.info("%d %s x %d frames -> %s (+ %s.json)", profiles.rings.n, profiles.rings.kind,
              profiles.n_frames, out, out.name)

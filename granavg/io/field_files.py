@@ -1,0 +1,198 @@
+"""Profiles as gridded fields for the tools of the 3D world: an xarray Dataset (written
+as NetCDF) and a VTK unstructured grid for ParaView.
+
+- :func:`to_dataset`: one dimension per axis of the cells (``r``; ``x``/``y``/``z`` for
+  slabs; ``x, y`` for a 2D grid; ``x, y, z`` for boxes; ``r, z`` for cylindrical shells),
+  each value and its ``<name>_sem`` as data variables with their ``units``, the cells'
+  edges and volumes, the flags, and in the attributes the geometry, the unit system and
+  how the errors were made (JSON text). :func:`write_netcdf` writes it (NetCDF 3 by
+  scipy, which granavg already needs; xarray and ParaView read it).
+- :func:`write_vtk` (grids, boxes and shells): the cells as quadrilaterals (2D grid) or
+  hexahedra, cylindrical shells revolved into :data:`SECTORS` sectors so that they show
+  as the cylinder they are; every value and error as cell data, vectors and tensors also
+  as Cartesian 3- and 9-component arrays (``v``, ``sigma``, ...) for glyphs and tensor
+  views.
+
+Nothing is converted: the units are the profiles' (the sidecar's ``columns``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from granavg.engine.channels import pairs
+from granavg.engine.units import SI, UnitSystem
+from granavg.errors import UserError
+
+#: Sectors of a revolved cylindrical shell in the VTK file.
+SECTORS = 48
+
+
+def grid_shape(geometry) -> tuple:
+    """(dimension names, shape, edges per dimension) of the cells as an array; the cell
+    index k is the C-order flat index."""
+    kind = geometry.kind
+    if kind == "rings":
+        return ("r",), (geometry.n,), (geometry.edges,)
+    if kind in ("slabs", "slabs3d"):
+        return (geometry.axis,), (geometry.n,), (geometry.edges,)
+    if kind == "grid":
+        e = (geometry.xedges, geometry.yedges)
+        return ("x", "y"), tuple(len(x) - 1 for x in e), e
+    if kind == "boxes":
+        return ("x", "y", "z"), geometry.shape, (geometry.xedges, geometry.yedges,
+                                                 geometry.zedges)
+    if kind == "shells":
+        return ("r", "z"), geometry.shape, (geometry.edges, geometry.zedges)
+    raise UserError(f"cells of kind {kind!r} have no grid")
+
+
+def _units(profiles) -> UnitSystem:
+    system = (profiles.meta or {}).get("unit_system")
+    return UnitSystem(**system) if system else SI
+
+
+def to_dataset(profiles):
+    """The profiles as an :class:`xarray.Dataset` (module docstring)."""
+    import xarray as xr
+
+    dims, shape, edges = grid_shape(profiles.rings)
+    units = _units(profiles)
+    coords = {}
+    for d, e in zip(dims, edges):
+        coords[d] = (d, 0.5 * (e[1:] + e[:-1]), {"units": units.length,
+                                                 "long_name": f"cell centre, {d}"})
+        coords[f"{d}_edges"] = (f"{d}_edge", np.asarray(e, float),
+                                {"units": units.length, "long_name": f"cell edges, {d}"})
+    data = {"V": (dims, profiles.rings.volume.reshape(shape),
+                  {"units": units.volume, "long_name": "cell volume"})}
+    for name, value in profiles.values.items():
+        for key, arr in ((name, value), (f"{name}_sem", profiles.sem[name])):
+            data[key] = (dims, np.asarray(arr, float).reshape(shape), {"units": units.of(key)})
+    data["flags"] = (dims, np.asarray(profiles.flags, dtype=str).reshape(shape))
+    if profiles.n_runs is not None:
+        data["n_runs"] = (dims, np.asarray(profiles.n_runs).reshape(shape))
+    meta = profiles.meta or {}
+    attrs = {"title": "granavg profiles", "units": str(meta.get("units", units.label)),
+             "n_frames": int(profiles.n_frames),
+             "geometry": json.dumps(profiles.rings.describe()),
+             "unit_system": json.dumps(units.describe()),
+             "errors": json.dumps(meta.get("errors", {}), default=str),
+             "granavg_version": str(meta.get("granavg_version", ""))}
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def write_netcdf(profiles, path) -> Path:
+    """:func:`to_dataset` as NetCDF (to a temporary name, renamed when complete)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        to_dataset(profiles).to_netcdf(tmp, engine="scipy")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def _hexahedra(xe, ye, ze):
+    """Corner points and hexahedra (VTK order) of the boxes of a rectilinear grid, the
+    cells in C order of (x, y, z)."""
+    X, Y, Z = np.meshgrid(xe, ye, ze, indexing="ij")
+    points = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+    ny, nz = len(ye), len(ze)
+    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(len(xe) - 1), np.arange(ny - 1),
+                                              np.arange(nz - 1), indexing="ij"))
+
+    def at(di, dj, dk):
+        return ((i + di) * ny + (j + dj)) * nz + (k + dk)
+    cells = np.column_stack([at(0, 0, 0), at(1, 0, 0), at(1, 1, 0), at(0, 1, 0),
+                             at(0, 0, 1), at(1, 0, 1), at(1, 1, 1), at(0, 1, 1)])
+    return points, cells
+
+
+def _cartesian(profiles, axes, angle=None):
+    """Vectors and tensors of the profiles in Cartesian components: {name: (n, 3) or
+    (n, 9)}; cylindrical (r, phi, z) ones rotated by the cells' angle."""
+    n = profiles.rings.n
+    out = {}
+    R = None
+    if axes[:2] == ("r", "phi"):
+        c, s = np.cos(angle), np.sin(angle)
+        R = np.zeros((len(angle), 3, 3))               # columns: e_r, e_phi, e_z
+        R[:, 0, 0], R[:, 1, 0], R[:, 0, 1], R[:, 1, 1], R[:, 2, 2] = c, s, -s, c, 1.0
+    vectors = {"v": "v_{}", "omega": "omega_{}", "boundary": "boundary_{}",
+               "body": "body_{}"}
+    for name, pattern in vectors.items():
+        cols = [pattern.format(a) for a in axes]
+        if all(c in profiles.values for c in cols):
+            vec = np.zeros((n, 3))
+            for k, c in enumerate(cols):
+                vec[:, k] = profiles.values[c]
+            out[name] = vec if R is None else np.einsum("nij,nj->ni", R, vec)
+    for name in ("F", "sigma", "dsigma", "dsigma_fluct", "eps"):
+        cols = [f"{name}_{c}" for c in pairs(axes)]
+        if all(c in profiles.values for c in cols):
+            d = len(axes)
+            T = np.zeros((n, 3, 3))
+            T[:, :d, :d] = np.column_stack([profiles.values[c] for c in cols]).reshape(n, d, d)
+            if R is not None:
+                T = np.einsum("nia,nab,njb->nij", R, T, R)
+            out[name] = T.reshape(n, 9)
+    return out
+
+
+def write_vtk(profiles, path) -> Path:
+    """The cells as a VTK unstructured grid (``.vtu``) with every value as cell data
+    (module docstring); grids, boxes and cylindrical shells."""
+    import meshio
+
+    g = profiles.rings
+    kind = g.kind
+    index = np.arange(g.n)
+    if kind == "boxes":
+        points, hexes = _hexahedra(g.xedges, g.yedges, g.zedges)
+        cells, per_cell, angle = [("hexahedron", hexes)], index, None
+    elif kind == "grid":
+        points, hexes = _hexahedra(g.xedges, g.yedges, np.array([0.0, 1.0]))
+        points = points[points[:, 2] == 0.0]
+        quads = hexes[:, :4] // 2                      # the z = 0 corners, renumbered
+        cells, per_cell, angle = [("quad", quads)], index, None
+    elif kind == "shells":
+        nr, nz = g.shape
+        phi = np.linspace(0.0, 2 * np.pi, SECTORS + 1)
+        R, P, Z = np.meshgrid(g.edges, phi, g.zedges, indexing="ij")
+        points = np.column_stack([g.center[0] + (R * np.cos(P)).ravel(),
+                                  g.center[1] + (R * np.sin(P)).ravel(), Z.ravel()])
+        _, hexes = _hexahedra(g.edges, phi, g.zedges)   # (ring, sector, layer) in C order
+        i, j, k = np.unravel_index(np.arange(len(hexes)), (nr, SECTORS, nz))
+        cells, per_cell = [("hexahedron", hexes)], i * nz + k
+        angle = 0.5 * (phi[j] + phi[j + 1])
+    else:
+        raise UserError(f"--vtk: {kind} are not a grid; VTK output is for grids, boxes and "
+                        "cylindrical shells (tables and NetCDF hold every kind)")
+    data = {"V": g.volume[per_cell]}
+    for name, value in profiles.values.items():
+        data[name] = np.asarray(value, float)[per_cell]
+        data[f"{name}_sem"] = np.asarray(profiles.sem[name], float)[per_cell]
+    if angle is None:
+        cart = _cartesian(profiles, g.axes)
+        data.update({k: v[per_cell] for k, v in cart.items()})
+    else:
+        from types import SimpleNamespace
+        expanded = SimpleNamespace(rings=SimpleNamespace(n=len(per_cell)),
+                                   values={k: np.asarray(v)[per_cell]
+                                           for k, v in profiles.values.items()})
+        data.update(_cartesian(expanded, g.axes, angle))
+    mesh = meshio.Mesh(points, cells, cell_data={k: [v] for k, v in data.items()})
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}.vtu")
+    try:
+        mesh.write(tmp, file_format="vtu")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
