@@ -235,10 +235,15 @@ def warn_if_drifting(judged: dict, t_min: float) -> list:
     return drifting
 
 
+#: Particles per pass of :func:`frame_sums`: the per-particle channels of a chunk (about
+#: 50 doubles each in 3D) stay a few tens of MB, whatever the frame's size.
+CHUNK = 1 << 16
+
+
 def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
                sectors: int = 0) -> np.ndarray:
     """Cell sums of one frame for any geometry (:mod:`granavg.engine.geometry`,
-    :mod:`granavg.engine.cells3d`).
+    :mod:`granavg.engine.cells3d`), the particles taken :data:`CHUNK` at a time.
 
     Returns
     -------
@@ -248,20 +253,27 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     """
     a = frame.atoms
     contacts = frame.contacts
-    pos = tuple(a[c] for c in cells.position_names)
     radius = a["radius"]
     rows = contact_rows(a, contacts) if contacts is not None and (
         {"ncontact", "fab", "sig", "def", "wall"} & set(blocks)) else None
-    q = particle_channels(a, contacts, cells.layout, cells.particle_volume(radius),
-                          cells.def_factor(radius), rho_p, blocks, basis=cells.basis(pos),
-                          branch=branch, rows=rows)
-    particle, cell, w = cells.weights(pos, radius)
     n = cells.n * max(sectors, 1)
-    if sectors:
-        sector, share = replicas.sector_shares(cells, pos, radius, sectors)
-        sums = replicas.sector_sums(particle, cell, w, sector, share, sectors, q, cells.n)
-    else:
-        sums = cell_sums(particle, cell, w, q, n)
+    sums = np.zeros((n, cells.layout.n))
+    buffer = np.empty((min(CHUNK, len(radius)), cells.layout.n))
+    for lo in range(0, len(radius), CHUNK):
+        part = slice(lo, lo + CHUNK)
+        chunk = {k: v[part] for k, v in a.items()}
+        pos = tuple(chunk[c] for c in cells.position_names)
+        r = chunk["radius"]
+        q = particle_channels(chunk, contacts, cells.layout, cells.particle_volume(r),
+                              cells.def_factor(r), rho_p, blocks, basis=cells.basis(pos),
+                              branch=branch, rows=rows, first=lo, out=buffer)
+        particle, cell, w = cells.weights(pos, r)
+        if sectors:
+            sector, share = replicas.sector_shares(cells, pos, r, sectors)
+            sums += replicas.sector_sums(particle, cell, w, sector, share, sectors, q,
+                                         cells.n)
+        else:
+            sums += cell_sums(particle, cell, w, q, n)
     if "wall" in blocks and frame.contacts is not None:
         points, forces = wall_points(a, contacts, cells.dim, branch, rows)
         at = tuple(points.T)

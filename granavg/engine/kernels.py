@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
 from granavg.engine.channels import BLOCKS, CONTACT_BLOCKS, Layout
 from granavg.errors import UserError
@@ -67,7 +68,7 @@ def contact_rows(atoms, contacts):
 
 
 def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks, basis,
-                      branch="contact", rows=None):
+                      branch="contact", rows=None, first=0, out=None):
     """Per-particle channel values Q_p of one frame.
 
     Parameters
@@ -95,6 +96,12 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
         Where the branch vectors of Eqs. 5 and 7 end (:data:`BRANCHES`).
     rows : (ndarray, ndarray), optional
         :func:`contact_rows` of the frame, if already known.
+    first : int
+        ``atoms`` (and vol, dfac, basis) are the frame's particles from row ``first`` on
+        (a chunk): the contacts' rows are the frame's.
+    out : ndarray, shape (>= P, layout.n), optional
+        A buffer to fill (its first P rows are zeroed and returned), reused between
+        chunks so that their memory is not allocated anew.
 
     Returns
     -------
@@ -103,22 +110,30 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
     D, P = layout.dim, len(vol)
     E = np.ascontiguousarray(basis, float)
     mass = np.asarray(atoms["mass"], float) if "mass" in atoms else rho_p * vol
-    q = np.zeros((P, layout.n))
+    if out is None:
+        q = np.zeros((P, layout.n))
+    else:
+        q = out[:P]
+        q.fill(0.0)
     want = set(blocks)
     moving = bool(want & {"mom", "kin"})
     body = "body" in want
     spin_cols = ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"]
     zero = np.zeros((P, D))
-    _FILL[D](q, vol, mass,
+    _fill_particles(q, vol, mass,
                     _stack(atoms, ["vx", "vy", "vz"][:D]) if moving else zero,
                     _stack(atoms, spin_cols) if "spin" in want else zero[:, :len(spin_cols)],
                     _stack(atoms, ["bx", "by", "bz"][:D]) if body else zero,
-                    E, moving, "kin" in want, "spin" in want, body)
+                    E, moving, "kin" in want, "spin" in want, body, (0,) * D)
     if want & set(CONTACT_BLOCKS):
         if branch not in BRANCHES:
             raise UserError(f"branch {branch!r}: choose from {', '.join(BRANCHES)}")
+        if rows is None:
+            if first:
+                raise ValueError("a chunk of the particles needs the frame's contact rows")
+            rows = contact_rows(atoms, contacts)
         _contact_channels(q, layout, atoms, contacts, E, vol, dfac, want, BRANCHES[branch],
-                          rows or contact_rows(atoms, contacts))
+                          rows, first)
     return q
 
 
@@ -127,7 +142,7 @@ def _stack(columns, names):
     return np.column_stack([np.asarray(columns[c], float) for c in names])
 
 
-def _contact_channels(q, layout, atoms, contacts, E, vol, dfac, want, shorten, rows):
+def _contact_channels(q, layout, atoms, contacts, E, vol, dfac, want, shorten, rows, first):
     """Add each contact to both of its particles (only the particle of a wall contact)."""
     i1, i2 = rows
     D = layout.dim
@@ -138,8 +153,8 @@ def _contact_channels(q, layout, atoms, contacts, E, vol, dfac, want, shorten, r
     f = np.column_stack([col["fn" + x] + col["ft" + x] for x in "xyz"[:D]])
     n = np.column_stack([col["n" + x] for x in "xyz"[:D]])
     keep = np.array([b in want for b in CONTACT_BLOCKS])
-    _ACCUMULATE[D](i1, i2, f, n, col["overlap"], E, np.asarray(atoms["radius"], float),
-                         vol, np.asarray(dfac, float), shorten, keep, q)
+    _accumulate_contacts(i1, i2, f, n, col["overlap"], E, np.asarray(atoms["radius"], float),
+                         vol, np.asarray(dfac, float), shorten, keep, q, first, (0,) * D)
 
 
 def wall_points(atoms, contacts, dim=2, branch="contact", rows=None):
@@ -160,104 +175,112 @@ def wall_points(atoms, contacts, dim=2, branch="contact", rows=None):
     return points, forces
 
 
-def _projector(D):
-    """s (x[c] . e_i) for every axis i of the basis E[p], as a tuple (kept in registers:
-    an array here made the contact pass twice as slow)."""
-    if D == 2:
-        @njit(cache=True, nogil=True, inline="always")
-        def project(x, c, E, p, s):
+def project(x, c, E, p, s, dims):
+    """s (x[c] . e_i) for every axis i of the basis E[p], as a tuple of len(dims) (kept
+    in registers: an array here made the contact pass twice as slow); compiled only."""
+    raise NotImplementedError
+
+
+@overload(project, inline="always")
+def _project(x, c, E, p, s, dims):
+    if len(dims) == 2:
+        def project2(x, c, E, p, s, dims):
             return (s * (x[c, 0] * E[p, 0, 0] + x[c, 1] * E[p, 0, 1]),
                     s * (x[c, 0] * E[p, 1, 0] + x[c, 1] * E[p, 1, 1]))
-        return project
+        return project2
 
-    @njit(cache=True, nogil=True, inline="always")
-    def project3(x, c, E, p, s):
+    def project3(x, c, E, p, s, dims):
         return (s * (x[c, 0] * E[p, 0, 0] + x[c, 1] * E[p, 0, 1] + x[c, 2] * E[p, 0, 2]),
                 s * (x[c, 0] * E[p, 1, 0] + x[c, 1] * E[p, 1, 1] + x[c, 2] * E[p, 1, 2]),
                 s * (x[c, 0] * E[p, 2, 0] + x[c, 1] * E[p, 2, 1] + x[c, 2] * E[p, 2, 2]))
     return project3
 
 
-def _particle_kernel(D):
-    """The compiled per-particle pass for dimension D (a compile-time constant, as are
-    the channels' columns)."""
-    off = Layout(("x", "y", "z")[:D]).offsets
-    VOL_, MASS_, MOM_, SPIN_, KIN_, BODY_ = (int(off[k]) for k in (VOL, MASS, MOM, SPIN, KIN,
-                                                                   BODY))
-    project = _projector(D)
+@njit(cache=True, nogil=True, inline="always")
+def offsets(dims):
+    """The first column of each block (:data:`granavg.engine.channels.BLOCKS`) for
+    D = len(dims) axes; compile-time constants where dims is (tests: equal to
+    :class:`~granavg.engine.channels.Layout`'s)."""
+    D = len(dims)
+    spin = 2 + D
+    nc = spin + (1 if D == 2 else D)
+    fab = nc + 1
+    sig = fab + D * D
+    kin = sig + D * D
+    deform = kin + D * D
+    wall = deform + D * D
+    return (0, 1, 2, spin, nc, fab, sig, kin, deform, wall, wall + D)
 
-    @njit(cache=True, nogil=True)
-    def fill(q, vol, mass, v, w, b, E, moving, kinetic, spin, body):
-        """The particles' own channels in one pass: volume, mass, momentum, the kinetic
-        tensor m v (x) v, spin and body force, in the basis E (rows e_i)."""
-        for p in range(q.shape[0]):
-            q[p, VOL_], q[p, MASS_] = vol[p], mass[p]
-            if moving:
-                vb = project(v, p, E, p, 1.0)
+
+@njit(cache=True, nogil=True)
+def _fill_particles(q, vol, mass, v, w, b, E, moving, kinetic, spin, body, dims):
+    """The particles' own channels in one pass: volume, mass, momentum, the kinetic
+    tensor m v (x) v, spin and body force, in the basis E (rows e_i); D = len(dims)."""
+    D = len(dims)
+    off = offsets(dims)
+    for p in range(q.shape[0]):
+        q[p, off[VOL]], q[p, off[MASS]] = vol[p], mass[p]
+        if moving:
+            vb = project(v, p, E, p, 1.0, dims)
+            for i in range(D):
+                q[p, off[MOM] + i] = vol[p] * vb[i]
+            if kinetic:
+                m = mass[p]
                 for i in range(D):
-                    q[p, MOM_ + i] = vol[p] * vb[i]
-                if kinetic:
-                    m = mass[p]
-                    for i in range(D):
-                        for j in range(D):
-                            q[p, KIN_ + i * D + j] = m * vb[i] * vb[j]
-            if spin:
-                if D == 2:                                # omega_z, a scalar
-                    q[p, SPIN_] = vol[p] * w[p, 0]
-                else:
-                    wb = project(w, p, E, p, 1.0)
-                    for i in range(D):
-                        q[p, SPIN_ + i] = vol[p] * wb[i]
-            if body:
-                bb = project(b, p, E, p, 1.0)
+                    for j in range(D):
+                        q[p, off[KIN] + i * D + j] = m * vb[i] * vb[j]
+        if spin:
+            if D == 2:                                    # omega_z, a scalar
+                q[p, off[SPIN]] = vol[p] * w[p, 0]
+            else:
+                wb = project(w, p, E, p, 1.0, dims)
                 for i in range(D):
-                    q[p, BODY_ + i] = bb[i]
-    return fill
+                    q[p, off[SPIN] + i] = vol[p] * wb[i]
+        if body:
+            bb = project(b, p, E, p, 1.0, dims)
+            for i in range(D):
+                q[p, off[BODY] + i] = bb[i]
 
 
-def _contact_kernel(D):
-    """The compiled pass over the contacts for dimension D (a compile-time constant, as
-    are the channels' columns)."""
-    off = Layout(("x", "y", "z")[:D]).offsets
-    NC_, FAB_, SIG_, DEF_ = (int(off[k]) for k in (NC, FAB, SIG, DEF))
-    project = _projector(D)
-
-    @njit(cache=True, nogil=True)
-    def accumulate(i1, i2, f, n, overlap, E, a, vol, dfac, shorten, keep, q):
-        """Add to each particle's channels the sums over its contacts (side 2 sees -f and
-        -n; i2 < 0: wall contact), the ``keep``-ed ones of: V^p x count, V^p sum n (x) n,
-        sum f (x) l with l = (a - shorten overlap) n, (V^p / a^2) sum Delta (x) l with
-        Delta = -overlap n; tensors in the particle's basis E (rows e_i)."""
-        count, fabric, stress, deform = keep[0], keep[1], keep[2], keep[3]
-        for c in range(i1.shape[0]):
-            for side in range(2):
-                p = i1[c] if side == 0 else i2[c]
-                if p < 0:
-                    break
-                s = 1.0 if side == 0 else -1.0
-                nb, fb = project(n, c, E, p, s), project(f, c, E, p, s)
-                length = a[p] - shorten * overlap[c]
-                d = -dfac[p] * overlap[c] * length
-                v = vol[p]
-                if count:
-                    q[p, NC_] += v
-                if fabric:
-                    for i in range(D):
-                        for j in range(D):
-                            q[p, FAB_ + i * D + j] += v * nb[i] * nb[j]
-                if stress:
-                    for i in range(D):
-                        for j in range(D):
-                            q[p, SIG_ + i * D + j] += length * fb[i] * nb[j]
-                if deform:
-                    for i in range(D):
-                        for j in range(D):
-                            q[p, DEF_ + i * D + j] += d * nb[i] * nb[j]
-    return accumulate
-
-
-_FILL = {d: _particle_kernel(d) for d in (2, 3)}
-_ACCUMULATE = {d: _contact_kernel(d) for d in (2, 3)}
+@njit(cache=True, nogil=True)
+def _accumulate_contacts(i1, i2, f, n, overlap, E, a, vol, dfac, shorten, keep, q, lo, dims):
+    """Add to each particle's channels the sums over its contacts (side 2 sees -f and -n;
+    i2 < 0: wall contact), the ``keep``-ed ones of: V^p x count, V^p sum n (x) n,
+    sum f (x) l with l = (a - shorten overlap) n, (V^p / a^2) sum Delta (x) l with
+    Delta = -overlap n; tensors in the particle's basis E (rows e_i); D = len(dims).
+    Only the rows lo .. lo + len(q) of the frame's particles are this call's (q, E, a,
+    vol, dfac hold those rows)."""
+    D = len(dims)
+    off = offsets(dims)
+    count, fabric, stress, deform = keep[0], keep[1], keep[2], keep[3]
+    hi = lo + q.shape[0]
+    for c in range(i1.shape[0]):
+        for side in range(2):
+            row = i1[c] if side == 0 else i2[c]
+            if row < 0:
+                break
+            if row < lo or row >= hi:
+                continue
+            p = row - lo
+            s = 1.0 if side == 0 else -1.0
+            nb, fb = project(n, c, E, p, s, dims), project(f, c, E, p, s, dims)
+            length = a[p] - shorten * overlap[c]
+            d = -dfac[p] * overlap[c] * length
+            v = vol[p]
+            if count:
+                q[p, off[NC]] += v
+            if fabric:
+                for i in range(D):
+                    for j in range(D):
+                        q[p, off[FAB] + i * D + j] += v * nb[i] * nb[j]
+            if stress:
+                for i in range(D):
+                    for j in range(D):
+                        q[p, off[SIG] + i * D + j] += length * fb[i] * nb[j]
+            if deform:
+                for i in range(D):
+                    for j in range(D):
+                        q[p, off[DEF] + i * D + j] += d * nb[i] * nb[j]
 
 
 def lookup(ids, wanted):

@@ -164,6 +164,33 @@ def _box_triplets(x, y, z, a, xe, ye, ze):
             particle[t], cell[t], w[t] = p, (i0 * ny + j0) * nz + k0, wk
             t += 1
             continue
+        xin = mi == 2 and xe[i0] <= x[p] - ap and x[p] + ap <= xe[i0 + 1]
+        yin = mj == 2 and ye[j0] <= y[p] - ap and y[p] + ap <= ye[j0 + 1]
+        zin = mk == 2 and ze[k0] <= z[p] - ap and z[p] + ap <= ze[k0 + 1]
+        if xin + yin + zin == 2:
+            # cut by the planes of one axis only: differences of spherical caps
+            if not zin:
+                u, e, m0, m1 = z[p], ze, k0, k1
+            elif not yin:
+                u, e, m0, m1 = y[p], ye, j0, j1
+            else:
+                u, e, m0, m1 = x[p], xe, i0, i1
+            full = 4.0 / 3.0 * math.pi * ap * ap * ap
+            inner = _below_sphere(e[m0] - u, ap)
+            for m in range(m0, m1 + 1):
+                outer = _below_sphere(e[m + 1] - u, ap)
+                wk = (outer - inner) / full
+                inner = outer
+                if wk > 0:
+                    if t == cap:
+                        cap *= 2
+                        particle, cell, w = _grow(particle, cap), _grow(cell, cap), \
+                            _grow(w, cap)
+                    i, j, k = (m if not xin else i0), (m if not yin else j0), \
+                        (m if not zin else k0)
+                    particle[t], cell[t], w[t] = p, (i * ny + j) * nz + k, wk
+                    t += 1
+            continue
         if mi * mj * mk > corners.shape[0]:
             corners = np.empty(mi * mj * mk)
         # the cumulative volume at every corner of the boxes the sphere touches, once

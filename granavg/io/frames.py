@@ -61,13 +61,24 @@ def check_integers(path, frame, cols, names):
                                 "damaged, or the column map names the wrong column")
 
 
+def _has_duplicates(ids) -> bool:
+    """Whether an id appears twice: by counting into a table where the ids are dense
+    enough (O(n)), else by sorting."""
+    if len(ids) == 0:
+        return False
+    lo, hi = ids.min(), ids.max()
+    if lo >= 0 and hi < 8 * len(ids) + 1_000_000:
+        return bool(np.bincount(ids.astype(np.int64)).max() > 1)
+    return len(np.unique(ids)) < len(ids)
+
+
 def check_atoms(path, frame) -> dict:
     """The frame's atom columns, after refusing ids or types that are not integers,
     duplicate ids and radii that are not positive (one line naming file, line and
     timestep). ``frame`` has ``as_dict()``, ``line`` and ``timestep``."""
     cols = frame.as_dict()
     check_integers(path, frame, cols, ("id", "type"))
-    if "id" in cols:
+    if "id" in cols and _has_duplicates(cols["id"]):
         ids = cols["id"]
         uniq, first, counts = np.unique(ids, return_index=True, return_counts=True)
         if len(uniq) < len(ids):

@@ -154,10 +154,11 @@ def resolve_contacts(path, explicit: dict, dim: int) -> dict:
     return out
 
 
-def dimension(path, explicit_map, dim=None) -> int:
+def dimension(path, explicit_map, dim=None, first=None) -> int:
     """The dump's dimension: ``dim`` if given (3 needs a z column), else 3 where the
     first frame's z coordinates differ, 2 where there is no z column or all share one
-    (a 2D LAMMPS run writes z = 0)."""
+    (a 2D LAMMPS run writes z = 0). ``first``: a callable giving the first frame with
+    the z column (read once by the caller)."""
     names, _ = dump_header(path)
     zcol = explicit_map.get("z") or next((a for a in ATOM_ALIASES["z"] if a in names), None)
     if dim not in (None, 2, 3):
@@ -169,10 +170,11 @@ def dimension(path, explicit_map, dim=None) -> int:
         return dim
     if zcol is None:
         return 2
-    for frame in DumpReader(path, [zcol]):
-        z = frame.column(zcol)
-        return 3 if len(z) and np.ptp(z) > 0 else 2
-    return 2
+    frame = first(zcol) if first else next(iter(DumpReader(path, [zcol])), None)
+    if frame is None:
+        return 2
+    z = frame.column(zcol)
+    return 3 if len(z) and np.ptp(z) > 0 else 2
 
 
 class LammpsDumps(PairedDumps):
@@ -211,7 +213,8 @@ class LammpsDumps(PairedDumps):
                 raise UserError(f"{said[1]}: the contact dump says 'units {said[0]}', the "
                                 f"atom dump's units are {unit_system.style}; use the dumps "
                                 "of one run")
-        self.dim = dimension(atoms, atom_map or {}, dim)
+        self._head = (atoms, None)
+        self.dim = dimension(atoms, atom_map or {}, dim, self._read_first)
         self.amap = resolve_atoms(atoms, atom_map or {}, self.dim)
         self.cmap = resolve_contacts(contacts, contact_map or {}, self.dim) \
             if contacts else None
@@ -242,14 +245,18 @@ class LammpsDumps(PairedDumps):
         return tuple(b == "pp" for b in self.first().boundary[:self.dim])
 
     def first(self):
-        """The atom dump's first frame (its box and boundary)."""
-        if not hasattr(self, "_first"):
-            for frame in DumpReader(self.atoms.path, []):
-                self._first = frame
-                break
-            else:
-                raise UserError(f"{self.atoms.path}: holds no frame")
-        return self._first
+        """The atom dump's first frame (its box and boundary), read once."""
+        frame = self._head[1] or self._read_first(None)
+        if frame is None:
+            raise UserError(f"{self.atoms.path}: holds no frame")
+        return frame
+
+    def _read_first(self, column):
+        """The first frame of the atom dump (with ``column`` converted, if given)."""
+        path = self._head[0]
+        frame = next(iter(DumpReader(path, [column] if column else [])), None)
+        self._head = (path, frame)
+        return frame
 
     def frame(self, fa, fc) -> Frame:
         atoms, walls = self._atoms(fa)
@@ -271,8 +278,9 @@ class LammpsDumps(PairedDumps):
         if self.amap["radius"] == "diameter":
             col["radius"] = 0.5 * col["radius"]
         col = check_atoms(self.atoms.path, Columns(col, fa))
-        wall = np.isin(col["type"], self.wall_types) if len(self.wall_types) else \
-            np.zeros(len(col["x"]), bool)
+        if not len(self.wall_types):
+            return {k: v for k, v in col.items() if k != "type"}, {}
+        wall = np.isin(col["type"], self.wall_types)
         walls = {"id": col["id"][wall], "radius": col["radius"][wall]} if "id" in col else {}
         atoms = {k: v[~wall] for k, v in col.items() if k != "type"}
         return atoms, walls

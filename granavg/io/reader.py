@@ -17,6 +17,7 @@ the file and line (and, for a missing column, what needs it).
 from __future__ import annotations
 
 import logging
+import mmap
 import re
 import zlib
 from dataclasses import dataclass, field
@@ -159,19 +160,31 @@ class _Scanner:
         self.gzip = self.path.suffix == ".gz"
         opener = igzip.open if self.gzip else open  # ISA-L: 3x zlib
         with opener(self.path, "rb") as self.fh:
-            while self._skip_blank():
-                frame = self._frame()
-                if frame is None:
-                    break
-                self.seen += 1
-                if frame is not _SKIPPED:
-                    self.complete = frame.timestep
-                    yield frame
-                elif self.reader.steps and self.last_step > self.reader.steps[1]:
-                    return
+            if not self.gzip and self.path.stat().st_size > 0:
+                # a plain file is mapped, not read: the parser reads the page cache
+                # directly, with no copy into a buffer of its own
+                self.buf = mmap.mmap(self.fh.fileno(), 0, access=mmap.ACCESS_READ)
+                self.delivered, self.eof = len(self.buf), True
+            try:
+                yield from self._frames()
+            finally:
+                if isinstance(self.buf, mmap.mmap):
+                    self.buf.close()
         if self.seen == 0 and self.reader.steps is None and must_hold:
             raise UserError(f"{self.path}: holds no complete frame (the file is empty or "
                             "damaged); give a dump written by LAMMPS' dump command")
+
+    def _frames(self):
+        while self._skip_blank():
+            frame = self._frame()
+            if frame is None:
+                break
+            self.seen += 1
+            if frame is not _SKIPPED:
+                self.complete = frame.timestep
+                yield frame
+            elif self.reader.steps and self.last_step > self.reader.steps[1]:
+                return
 
     # -- buffer -------------------------------------------------------------------------
     def _fill(self) -> bool:
@@ -181,7 +194,9 @@ class _Scanner:
         if self.eof:
             return False
         try:
-            more = self.fh.read(CHUNK)
+            # at least as much as is buffered: a frame larger than a chunk is read in
+            # doubling pieces, so its bytes are copied O(1) times, not once per chunk
+            more = self.fh.read(max(CHUNK, len(self.buf) - self.pos))
         except (EOFError, OSError, zlib.error, isal_zlib.error) as exc:
             if self.delivered == 0 and not self.gzip_salvage_possible():
                 raise UserError(f"{self.path}: not a readable gzip file ({exc}); give an "
@@ -317,7 +332,7 @@ class _Scanner:
                 self.line += n
                 return DumpFrame(step, head["time"], want, data, head["box"], first,
                                  head["boundary"], head["triclinic"])
-        rows = self.buf.count(b"\n", self.pos, end)
+        rows = self._lines(self.pos, end)
         if skip and rows >= n:
             self.pos, self.line = end, self.line + rows
             return _SKIPPED
@@ -340,11 +355,21 @@ class _Scanner:
         return DumpFrame(step, head["time"], want, data, head["box"], first,
                          head["boundary"], head["triclinic"])
 
+    def _lines(self, start, end) -> int:
+        """Newlines in buf[start:end] (a mapped file has no count of its own)."""
+        if isinstance(self.buf, mmap.mmap):
+            return bytes(self.buf[start:end]).count(b"\n")
+        return self.buf.count(b"\n", start, end)
+
     def _block_end(self) -> int:
-        """Offset of the next ``ITEM:`` header (or of the end of the file)."""
-        while (end := self.buf.find(b"ITEM:", self.pos)) < 0:
+        """Offset of the next ``ITEM:`` header (or of the end of the file); each byte is
+        searched once, however many chunks the block spans."""
+        start = self.pos
+        while (end := self.buf.find(b"ITEM:", start)) < 0:
+            searched = len(self.buf) - self.pos - 4          # a header may straddle
             if not self._fill():
                 return len(self.buf)
+            start = self.pos + max(searched, 0)
         return end
 
     def _targets(self, names):

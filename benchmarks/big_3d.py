@@ -1,0 +1,180 @@
+"""A 3D dump of about a million spheres, averaged over a box grid, against OVITO reading
+the same file (issue: three dimensions at the scale of real 3D runs).
+
+    python benchmarks/big_3d.py make DIR [--copies 36 37] [--frames 6]
+    python benchmarks/big_3d.py time DIR [--ovito-python PY] [--grid 20 20 6]
+
+``make`` runs the 3D pile of tests/decks/pile_3d_si.lmp (755 spheres at rest on a floor,
+periodic in x and y, SI units), tiles its last frame NX x NY times side by side and
+writes DIR/big.dump: ``--frames`` frames of a LAMMPS text dump as LAMMPS writes it by
+default (%g; columns id type diameter mass x y z vx vy vz omegax omegay omegaz, every
+frame's velocities perturbed so that they differ). ``time`` measures, each as a whole
+process (start-up included), best of 3, with its peak memory:
+
+- granavg average of the dump over a box grid, the quantities an atom dump gives (nu,
+  rho, v, omega, dsigma, dsigma_fluct);
+- OVITO's ``import_file`` + ``compute`` of every frame of the same file (in PYTHON, an
+  interpreter with the ``ovito`` module; OVITO is not a dependency of granavg: without
+  it that line is skipped with a message);
+- granavg's reader alone;
+- granavg average of the first two frames only (memory flat in the number of frames).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+COLUMNS = ["id", "type", "diameter", "mass", "x", "y", "z", "vx", "vy", "vz", "omegax",
+           "omegay", "omegaz"]
+SIDE = 0.016                                    # the pile deck's periodic box, m
+OVITO = """
+import sys
+from ovito.io import import_file
+pipe = import_file(sys.argv[1], multiple_frames=True)
+for k in range(pipe.source.num_frames):
+    pipe.compute(k)
+"""
+READ = """
+import sys
+from granavg.io.reader import DumpReader
+for _ in DumpReader(sys.argv[1]):
+    pass
+"""
+
+
+def pile_frame(workdir: Path) -> np.ndarray:
+    """The settled pile's last frame, columns :data:`COLUMNS`."""
+    from granavg.sim.lammps_session import lammps_session
+
+    deck = ROOT / "tests" / "decks" / "pile_3d_si.lmp"
+    with lammps_session(["-log", str(workdir / "log.lammps"), "-var", "out", str(workdir)]) as lmp:
+        lmp.file(str(deck))
+    text = (workdir / "atoms.dump").read_text()
+    last = text.rsplit("ITEM: ATOMS", 1)[1].splitlines()
+    names = last[0].split()
+    rows = np.array([ln.split() for ln in last[1:] if ln.strip()], float)
+    return rows[:, [names.index(c) for c in COLUMNS]]
+
+
+def make(out: Path, copies, frames: int) -> Path:
+    import pandas as pd
+
+    out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        base = pile_frame(Path(tmp))
+    nx, ny = copies
+    n0 = len(base)
+    tiles = []
+    for i in range(nx):
+        for j in range(ny):
+            t = base.copy()
+            t[:, 0] += (i * ny + j) * n0
+            t[:, 4] += i * SIDE
+            t[:, 5] += j * SIDE
+            tiles.append(t)
+    atoms = np.concatenate(tiles)
+    rng = np.random.default_rng(1)
+    path = out / "big.dump"
+    with open(path, "w") as fh:
+        for k in range(frames):
+            a = atoms.copy()
+            a[:, 7:13] += rng.normal(0, 1e-4, (len(a), 6))
+            fh.write(f"ITEM: UNITS\nsi\nITEM: TIME\n{0.001 * k:g}\nITEM: TIMESTEP\n{100 * k}\n"
+                     f"ITEM: NUMBER OF ATOMS\n{len(a)}\nITEM: BOX BOUNDS pp pp ff\n"
+                     f"0 {nx * SIDE:g}\n0 {ny * SIDE:g}\n0 0.09\n"
+                     f"ITEM: ATOMS {' '.join(COLUMNS)}\n")
+            table = pd.DataFrame(a, columns=COLUMNS).astype({"id": int, "type": int})
+            table.to_csv(fh, sep=" ", header=False, index=False, float_format="%g")
+    print(f"{path}: {len(atoms)} spheres x {frames} frames, {path.stat().st_size / 1e6:.0f} MB")
+    return path
+
+
+def run(cmd) -> tuple:
+    """(wall seconds, peak RSS in MB) of one whole process."""
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    err = proc.stderr.read().decode()
+    proc.stderr.close()
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise SystemExit(f"failed: {' '.join(map(str, cmd))}\n{err}")
+    return wall, usage.ru_maxrss / 1024
+
+
+def best(cmd, repeat=3) -> tuple:
+    runs = [run(cmd) for _ in range(repeat)]
+    return min(w for w, _ in runs), max(m for _, m in runs)
+
+
+def timing(d: Path, ovito_python: str, grid) -> None:
+    dump = d / "big.dump"
+    size = dump.stat().st_size / 1e6
+    granavg = [sys.executable, "-m", "granavg"]
+    quantities = "nu,rho,v,omega,dsigma,dsigma_fluct"
+
+    def average(path, dest):
+        return [*granavg, "average", "--atoms", str(path), "--grid", *map(str, grid),
+                "--z-range", "0", "0.03", "--quantities", quantities, "--out", str(dest),
+                "--no-progress"]
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        ours = best(["sh", "-c", f'rm -f {tmp}/a.csv*; exec "$@"', "sh",
+                     *average(dump, tmp / "a.csv")])
+        reader = best([sys.executable, "-c", READ, str(dump)])
+        two = tmp / "two.dump"
+        with open(dump, "rb") as src, open(two, "wb") as dst:
+            third = src.read().split(b"ITEM: UNITS")[1:3]
+            dst.write(b"".join(b"ITEM: UNITS" + t for t in third))
+        small = best(["sh", "-c", f'rm -f {tmp}/b.csv*; exec "$@"', "sh",
+                      *average(two, tmp / "b.csv")])
+    frames = dump.read_bytes().count(b"ITEM: TIMESTEP")
+    print(f"| {dump.name}: {size:.0f} MB, {frames} frames | wall s (best of 3) | MB/s | peak "
+          "memory MB |\n|---|---|---|---|")
+    print(f"| granavg average, {'x'.join(map(str, grid))} boxes, {quantities} | {ours[0]:.1f} | "
+          f"{size / ours[0]:.0f} | {ours[1]:.0f} |")
+    print(f"| granavg reader alone | {reader[0]:.1f} | {size / reader[0]:.0f} | {reader[1]:.0f} |")
+    print(f"| granavg average, first 2 frames | {small[0]:.1f} | - | {small[1]:.0f} |")
+    probe = subprocess.run([ovito_python, "-c", "import ovito; print(ovito.version_string)"],
+                           capture_output=True, text=True)
+    if probe.returncode != 0:
+        print(f"\nOVITO skipped: {ovito_python} has no ovito module (pip install ovito in a "
+              "separate environment and give --ovito-python)")
+        return
+    theirs = best([ovito_python, "-c", OVITO, str(dump)])
+    print(f"| OVITO {probe.stdout.strip()} import_file + compute of every frame | "
+          f"{theirs[0]:.1f} | {size / theirs[0]:.0f} | {theirs[1]:.0f} |")
+    print(f"\ngranavg average / OVITO reading: {ours[0] / theirs[0]:.2f} of its time "
+          f"({theirs[0] / ours[0]:.2f}x its speed)")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="what", required=True)
+    mk = sub.add_parser("make")
+    mk.add_argument("dir", type=Path)
+    mk.add_argument("--copies", type=int, nargs=2, default=(36, 37))
+    mk.add_argument("--frames", type=int, default=6)
+    tm = sub.add_parser("time")
+    tm.add_argument("dir", type=Path)
+    tm.add_argument("--ovito-python", default=sys.executable)
+    tm.add_argument("--grid", type=int, nargs=3, default=(20, 20, 6))
+    args = ap.parse_args(argv)
+    if args.what == "make":
+        make(args.dir, args.copies, args.frames)
+    else:
+        timing(args.dir, args.ovito_python, args.grid)
+
+
+if __name__ == "__main__":
+    main()
