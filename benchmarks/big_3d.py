@@ -8,7 +8,8 @@ the same file (issue: three dimensions at the scale of real 3D runs).
 periodic in x and y, SI units), tiles its last frame NX x NY times side by side and
 writes DIR/big.dump: ``--frames`` frames of a LAMMPS text dump as LAMMPS writes it by
 default (%g; columns id type diameter mass x y z vx vy vz omegax omegay omegaz, every
-frame's velocities perturbed so that they differ). ``time`` measures, each as a whole
+frame's velocities perturbed so that they differ), and DIR/two.dump, its first two
+frames. ``time`` measures, each as a whole
 process (start-up included), best of 3, with its peak memory:
 
 - granavg average of the dump over a box grid, the quantities an atom dump gives (nu,
@@ -84,22 +85,25 @@ def make(out: Path, copies, frames: int) -> Path:
     atoms = np.concatenate(tiles)
     rng = np.random.default_rng(1)
     path = out / "big.dump"
-    with open(path, "w") as fh:
+    with open(path, "w") as fh, open(out / "two.dump", "w") as two:
         for k in range(frames):
             a = atoms.copy()
             a[:, 7:13] += rng.normal(0, 1e-4, (len(a), 6))
-            fh.write(f"ITEM: UNITS\nsi\nITEM: TIME\n{0.001 * k:g}\nITEM: TIMESTEP\n{100 * k}\n"
-                     f"ITEM: NUMBER OF ATOMS\n{len(a)}\nITEM: BOX BOUNDS pp pp ff\n"
-                     f"0 {nx * SIDE:g}\n0 {ny * SIDE:g}\n0 0.09\n"
-                     f"ITEM: ATOMS {' '.join(COLUMNS)}\n")
             table = pd.DataFrame(a, columns=COLUMNS).astype({"id": int, "type": int})
-            table.to_csv(fh, sep=" ", header=False, index=False, float_format="%g")
+            text = (f"ITEM: UNITS\nsi\nITEM: TIME\n{0.001 * k:g}\nITEM: TIMESTEP\n{100 * k}\n"
+                    f"ITEM: NUMBER OF ATOMS\n{len(a)}\nITEM: BOX BOUNDS pp pp ff\n"
+                    f"0 {nx * SIDE:g}\n0 {ny * SIDE:g}\n0 0.09\n"
+                    f"ITEM: ATOMS {' '.join(COLUMNS)}\n"
+                    + table.to_csv(sep=" ", header=False, index=False, float_format="%g"))
+            fh.write(text)
+            if k < 2:                     # the first two frames alone: memory against frames
+                two.write(text)
     print(f"{path}: {len(atoms)} spheres x {frames} frames, {path.stat().st_size / 1e6:.0f} MB")
     return path
 
 
 def run(cmd) -> tuple:
-    """(wall seconds, peak RSS in MB) of one whole process."""
+    """(wall seconds, peak RSS in MiB) of one whole process."""
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
@@ -132,15 +136,12 @@ def timing(d: Path, ovito_python: str, grid) -> None:
         ours = best(["sh", "-c", f'rm -f {tmp}/a.csv*; exec "$@"', "sh",
                      *average(dump, tmp / "a.csv")])
         reader = best([sys.executable, "-c", READ, str(dump)])
-        two = tmp / "two.dump"
-        with open(dump, "rb") as src, open(two, "wb") as dst:
-            third = src.read().split(b"ITEM: UNITS")[1:3]
-            dst.write(b"".join(b"ITEM: UNITS" + t for t in third))
         small = best(["sh", "-c", f'rm -f {tmp}/b.csv*; exec "$@"', "sh",
-                      *average(two, tmp / "b.csv")])
-    frames = dump.read_bytes().count(b"ITEM: TIMESTEP")
+                      *average(d / "two.dump", tmp / "b.csv")])
+    with open(dump, "rb") as fh:
+        frames = sum(chunk.count(b"ITEM: TIMESTEP") for chunk in iter(lambda: fh.read(1 << 24), b""))
     print(f"| {dump.name}: {size:.0f} MB, {frames} frames | wall s (best of 3) | MB/s | peak "
-          "memory MB |\n|---|---|---|---|")
+          "memory MiB |\n|---|---|---|---|")
     print(f"| granavg average, {'x'.join(map(str, grid))} boxes, {quantities} | {ours[0]:.1f} | "
           f"{size / ours[0]:.0f} | {ours[1]:.0f} |")
     print(f"| granavg reader alone | {reader[0]:.1f} | {size / reader[0]:.0f} | {reader[1]:.0f} |")

@@ -58,3 +58,39 @@ def test_inertial_flow_is_flagged(tmp_path):
                                     "dump_dt=0.05"), "--average", "8", "--t-min", "0.2")
     assert proc.returncode == 0, proc.stderr
     assert "the flow is inertial" in proc.stderr
+
+
+def test_the_overlap_warning_judges_the_averaging_window(tmp_path, caplog):
+    """Frames of the discarded transient (a start from a data file, or from a packing
+    made by another law) do not count for the warning; with no frame in the window,
+    every frame does; the largest of all frames is recorded beside it."""
+    import logging
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from granavg.io.contacts import COLUMNS
+    from granavg.sim.run_monitor import Overlaps
+
+    derived = SimpleNamespace(scene=SimpleNamespace(d_s=0.01), dt=0.1, t_discard=1.0)
+
+    def table(overlap):
+        t = np.zeros((1, len(COLUMNS)))
+        t[0, COLUMNS.index("overlap")] = overlap
+        return t
+    for frames, window, warned in (([(0, 0.0025), (20, 0.001)], 0.1, False),
+                                   ([(0, 0.0025), (20, 0.0021)], 0.21, True),
+                                   ([(0, 0.0025), (5, 0.001)], 0.25, True)):
+        run = tmp_path / f"run{len(list(tmp_path.iterdir()))}"
+        run.mkdir()
+        (run / "manifest.json").write_text("{}")
+        o = Overlaps(derived)
+        for step, overlap in frames:
+            o.add(table(overlap), step)
+        caplog.clear()
+        with caplog.at_level(logging.WARNING):
+            o.record(run)
+        got = json.loads((run / "manifest.json").read_text())["overlap"]
+        assert got["max_over_d_s"] == pytest.approx(window)
+        assert got["max_over_d_s_all_frames"] == pytest.approx(0.25)
+        assert ("largest overlap" in caplog.text) == warned

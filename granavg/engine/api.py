@@ -9,7 +9,9 @@
 arrays: ``x y radius`` and, as the quantities need, ``vx vy omegaz id mass``) and
 ``contacts`` (dict of arrays ``id1 id2 wall fnx fny ftx fty nx ny overlap``, or None;
 body forces on the disks as atoms' ``bx by``):
-what the dump reader, a running LAMMPS or a dask worker produce alike.
+what the dump reader, a running LAMMPS or a dask worker produce alike. For spheres in 3D
+cells (:class:`~granavg.engine.cells3d.Boxes`, ...) the atoms add ``z vz omegax omegay``
+and the contacts ``fnz ftz nz``.
 """
 
 from __future__ import annotations
@@ -33,12 +35,13 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
     ----------
     frames : iterable
         Frames as described in the module docstring, in increasing time.
-    geometry : Rings, Slabs or Grid
-        The cells and their height h (m) (:mod:`granavg.engine.geometry`).
+    geometry : Rings, Slabs, Grid, Slabs3D, Boxes or Shells
+        The cells (:mod:`granavg.engine.geometry`: disks of height h in 2D;
+        :mod:`granavg.engine.cells3d`: spheres in 3D).
     rho_p : float, optional
-        Material density (kg/m^3): masses rho_p pi h a^2. Not needed when the atoms carry
-        a ``mass`` column (kg), nor for quantities without mass (nu, v, omega, F, sigma,
-        eps, coordination).
+        Material density (kg/m^3): masses rho_p V^p (pi h a^2, or 4/3 pi a^3). Not needed
+        when the atoms carry a ``mass`` column (kg), nor for quantities without mass (nu,
+        v, omega, F, sigma, eps, coordination).
     quantities : sequence of str, optional
         Keys of :data:`granavg.engine.profiles.QUANTITIES`; default all the frames allow.
     t_min : float

@@ -169,16 +169,27 @@ class _Scanner:
                 yield from self._frames()
             finally:
                 if isinstance(self.buf, mmap.mmap):
-                    self.buf.close()
+                    try:
+                        self.buf.close()
+                    except BufferError:   # a view in an error's traceback: closed with it
+                        pass
         if self.seen == 0 and self.reader.steps is None and must_hold:
             raise UserError(f"{self.path}: holds no complete frame (the file is empty or "
                             "damaged); give a dump written by LAMMPS' dump command")
 
     def _frames(self):
+        released = 0
         while self._skip_blank():
             frame = self._frame()
             if frame is None:
                 break
+            if isinstance(self.buf, mmap.mmap):
+                # the mapped pages behind us are not needed again: let them go, so that
+                # memory stays flat however long the file
+                done = self.pos // mmap.PAGESIZE * mmap.PAGESIZE
+                if done > released:
+                    self.buf.madvise(mmap.MADV_DONTNEED, released, done - released)
+                    released = done
             self.seen += 1
             if frame is not _SKIPPED:
                 self.complete = frame.timestep

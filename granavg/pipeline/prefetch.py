@@ -11,8 +11,9 @@ from __future__ import annotations
 import queue
 import threading
 
-#: Frames read ahead at most (memory: this many frames beyond the one averaged).
-DEPTH = 4
+#: Frames read ahead at most (memory: this many frames beyond the one averaged; a
+#: million-sphere frame is about 100 MB).$
+DEPTH = 2
 _END = object()
 
 

@@ -60,7 +60,7 @@ def run_embedded(out, derived: Derived, manifest, variables, omp, progress, comm
                     atoms = gather(comm, local_atoms(lmp)) if sink or comm else None
                     table = contact_table(raw, radius) if raw is not None else None
                     if table is not None:
-                        overlaps.add(table)
+                        overlaps.add(table, step)
                     if writer is not None:
                         writer.write(step, table, box)
                     if sink is not None:

@@ -80,7 +80,7 @@ def convert_raw_contacts(raw_path: Path, out_path: Path, derived: Derived) -> No
         for frame in DumpReader(raw_path):
             raw = frame.data[:, [frame.columns.index(c) for c in RAW_COLUMNS]]
             table = contact_table(raw, radius)
-            overlaps.add(table)
+            overlaps.add(table, frame.timestep)
             write_frame(fh, frame.timestep, frame.time, COLUMNS, table, frame.box, FORMAT)
     raw_path.unlink()
     overlaps.record(out_path.parent)
