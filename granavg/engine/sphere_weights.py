@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
-from granavg.engine.weights import _area_scalar, _below_sphere, _grow, _triplets
+from granavg.engine.weights import _area_scalar, _below_sphere, _triplets, push, span, triplets
 
 #: Gauss-Legendre nodes per piece of the shells' quadrature: 32 agree with 64 to 6e-11
 #: of a sphere's volume (16: 1e-8; tests/test_sphere_weights.py).
@@ -137,32 +137,21 @@ def below3(X, Y, Z, a):
 
 @njit(cache=True, nogil=True)
 def _box_triplets(x, y, z, a, xe, ye, ze):
-    nx, ny, nz = xe.shape[0] - 1, ye.shape[0] - 1, ze.shape[0] - 1
-    cap = x.shape[0] * 4
-    particle = np.empty(cap, np.int64)
-    cell = np.empty(cap, np.int64)
-    w = np.empty(cap)
+    ny, nz = ye.shape[0] - 1, ze.shape[0] - 1
+    particle, cell, w, t = triplets(x.shape[0] * 4)
     corners = np.empty(64)
-    t = 0
     for p in range(x.shape[0]):
         ap = a[p]
-        i0 = min(max(np.searchsorted(xe, x[p] - ap, side="right") - 1, 0), nx - 1)
-        i1 = min(max(np.searchsorted(xe, x[p] + ap, side="left") - 1, 0), nx - 1)
-        j0 = min(max(np.searchsorted(ye, y[p] - ap, side="right") - 1, 0), ny - 1)
-        j1 = min(max(np.searchsorted(ye, y[p] + ap, side="left") - 1, 0), ny - 1)
-        k0 = min(max(np.searchsorted(ze, z[p] - ap, side="right") - 1, 0), nz - 1)
-        k1 = min(max(np.searchsorted(ze, z[p] + ap, side="left") - 1, 0), nz - 1)
+        i0, i1 = span(xe, x[p], ap)
+        j0, j1 = span(ye, y[p], ap)
+        k0, k1 = span(ze, z[p], ap)
         mi, mj, mk = i1 - i0 + 2, j1 - j0 + 2, k1 - k0 + 2
         if (mi == 2 and mj == 2 and mk == 2
                 and xe[i0] <= x[p] - ap and x[p] + ap <= xe[i0 + 1]
                 and ye[j0] <= y[p] - ap and y[p] + ap <= ye[j0 + 1]
                 and ze[k0] <= z[p] - ap and z[p] + ap <= ze[k0 + 1]):
-            wk = 1.0                                   # inside one box (most spheres)
-            if t == cap:
-                cap *= 2
-                particle, cell, w = _grow(particle, cap), _grow(cell, cap), _grow(w, cap)
-            particle[t], cell[t], w[t] = p, (i0 * ny + j0) * nz + k0, wk
-            t += 1
+            particle, cell, w, t = push(particle, cell, w, t, p, (i0 * ny + j0) * nz + k0,
+                                        1.0)             # inside one box (most spheres)
             continue
         xin = mi == 2 and xe[i0] <= x[p] - ap and x[p] + ap <= xe[i0 + 1]
         yin = mj == 2 and ye[j0] <= y[p] - ap and y[p] + ap <= ye[j0 + 1]
@@ -182,14 +171,10 @@ def _box_triplets(x, y, z, a, xe, ye, ze):
                 wk = (outer - inner) / full
                 inner = outer
                 if wk > 0:
-                    if t == cap:
-                        cap *= 2
-                        particle, cell, w = _grow(particle, cap), _grow(cell, cap), \
-                            _grow(w, cap)
                     i, j, k = (m if not xin else i0), (m if not yin else j0), \
                         (m if not zin else k0)
-                    particle[t], cell[t], w[t] = p, (i * ny + j) * nz + k, wk
-                    t += 1
+                    particle, cell, w, t = push(particle, cell, w, t, p,
+                                                (i * ny + j) * nz + k, wk)
             continue
         if mi * mj * mk > corners.shape[0]:
             corners = np.empty(mi * mj * mk)
@@ -211,13 +196,8 @@ def _box_triplets(x, y, z, a, xe, ye, ze):
                            + corners[c000 + di] - corners[c000])
                     wk = vol / full
                     if wk > 0:
-                        if t == cap:
-                            cap *= 2
-                            particle, cell, w = _grow(particle, cap), _grow(cell, cap), \
-                                _grow(w, cap)
-                        particle[t], w[t] = p, wk
-                        cell[t] = ((i0 + i) * ny + j0 + j) * nz + k0 + k
-                        t += 1
+                        particle, cell, w, t = push(
+                            particle, cell, w, t, p, ((i0 + i) * ny + j0 + j) * nz + k0 + k, wk)
     return particle[:t], cell[:t], w[:t]
 
 
@@ -257,19 +237,13 @@ def box_weights(x, y, z, a, xedges, yedges, zedges):
 
 @njit(cache=True, nogil=True)
 def _shell_triplets(d, z, a, re, ze, mt, mw):
-    nr, nz = re.shape[0] - 1, ze.shape[0] - 1
-    cap = d.shape[0] * 4
-    particle = np.empty(cap, np.int64)
-    cell = np.empty(cap, np.int64)
-    w = np.empty(cap)
-    t = 0
+    nz = ze.shape[0] - 1
+    particle, cell, w, t = triplets(d.shape[0] * 4)
     for p in range(d.shape[0]):
         ap = a[p]
         full = 4.0 / 3.0 * math.pi * ap * ap * ap
-        i0 = min(max(np.searchsorted(re, d[p] - ap, side="right") - 1, 0), nr - 1)
-        i1 = min(max(np.searchsorted(re, d[p] + ap, side="left") - 1, 0), nr - 1)
-        k0 = min(max(np.searchsorted(ze, z[p] - ap, side="right") - 1, 0), nz - 1)
-        k1 = min(max(np.searchsorted(ze, z[p] + ap, side="left") - 1, 0), nz - 1)
+        i0, i1 = span(re, d[p], ap)
+        k0, k1 = span(ze, z[p], ap)
         acc = np.zeros((i1 - i0 + 1, k1 - k0 + 1))
         if i0 == i1 and re[i0] <= d[p] - ap and d[p] + ap <= re[i0 + 1]:
             # radially inside one ring: caps between the layers' edges
@@ -313,12 +287,7 @@ def _shell_triplets(d, z, a, re, ze, mt, mw):
             for k in range(k0, k1 + 1):
                 wk = acc[i - i0, k - k0] / full
                 if wk > 0:
-                    if t == cap:
-                        cap *= 2
-                        particle, cell, w = _grow(particle, cap), _grow(cell, cap), \
-                            _grow(w, cap)
-                    particle[t], cell[t], w[t] = p, i * nz + k, wk
-                    t += 1
+                    particle, cell, w, t = push(particle, cell, w, t, p, i * nz + k, wk)
     return particle[:t], cell[:t], w[:t]
 
 

@@ -76,15 +76,9 @@ def _cumulative(mode, pos, a, edge):
 def _triplets(pos, a, edges, mode):
     """(particle, cell, weight) of disks (or spheres, mode 2) in 1D cells, from
     differences of cumulative areas (volumes) at consecutive edges."""
-    n = edges.shape[0] - 1
-    cap = pos.shape[0] * 4
-    particle = np.empty(cap, np.int64)
-    cell = np.empty(cap, np.int64)
-    w = np.empty(cap)
-    t = 0
+    particle, cell, w, t = triplets(pos.shape[0] * 4)
     for p in range(pos.shape[0]):
-        lo = min(max(np.searchsorted(edges, pos[p] - a[p], side="right") - 1, 0), n - 1)
-        hi = min(max(np.searchsorted(edges, pos[p] + a[p], side="left") - 1, 0), n - 1)
+        lo, hi = span(edges, pos[p], a[p])
         full = math.pi * a[p] * a[p] if mode < 2 else 4.0 / 3.0 * math.pi * a[p] * a[p] * a[p]
         inner = _cumulative(mode, pos[p], a[p], edges[lo])
         for k in range(lo, hi + 1):
@@ -92,11 +86,7 @@ def _triplets(pos, a, edges, mode):
             wk = (outer - inner) / full
             inner = outer
             if wk > 0:
-                if t == cap:                     # more cells per disk than expected
-                    cap *= 2
-                    particle, cell, w = _grow(particle, cap), _grow(cell, cap), _grow(w, cap)
-                particle[t], cell[t], w[t] = p, k, wk
-                t += 1
+                particle, cell, w, t = push(particle, cell, w, t, p, k, wk)
     return particle[:t], cell[:t], w[:t]
 
 
@@ -105,6 +95,31 @@ def _grow(arr, cap):
     out = np.empty(cap, arr.dtype)
     out[:arr.shape[0]] = arr
     return out
+
+
+@njit(cache=True, nogil=True, inline="always")
+def triplets(n):
+    """Empty (particle, cell, weight) buffers for about ``n`` entries, and the count 0."""
+    return np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n), 0
+
+
+@njit(cache=True, nogil=True, inline="always")
+def push(particle, cell, w, t, p, k, wk):
+    """Append (p, k, wk) at t, doubling the buffers when full; returns them and t + 1."""
+    if t == particle.shape[0]:
+        cap = 2 * particle.shape[0]
+        particle, cell, w = _grow(particle, cap), _grow(cell, cap), _grow(w, cap)
+    particle[t], cell[t], w[t] = p, k, wk
+    return particle, cell, w, t + 1
+
+
+@njit(cache=True, nogil=True, inline="always")
+def span(edges, u, a):
+    """The first and last cell of ``edges`` that [u - a, u + a] reaches (clamped)."""
+    n = edges.shape[0] - 1
+    lo = min(max(np.searchsorted(edges, u - a, side="right") - 1, 0), n - 1)
+    hi = min(max(np.searchsorted(edges, u + a, side="left") - 1, 0), n - 1)
+    return lo, hi
 
 
 def ring_weights(r, a, edges):
@@ -198,17 +213,11 @@ def _corner(X, Y, a):
 
 @njit(cache=True, nogil=True)
 def _grid_triplets(x, y, a, xe, ye):
-    nx, ny = xe.shape[0] - 1, ye.shape[0] - 1
-    cap = x.shape[0] * 8
-    particle = np.empty(cap, np.int64)
-    cell = np.empty(cap, np.int64)
-    w = np.empty(cap)
-    t = 0
+    ny = ye.shape[0] - 1
+    particle, cell, w, t = triplets(x.shape[0] * 8)
     for p in range(x.shape[0]):
-        i0 = min(max(np.searchsorted(xe, x[p] - a[p], side="right") - 1, 0), nx - 1)
-        i1 = min(max(np.searchsorted(xe, x[p] + a[p], side="left") - 1, 0), nx - 1)
-        j0 = min(max(np.searchsorted(ye, y[p] - a[p], side="right") - 1, 0), ny - 1)
-        j1 = min(max(np.searchsorted(ye, y[p] + a[p], side="left") - 1, 0), ny - 1)
+        i0, i1 = span(xe, x[p], a[p])
+        j0, j1 = span(ye, y[p], a[p])
         full = math.pi * a[p] * a[p]
         for i in range(i0, i1 + 1):
             xl, xh = xe[i] - x[p], xe[i + 1] - x[p]
@@ -218,11 +227,7 @@ def _grid_triplets(x, y, a, xe, ye):
                         - _corner(xh, yl, a[p]) + _corner(xl, yl, a[p]))
                 wk = area / full
                 if wk > 0:
-                    if t == cap:
-                        cap *= 2
-                        particle, cell, w = _grow(particle, cap), _grow(cell, cap), _grow(w, cap)
-                    particle[t], cell[t], w[t] = p, i * ny + j, wk
-                    t += 1
+                    particle, cell, w, t = push(particle, cell, w, t, p, i * ny + j, wk)
     return particle[:t], cell[:t], w[:t]
 
 
