@@ -153,9 +153,11 @@ def reverse_rolling_springs_of_swapped_pairs(dem, before, after):
 
 
 @pytest.mark.parametrize("mu_roll,deck,base", [(0.0, True, None), (0.1, True, None),
-                                               (0.1, False, None), (0.1, True, (0.03, 0.002))],
+                                               (0.1, False, None), (0.1, True, (0.03, 0.002)),
+                                               (0.1, True, (0.03, 0.002, 7))],
                          ids=["gran-hooke-history", "granular-rolling-deck",
-                              "granular-rolling-lammps-defaults", "base-friction"])
+                              "granular-rolling-lammps-defaults", "base-friction",
+                              "base-friction-every-7-steps"])
 def test_same_packing_same_trajectories_up_to_the_chaos_horizon(mu_roll, deck, base):
     """Both engines from one start: positions agree to round-off at first; round-off
     differences (the order in which a disk's contact forces are summed) then grow
@@ -165,8 +167,9 @@ def test_same_packing_same_trajectories_up_to_the_chaos_horizon(mu_roll, deck, b
     LAMMPS then reverses its rolling spring). With the deck's settings no pair is ever
     swapped (the rolling springs stay right); with LAMMPS' defaults (newton on) pairs
     are swapped and the agreement needs the reversal. With the deck's base friction
-    (mu_base 0.03, v_base 2 mm/s) the reference adds the same force; without it, it
-    departs from LAMMPS at once."""
+    (mu_base 0.03, v_base 2 mm/s; the law each step, or its coefficient renewed every 7
+    steps) the reference adds the same force; without it, it departs from LAMMPS at
+    once."""
     x, v, w, frozen = loose_packing()
     law = ContactLaw(k_n=10.0, e_n=0.9, mu=0.5, mu_wall=0.3, mu_roll=mu_roll)
     m0 = RHO_AREA * np.pi * (D / 2) ** 2

@@ -56,14 +56,17 @@ def pair_order_commands(c) -> list[str]:
     return re.findall(r'"([^"]+)"', line)[1:]
 
 
-def base_friction_commands(mu_base: float, v_base: float) -> list[str]:
-    """The deck's base-plate friction commands (read from its ``if "${mu_base} > 0"``
-    line), preceded by the two variables they use; none for ``mu_base == 0``."""
+def base_friction_commands(mu_base: float, v_base: float, every: int = 0) -> list[str]:
+    """The deck's base-plate friction commands (read from its ``if "${mu_base} > 0 &&
+    ${base_every} ..."`` line for ``every`` 0 or > 0), preceded by the variables they
+    use; none for ``mu_base == 0``."""
     if mu_base == 0:
         return []
+    mode = "== 0" if every == 0 else "> 0"
     line = next(ln for ln in DECK.read_text().splitlines()
-                if ln.startswith('if "${mu_base} > 0" then'))
+                if ln.startswith(f'if "${{mu_base}} > 0 && ${{base_every}} {mode}" then'))
     return [f"variable mu_base index {mu_base!r}", f"variable v_base index {v_base!r}",
+            f"variable base_every index {int(every)}",
             *re.findall(r'"([^"]+)"', line)[1:]]
 
 

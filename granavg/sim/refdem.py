@@ -32,7 +32,9 @@ round-off:
 - the deck's friction with the base plate (``fix addforce`` of atom-style variables,
   when ``base`` is given): ``-mu_base 9.81 m v / sqrt(v . v + v_base^2)`` on every free
   disk, added after the contact forces with the half-step velocities, as LAMMPS'
-  ``post_force`` does.
+  ``post_force`` does; or, with base_every N > 0, c v with the coefficient c =
+  -mu_base 9.81 m / sqrt(v . v + v_base^2) of the velocities at setup and at the end of
+  every N-th step (``fix store/state``).
 - ``fix nve/sphere disc`` (velocity Verlet, moment of inertia m r^2 / 2) with
   ``fix enforce2d``: half kick, drift, forces, half kick.
 - ``fix move rotate 0 0 0 0 0 1 T`` for a rotating wall ring: at step n its disks sit
@@ -117,15 +119,17 @@ class ReferenceDEM:
         Frozen disks turned rigidly about the origin at ``Omega`` (rad/s,
         counter-clockwise) from their positions at step 0.
     Omega : float
-    base : (float, float), optional
-        (mu_base, v_base in m/s): the deck's Coulomb friction with the base plate
-        (module docstring); None or mu_base = 0: none.
+    base : (float, float[, int]), optional
+        (mu_base, v_base in m/s[, base_every]): the deck's Coulomb friction with the base
+        plate (module docstring): the law each step (base_every 0, the default) or its
+        coefficient renewed every base_every steps; None or mu_base = 0: none.
     """
 
     def __init__(self, disks: Disks, coeffs: LammpsCoefficients, dt: float,
                  rotating=None, Omega: float = 0.0, base=None):
         self.d, self.c, self.dt = disks, coeffs, dt
-        self.base = base if base is not None and base[0] > 0 else None
+        self.base = (*base[:2], base[2] if len(base) > 2 else 0) \
+            if base is not None and base[0] > 0 else None
         self.step_count = 0
         self.granular = coeffs.mu_roll > 0
         # sorted pair keys and springs: tangential (x, y), then rolling (x, y) with pair granular
@@ -137,6 +141,8 @@ class ReferenceDEM:
         self.Omega, self.x0 = Omega, disks.x[self.rotating].copy()
         self.skin, self._neigh, self.rebuilds = 0.5 * disks.radius.min(), None, 0
         self.contacts = None
+        if self.base is not None and self.base[2]:
+            self._store_base_coefficient()
         self.compute_forces(update_history=False)       # like LAMMPS' setup
 
     def pairs(self):
@@ -169,15 +175,34 @@ class ReferenceDEM:
             self._add_base_friction()
         self.contacts = (i, j, fn, ft)
 
-    def _add_base_friction(self):
-        """The deck's ``fix addforce v_fbx v_fby`` on the free disks, operation for
-        operation: ``-v_mu_base*9.81*mass*vx/v_vbase``, ``v_vbase = sqrt(vx*vx+vy*vy+
-        v_v_base*v_v_base)``."""
-        (mu, vb), d, free = self.base, self.d, ~self.d.frozen
+    def _law_now(self):
+        """The deck's base friction with ``base_every`` 0, operation for operation:
+        ``-v_mu_base*9.81*mass*vx/v_vbase``, ``v_vbase = sqrt(vx*vx+vy*vy+v_v_base*
+        v_v_base)`` of the half-step velocities."""
+        (mu, vb, _), d, free = self.base, self.d, ~self.d.frozen
         vx, vy = d.v[free, 0], d.v[free, 1]
         speed = np.sqrt(vx * vx + vy * vy + vb * vb)
         d.force[free, 0] += -mu * G * d.mass[free] * vx / speed
         d.force[free, 1] += -mu * G * d.mass[free] * vy / speed
+
+    def _store_base_coefficient(self):
+        """The deck's ``fix cbase mobile store/state base_every v_cbase``, operation for
+        operation: ``-v_mu_base*9.81*mass/sqrt(vx*vx+vy*vy+v_v_base*v_v_base)`` of the
+        free disks' velocities now (LAMMPS stores it at setup and at the end of every
+        step that is a multiple of base_every)."""
+        (mu, vb, _), d, free = self.base, self.d, ~self.d.frozen
+        vx, vy = d.v[free, 0], d.v[free, 1]
+        self.base_c = -mu * G * d.mass[free] / np.sqrt(vx * vx + vy * vy + vb * vb)
+
+    def _add_base_friction(self):
+        """The deck's ``fix addforce v_fbx v_fby`` on the free disks: the law of the
+        half-step velocities (``base_every`` 0), or ``f_cbase*vx``, ``f_cbase*vy`` with
+        the stored coefficient."""
+        if self.base[2] == 0:
+            return self._law_now()
+        d, free = self.d, ~self.d.frozen
+        d.force[free, 0] += self.base_c * d.v[free, 0]
+        d.force[free, 1] += self.base_c * d.v[free, 1]
 
     def contact_rows(self):
         """What LAMMPS' ``compute pair/local dx dy dist fx fy p1 p2`` reports now.
@@ -391,6 +416,8 @@ class ReferenceDEM:
         d.v[free] += dtfm * d.force[free]
         d.omega[free] += dtirotate * d.torque[free]
         self.step_count += 1
+        if self.base is not None and self.base[2] and self.step_count % self.base[2] == 0:
+            self._store_base_coefficient()
 
     def _turn_ring(self, step):
         """``fix move rotate`` about the z axis through the origin, as LAMMPS does it."""

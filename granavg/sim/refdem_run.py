@@ -39,7 +39,8 @@ def reference_engine(start: Path, derived: Derived):
     # fix move rotate turns at 2 pi / period, the period written with %.17g: the same double
     omega_move = 2 * math.pi / (2 * math.pi / derived.scene.Omega)
     dem = ReferenceDEM(disks, derived.coeffs, derived.dt, rotating=t == INNER_WALL,
-                       Omega=omega_move, base=(derived.scene.mu_base, derived.scene.v_base))
+                       Omega=omega_move, base=(derived.scene.mu_base, derived.scene.v_base,
+                                                 derived.scene.base_every))
     return dem, data
 
 

@@ -44,7 +44,9 @@ class Scene:
     (dt = t_c / n).
     Base plate: ``mu_base`` (0 = none) Coulomb friction of every disk with the plate it
     slides on, F = -mu_base m g v / sqrt(v^2 + v_base^2) (g = 9.81 m/s^2; linear below
-    ``v_base`` m/s, which keeps it smooth for the integrator).
+    ``v_base`` m/s, which keeps it smooth for the integrator): evaluated each step
+    (``base_every`` 0), or applied as c v with the coefficient c = -mu_base m g /
+    sqrt(v^2 + v_base^2) renewed every ``base_every`` steps (cheaper).
     Walls: rings of glued disks of diameter ``wall_d`` (m, 0 = d_s) whose centres are
     ``wall_spacing * wall_d`` apart, touching R_i and R_o from outside the annulus.
     Schedule: preparation (insert at ``grow_from`` times the diameter, grow over
@@ -73,6 +75,7 @@ class Scene:
     law: ContactLaw = ContactLaw()
     mu_base: float = 0.0
     v_base: float = 0.001
+    base_every: int = 0
     n_per_tc: float = 50.0
     wall_d: float = 0.0
     wall_spacing: float = 0.9
@@ -217,7 +220,7 @@ class Derived:
             "Omega": s.Omega, "kn": c.kn, "kt": c.kt, "gamma_n": c.gamma_n,
             "gamma_t": c.gamma_t, "mu": c.mu, "mu_wall": c.mu_wall, "dt": self.dt,
             "mu_roll": c.mu_roll, "k_roll": c.k_roll, "gamma_roll": c.gamma_roll,
-            "mu_base": s.mu_base, "v_base": s.v_base,
+            "mu_base": s.mu_base, "v_base": s.v_base, "base_every": s.base_every,
             "x_gamma_t": c.gamma_t / c.gamma_n if c.gamma_n else 0.0,
             "wall_d": self.wall_d, "wall_spacing": s.wall_spacing, "size_spread": s.size_spread,
             "grow_from": s.grow_from, "n_grow": self.n_grow, "n_relax": self.n_relax,
@@ -247,6 +250,7 @@ def _check_geometry(s: Scene) -> None:
         (0 < s.grow_from <= 1, "grow_from must be in (0, 1]"),
         (0 <= s.size_spread <= 0.3, "size_spread must be in [0, 0.3]"),
         (s.mu_base >= 0 and s.v_base > 0, "need mu_base >= 0 and v_base > 0"),
+        (0 <= s.base_every <= 1000, "base_every must be from 0 (each step) to 1000 steps"),
         (0 < s.wall_spacing <= 0.9, "wall_spacing must be in (0, 0.9] wall diameters"
          " (gaps would let disks through)"),
         (min(s.t_grow, s.t_relax, s.t_damp, s.t_end, s.dump_dt, s.restart_dt) > 0
