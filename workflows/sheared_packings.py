@@ -4,12 +4,12 @@ Usage::
 
     python workflows/sheared_packings.py OUT NAME [--preset paper-hooke] [--seeds 4]
                                          [--age 250] [--from SET] [--set key=value ...]
-                                         [--ship]
+                                         [--workers 2] [--ship]
 
 Grows K independent packings (seeds ``seed + 7919 k``, as ``granavg simulate --seeds K``),
 or starts from the shipped set ``--from SET`` (its packing of the same seed), with the
 preset's contact law and shears each for ``--age`` s (dumps every 5 s, so that
-the ageing can be seen), two runs at a time on a local dask cluster, into
+the ageing can be seen), ``--workers`` runs at a time on a local dask cluster, into
 ``OUT/seed<N>/``; a seed whose complete run is already there (same scene) is not run
 again. Each run is then averaged (20 rings) for its state over the last 100 s.
 ``--ship`` gzips every run's ``sheared.data`` into ``granavg/sim/packings/NAME/
@@ -56,7 +56,7 @@ def done(run: Path, scene) -> bool:
     return m.get("status") == "complete" and all(have.get(k) == v for k, v in want.items())
 
 
-def simulate_missing(out: Path, scenes: dict, preset: str) -> None:
+def simulate_missing(out: Path, scenes: dict, preset: str, workers: int = 2) -> None:
     from dask.distributed import Client, as_completed
 
     from granavg.dask_cluster import local_cluster
@@ -65,7 +65,7 @@ def simulate_missing(out: Path, scenes: dict, preset: str) -> None:
     todo = {run: s for run, s in scenes.items() if not done(run, s)}
     if not todo:
         return
-    with local_cluster(min(2, len(todo))) as cluster, Client(cluster) as client:
+    with local_cluster(min(workers, len(todo))) as cluster, Client(cluster) as client:
         futures = {client.submit(simulate, s, str(r), progress=False, preset=preset,
                                  pure=False): r for r, s in todo.items()}
         for fut in as_completed(list(futures)):
@@ -83,6 +83,7 @@ def main(argv=None) -> int:
     ap.add_argument("--from", dest="start", default="",
                     help="start from this shipped packing set instead of growing")
     ap.add_argument("--set", dest="overrides", action="append", default=[])
+    ap.add_argument("--workers", type=int, default=2, help="runs at a time")
     ap.add_argument("--ship", action="store_true", help="copy into granavg/sim/packings/NAME")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
@@ -102,7 +103,7 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     scenes = {args.out / f"seed{s}": dataclasses.replace(scene, seed=s)
               for s in seeds_for(scene, args.seeds)}
-    simulate_missing(args.out, scenes, args.preset)
+    simulate_missing(args.out, scenes, args.preset, args.workers)
     record = {
         "made_by": "python workflows/sheared_packings.py "
                    + " ".join(sys.argv[1:] if argv is None else argv),
