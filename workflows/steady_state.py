@@ -80,6 +80,11 @@ def score(runs, t_min=None) -> dict:
     ensemble = next((v for k, v in summary["stationarity"].items()
                      if k.startswith("ensemble")), {})
     first = pd.concat([p.timeseries[p.timeseries.t_s < 20] for p in p20s])
+    period = 2 * math.pi / p20.meta["run_manifest"]["scene"]["Omega"]
+    trends = {f"{q}_trend_per_rotation{suffix}": v for q, rel, suffix in
+              (("P_bulk_Pa", True, "_rel"), ("C_bulk", False, ""), ("nu_bulk", False, ""))
+              for key, v in zip(("", "_err"), trend_per_rotation(ts, q, period, rel))
+              for suffix in [suffix + key]}
     sb = summary["numbers"]["shear_band"]
     ratio = dynamic_over_static(p20)[bulk(p20.rings.n)]
     return {
@@ -102,7 +107,35 @@ def score(runs, t_min=None) -> dict:
         "v0_sys": sb["v0_over_omega_Ri_sys"],
         "s": sb["s_m"], "s_err": sb["s_m_err"], "s_sys": sb["s_m_sys"],
         "claims": {c["claim"]: c["verdict"] for c in summary["claims"]},
+        **trends,
     }
+
+
+def trend_per_rotation(parts, q, period, relative=False):
+    """The linear trend of quantity ``q`` per inner-ring rotation over each run's window
+    (relative to its mean where ``relative``), mean over the runs, and its error: the
+    spread between the runs, but never below the mean's error from each fit's own
+    error (from the fluctuations about its line, by blocking: a lower bound); two runs'
+    spread alone is too uncertain."""
+    from granavg.engine.timeseries import _fluctuation_error
+
+    slopes, errs = [], []
+    for p in parts:
+        t, x = p.t_s.to_numpy(float), p[q].to_numpy(float)
+        ok = np.isfinite(x)
+        t, x = t[ok], x[ok]
+        if len(t) < 4:
+            continue
+        scale = period / (np.mean(x) if relative else 1.0)
+        slopes.append(np.polyfit(t, x, 1)[0] * scale)
+        sem, _ = _fluctuation_error(t, x)        # of the mean; the slope's from the spread
+        errs.append(sem * np.sqrt(12) / (t[-1] - t[0]) * scale)
+    if not slopes:
+        return math.nan, math.nan
+    own = float(np.sqrt(np.sum(np.square(errs)))) / len(slopes)
+    between = float(np.std(slopes, ddof=1) / math.sqrt(len(slopes))) if len(slopes) > 1 \
+        else 0.0
+    return float(np.mean(slopes)), max(own, between)
 
 
 def _between(parts, q):
@@ -115,7 +148,7 @@ def meets(row) -> dict:
     s, tol_s = TARGETS["s"]
     return {"C_bulk >= 3": row["C_bulk"] >= TARGETS["C_bulk"],
             "rattlers < 15%": row["rattler_fraction"] < TARGETS["rattler_fraction"],
-            "pressure steady": _pressure_steady(row),
+            "pressure steady": _steady(row),
             "dyn/static <= 0.01": row["dyn_over_static_bulk"] <= TARGETS["dyn_over_static_bulk"],
             "v0 within 10%": _within(row, "v0", v0, tol_v),
             "s within 15%": _within(row, "s", s, tol_s)}
@@ -129,6 +162,23 @@ def _within(row, key, target, tol) -> bool:
     if sys is None or not np.isfinite(sys):
         return abs(row[key] / target - 1) <= tol
     return abs(row[key] - target) + 2 * math.hypot(row[f"{key}_err"], sys) < tol * target
+
+
+#: The physical tolerance of a steady window: the bulk pressure changes by less than this
+#: share per inner-ring rotation (issue 28).
+P_TREND_TOLERANCE = 0.03
+
+
+def _steady(row) -> bool:
+    """The window is steady: its bulk pressure trends by less than
+    :data:`P_TREND_TOLERANCE` per rotation and C_bulk and nu_bulk by less than 2 errors
+    (rows with the trends); for older rows, :func:`_pressure_steady`."""
+    p = row.get("P_bulk_Pa_trend_per_rotation_rel")
+    if p is None or not np.isfinite(p):
+        return _pressure_steady(row)
+    within = [abs(row[f"{q}_trend_per_rotation"]) < 2 * row[f"{q}_trend_per_rotation_err"]
+              for q in ("C_bulk", "nu_bulk")]
+    return abs(p) < P_TREND_TOLERANCE and all(within)
 
 
 def _pressure_steady(row) -> bool:
@@ -152,20 +202,32 @@ def _ensemble(row) -> str:
 
 def markdown(df: pd.DataFrame) -> str:
     head = ["candidate", "runs", "C_bulk (t<20 s -> window)", "rattlers", "P_bulk (Pa)",
-            "P not shown steady (runs)", "ensemble: C / P / nu (errors)", "ordered share", "dyn/static bulk", "v0/(Omega R_i)", "s (mm)",
-            "targets met"]
+            "P not shown steady (runs)", "ensemble: C / P / nu (errors)",
+            "trend per rotation: P / C / nu", "ordered share", "dyn/static bulk",
+            "v0/(Omega R_i)", "s (mm)", "targets met"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, r in df.iterrows():
         ok = meets(r)
         lines.append(
             f"| {name} | {r.runs} | {r.C_bulk_start:.2f} -> {r.C_bulk:.2f} +- {r.C_bulk_err:.2f} "
             f"| {r.rattler_fraction:.0%} | {r.P_bulk_start_Pa:.3g} -> {r.P_bulk_Pa:.3g} +- "
-            f"{r.P_bulk_Pa_err:.2g} | {r.pressure_drifts} | {_ensemble(r)} | "
+            f"{r.P_bulk_Pa_err:.2g} | {r.pressure_drifts} | {_ensemble(r)} | {_trends(r)} | "
             f"{r.psi6_bulk_ordered:.2f} | "
             f"{r.dyn_over_static_bulk:.3f} | {r.v0:.3f} +- {r.v0_err:.3f}{_sys(r, 'v0', 1)} | "
             f"{1e3 * r.s:.1f} +- {1e3 * r.s_err:.1f}{_sys(r, 's', 1e3)} | {sum(ok.values())}/6: "
             + ", ".join(k for k, v in ok.items() if not v).join(["missing: ", ""]) + " |")
     return "\n".join(lines)
+
+
+def _trends(row) -> str:
+    """P's relative, C's and nu's absolute trend per rotation with errors, or -."""
+    p = row.get("P_bulk_Pa_trend_per_rotation_rel")
+    if p is None or not np.isfinite(p):
+        return "-"
+    return (f"{100 * p:+.1f} +- {100 * row['P_bulk_Pa_trend_per_rotation_rel_err']:.1f}% / "
+            f"{row['C_bulk_trend_per_rotation']:+.3f} +- {row['C_bulk_trend_per_rotation_err']:.3f}"
+            f" / {row['nu_bulk_trend_per_rotation']:+.4f} +- "
+            f"{row['nu_bulk_trend_per_rotation_err']:.4f}")
 
 
 def _sys(row, key, scale) -> str:
