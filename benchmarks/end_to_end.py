@@ -1,9 +1,10 @@
 """End-to-end time of a preset: simulate, average over 20 and 60 rings, analyse (issue 14).
 
-    python benchmarks/end_to_end.py OUT PRESET [SEEDS] [WORKERS]    # default 1 realisation
+    python benchmarks/end_to_end.py OUT PRESET [SEEDS] [WORKERS] [--set KEY=VALUE ...]
 
 Runs the real CLI as a user would: ``granavg simulate --preset PRESET`` (with
-``--seeds SEEDS --workers WORKERS`` for an ensemble), ``granavg average`` over 20 and 60
+``--seeds SEEDS --workers WORKERS`` for an ensemble, default 1 realisation, and the
+scene changes ``--set`` passed on), ``granavg average`` over 20 and 60
 rings (the realisations combined) and ``granavg analyze``. Prints a markdown table: the
 wall time of each phase and of the whole, and the ratio of the whole to the LAMMPS steps
 of the same run (the baseline, from the runs' own timing records: the time LAMMPS spent
@@ -29,11 +30,12 @@ def granavg(*args) -> float:
     return time.perf_counter() - t0
 
 
-def main(out, preset, seeds=1, workers=2):
+def main(out, preset, seeds=1, workers=2, changes=()):
     out = Path(out)
     sim = out / "run"
     ensemble = ["--seeds", seeds, "--workers", workers] if seeds > 1 else []
-    t_sim = granavg("simulate", "--preset", preset, "--out", sim, *ensemble)
+    sets = [a for c in changes for a in ("--set", c)]
+    t_sim = granavg("simulate", "--preset", preset, "--out", sim, *ensemble, *sets)
     runs = sorted(sim.glob("seed*")) if seeds > 1 else [sim]
     t_avg = sum(granavg("average", *runs, "--bins", n, "--out", out / f"profiles{n}.csv")
                 for n in (20, 60))
@@ -44,7 +46,8 @@ def main(out, preset, seeds=1, workers=2):
     lammps = sum(t["lammps_steps_s"] for t in timing) / len(timing) * rounds
     frames = sum(t["frames_s"] for t in timing) / len(timing) * rounds
     total = t_sim + t_avg + t_ana
-    print(f"{preset}, {seeds} realisation(s), {workers if seeds > 1 else 1} process(es)\n")
+    print(f"{preset}{''.join(' --set ' + c for c in changes)}, {seeds} realisation(s), "
+          f"{workers if seeds > 1 else 1} process(es)\n")
     print("| phase | wall s | share |")
     print("|---|---|---|")
     for name, t in [("LAMMPS steps (baseline, from the runs' timing records)", lammps),
@@ -57,5 +60,13 @@ def main(out, preset, seeds=1, workers=2):
 
 
 if __name__ == "__main__":
-    a = sys.argv[1:]
-    main(a[0], a[1], *(int(x) for x in a[2:]))
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("out")
+    ap.add_argument("preset")
+    ap.add_argument("seeds", nargs="?", type=int, default=1)
+    ap.add_argument("workers", nargs="?", type=int, default=2)
+    ap.add_argument("--set", dest="changes", action="append", default=[])
+    a = ap.parse_args()
+    main(a.out, a.preset, a.seeds, a.workers, a.changes)

@@ -203,3 +203,25 @@ def test_the_paper_presets_window_is_steady_in_its_ensemble():
     judged = ensemble_stationarity([r["stationarity"] for r in meta["runs"]])
     for q in ("C_bulk", "P_bulk_Pa", "nu_bulk"):
         assert not judged[q]["drifts"], (q, judged[q])
+
+
+def test_one_runs_undetermined_verdict_is_information_and_a_drift_a_warning(caplog):
+    """A single run whose errors are lower bounds cannot tell a drift from slow
+    fluctuations: its "undetermined" is logged as information, a drift as a warning."""
+    import logging
+
+    from granavg.engine.average import warn_if_drifting
+    rng = np.random.default_rng(25)
+    steady = ensemble(40, rng)
+    unsure = next(r for r in steady if r["C_bulk"]["undetermined"])
+    with caplog.at_level(logging.INFO, logger="granavg"):
+        assert warn_if_drifting(unsure, 0.0) == []
+    assert [r.levelno for r in caplog.records] == [logging.INFO]
+    assert "cannot tell a drift" in caplog.text
+    caplog.clear()
+    rng, t = np.random.default_rng(12), 2.0 * np.arange(300)   # the test above
+    x = 3.0 + 0.5 * np.clip(1 - t / 150, 0, None) + 0.02 * ar1(300, 0.8, rng)
+    drifting = stationarity(pd.DataFrame({"t_s": t, "C_bulk": x}), 60.0)
+    with caplog.at_level(logging.INFO, logger="granavg"):
+        assert warn_if_drifting(drifting, 60.0) == ["C_bulk"]
+    assert logging.WARNING in [r.levelno for r in caplog.records]
