@@ -29,7 +29,9 @@ def test_every_preset_with_a_packing_has_one_for_its_seed_and_the_paper_cell():
         assert int(np.sum(data["type"] <= 2)) == scene.n_small + scene.n_large, name
 
 
-@pytest.mark.parametrize("name, preset_name", [(SET, PRESET), ("rolling-base-sheared", "paper")])
+@pytest.mark.parametrize("name, preset_name", [(SET, PRESET),
+                                               ("rolling-base-sheared", "paper-strong-plate"),
+                                               ("rolling-coulomb-sheared", "paper")])
 def test_the_shipped_packings_are_the_paper_cell_jammed(name, preset_name):
     """Each shipped packing holds the paper's disks (sizes and counts) inside the annulus,
     and its recorded end state is jammed: bulk C >= 3, rattlers < 15%."""
