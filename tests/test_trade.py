@@ -49,7 +49,8 @@ def test_a_scene_key_added_after_the_study_counts_at_its_default():
     friction keeps its class, one with it is another scene."""
     scene = preset("paper-rolling")
     study = table(scene, STUDY)
-    study["scene"] = {k: v for k, v in study["scene"].items() if k not in ("mu_base", "v_base")}
+    study["scene"] = {k: v for k, v in study["scene"].items()
+                      if k not in ("mu_base", "v_base", "base_every")}
     assert trade.accuracy_class(scene.to_dict(), study)[0] == "10%"      # STUDY's k_n = 10
     cls, why = trade.accuracy_class(scene.with_overrides(["mu_base=0.03"]).to_dict(), study)
     assert cls == "not measured" and "mu_base" in why
@@ -77,5 +78,9 @@ def test_the_wall_time_is_disk_steps_and_frames_at_the_measured_rates(monkeypatc
     plain_based = trade.expectation(scene.with_overrides(["mu_roll=0", "mu_base=0.03"]).derive(),
                                     prepared=True)
     assert plain_based["wall_time_s"] == pytest.approx(plain["wall_time_s"] + extra)
+    renewed = trade.expectation(scene.with_overrides(["mu_base=0.03", "base_every=10"]).derive(),
+                                prepared=True)                # the coefficient every 10 steps
+    assert renewed["wall_time_s"] == pytest.approx(
+        f["wall_time_s"] + extra * trade.BASE_FRICTION_EXTRA_RENEWED / trade.BASE_FRICTION_EXTRA)
     monkeypatch.setattr(trade, "study", lambda: None)
     assert "wall_time_s" not in trade.expectation(d, prepared=True)

@@ -5,16 +5,19 @@ Usage::
     python workflows/steady_state.py OUT [--seeds 2] [--t-end 250] [--only NAME ...]
                                          [--baseline ENSEMBLE_DIR]
     python workflows/steady_state.py OUT --score NAME ENSEMBLE_DIR [--t-min S]
+    python workflows/steady_state.py OUT --table
 
 Every candidate keeps the paper's geometry, disk counts, sizes and Omega and runs as an
 ensemble of independent packings (``granavg simulate --seeds``, dask). Each run is
 averaged over 20 and 60 rings from two rotations on (its time series and the steadiness
 test included), and the candidate is scored on the issue's targets: bulk coordination
->= 3 and rattlers < 15% after the transient, bulk pressure steady over the window (with
-3 or more runs judged from the spread between them, otherwise no run may drift),
-dynamic/static stress <= 0.01 in the bulk, v0/(Omega R_i) within 10% of 0.645 and s
-within 15% of 12.7 mm (by the band estimator of granavg.analysis.shear_band, within the
-tolerance by 2 combined statistical and systematic errors). Resumable: candidates already in OUT are not run again. Writes
+>= 3 and rattlers < 15% after the transient, a steady window (the bulk pressure's trend
+within 3% per rotation by 2 errors, C_bulk's and nu_bulk's within 2 errors of none, and
+with 3 or more runs no drift by the spread between them; "too short to tell" when the
+pressure's trend is neither shown within nor beyond 3%), dynamic/static stress <= 0.01
+in the bulk, v0/(Omega R_i) within 10% of 0.645 and s within 15% of 12.7 mm (by the band
+estimator of granavg.analysis.shear_band, within the tolerance by 2 combined statistical
+and systematic errors). Resumable: candidates already in OUT are not run again. Writes
 OUT/candidates.csv, prints a markdown table and draws OUT/timeseries.png. ``--score``
 scores the runs of an ensemble made otherwise (e.g. ``granavg simulate --preset paper
 --seeds 4``) as candidate NAME, over its preset's window or from ``--t-min``.
@@ -148,7 +151,7 @@ def meets(row) -> dict:
     s, tol_s = TARGETS["s"]
     return {"C_bulk >= 3": row["C_bulk"] >= TARGETS["C_bulk"],
             "rattlers < 15%": row["rattler_fraction"] < TARGETS["rattler_fraction"],
-            "pressure steady": _steady(row),
+            "steady window": _steady(row),
             "dyn/static <= 0.01": row["dyn_over_static_bulk"] <= TARGETS["dyn_over_static_bulk"],
             "v0 within 10%": _within(row, "v0", v0, tol_v),
             "s within 15%": _within(row, "s", s, tol_s)}
@@ -169,16 +172,24 @@ def _within(row, key, target, tol) -> bool:
 P_TREND_TOLERANCE = 0.03
 
 
-def _steady(row) -> bool:
-    """The window is steady: its bulk pressure trends by less than
-    :data:`P_TREND_TOLERANCE` per rotation and C_bulk and nu_bulk by less than 2 errors
-    (rows with the trends); for older rows, :func:`_pressure_steady`."""
+def _steady(row):
+    """Whether the window is steady: True when its bulk pressure's trend lies within
+    :data:`P_TREND_TOLERANCE` per rotation by 2 errors, C_bulk's and nu_bulk's trends
+    within 2 errors of none and the ensemble (>= 3 runs) finds no drift; False when the
+    pressure's trend lies beyond the tolerance by 2 errors, C's or nu's beyond 2 errors,
+    or the ensemble finds a drift; None (the window too short to tell) otherwise. Rows
+    scored before the trends: :func:`_pressure_steady`."""
     p = row.get("P_bulk_Pa_trend_per_rotation_rel")
     if p is None or not np.isfinite(p):
         return _pressure_steady(row)
-    within = [abs(row[f"{q}_trend_per_rotation"]) < 2 * row[f"{q}_trend_per_rotation_err"]
-              for q in ("C_bulk", "nu_bulk")]
-    return abs(p) < P_TREND_TOLERANCE and all(within)
+    err = row["P_bulk_Pa_trend_per_rotation_rel_err"]
+    flat = all(abs(row[f"{q}_trend_per_rotation"]) < 2 * row[f"{q}_trend_per_rotation_err"]
+               for q in ("C_bulk", "nu_bulk"))
+    z = row.get("ensemble_z")
+    drifts = isinstance(z, dict) and bool(row.get("ensemble_drifts"))
+    if drifts or not flat or abs(p) - 2 * err > P_TREND_TOLERANCE:
+        return False
+    return True if abs(p) + 2 * err < P_TREND_TOLERANCE else None
 
 
 def _pressure_steady(row) -> bool:
@@ -214,8 +225,11 @@ def markdown(df: pd.DataFrame) -> str:
             f"{r.P_bulk_Pa_err:.2g} | {r.pressure_drifts} | {_ensemble(r)} | {_trends(r)} | "
             f"{r.psi6_bulk_ordered:.2f} | "
             f"{r.dyn_over_static_bulk:.3f} | {r.v0:.3f} +- {r.v0_err:.3f}{_sys(r, 'v0', 1)} | "
-            f"{1e3 * r.s:.1f} +- {1e3 * r.s_err:.1f}{_sys(r, 's', 1e3)} | {sum(ok.values())}/6: "
-            + ", ".join(k for k, v in ok.items() if not v).join(["missing: ", ""]) + " |")
+            f"{1e3 * r.s:.1f} +- {1e3 * r.s_err:.1f}{_sys(r, 's', 1e3)} | "
+            f"{sum(v is True for v in ok.values())}/6: "
+            + ", ".join(k + ("" if v is False else " (too short to tell)")
+                        for k, v in ok.items() if v is not True).join(["missing: ", ""])
+            + " |")
     return "\n".join(lines)
 
 
@@ -270,11 +284,16 @@ def main(argv=None):
     ap.add_argument("--score", nargs=2, metavar=("NAME", "ENSEMBLE_DIR"),
                     help="score an existing ensemble's runs as candidate NAME")
     ap.add_argument("--t-min", type=float, help="with --score: window start (s)")
+    ap.add_argument("--table", action="store_true",
+                    help="print the table of every candidate scored in OUT; run nothing")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     table_path = args.out / "candidates.json"
     done = json.loads(table_path.read_text()) if table_path.exists() else {}
     runs_of = {}
+    if args.table:
+        print(markdown(pd.DataFrame.from_dict(done, orient="index")))
+        return
     if args.score:
         name, where = args.score[0], Path(args.score[1])
         runs_of[name] = sorted(p for p in where.iterdir() if (p / "manifest.json").exists())

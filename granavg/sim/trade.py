@@ -22,13 +22,19 @@ from granavg.sim.scene import Scene
 STUDY = Path(__file__).with_name("trade.json")
 #: scene fields that must equal the study's for its accuracy classes to apply
 SAME_SCENE = ("R_i", "R_o", "n_small", "n_large", "d_s", "d_l", "rho_p", "e_n", "mu",
-              "mu_wall", "mu_roll", "kt_over_kn", "size_spread", "packing", "mu_base", "v_base")
+              "mu_wall", "mu_roll", "kt_over_kn", "size_spread", "packing", "mu_base", "v_base",
+              "base_every")
 #: what base-plate friction adds to a disk-step (the deck's atom-style variables,
 #: evaluated every step; the same whatever the contact law), in units of a disk-step of
 #: ``pair granular`` with rolling resistance: the paper cell two runs at a time took 2.03
 #: (1838 s against 907 s for 1.07 million steps) and 2.2 (1.88 against 0.85 ms per
 #: step) times as long with it (docs/steady-state.md)
 BASE_FRICTION_EXTRA = 1.1
+#: the same with the friction's coefficient renewed every ``base_every`` > 0 steps (two
+#: atom-style variables a step remain): measured at 10, the `paper` ensemble two runs at a
+#: time took 422 s of LAMMPS (docs/paper), the same ensemble without the friction 378 s
+#: (docs/benchmarks.md, end to end)
+BASE_FRICTION_EXTRA_RENEWED = 0.12
 CLASSES = {"5%": "no headline number showed a bias above 5% of the stiff limit (biases "
                   "below the study's resolution, 12-27%, cannot be seen)",
            "10%": "no headline number showed a bias above 10% of the stiff limit",
@@ -42,16 +48,18 @@ def study() -> dict | None:
 
 
 def wall_time(n_steps: int, n_disks: int, n_frames: int, table: dict,
-              rolling: bool = True, base: bool = False) -> float:
+              rolling: bool = True, base: bool = False, base_every: int = 0) -> float:
     """Expected wall time (s) of one single-threaded LAMMPS process: ``n_steps`` steps of
     ``n_disks`` disks and ``n_frames`` frames taken (contact dump, in-situ averaging),
     at the study's measured seconds per disk-step (of ``pair granular`` with rolling
     resistance, or of the plain ``gran/hooke/history`` law, 3.5 times faster here; plus
-    :data:`BASE_FRICTION_EXTRA` rolling-law disk-steps with base-plate friction) and per
-    disk-frame."""
+    :data:`BASE_FRICTION_EXTRA` rolling-law disk-steps with base-plate friction, or
+    :data:`BASE_FRICTION_EXTRA_RENEWED` with its coefficient renewed every ``base_every``
+    > 0 steps) and per disk-frame."""
     step = table["seconds_per_disk_step"] if rolling else \
         table.get("seconds_per_disk_step_plain_law", table["seconds_per_disk_step"])
-    step += BASE_FRICTION_EXTRA * table["seconds_per_disk_step"] if base else 0.0
+    extra = BASE_FRICTION_EXTRA_RENEWED if base_every else BASE_FRICTION_EXTRA
+    step += extra * table["seconds_per_disk_step"] if base else 0.0
     return n_disks * (n_steps * step + n_frames * table["seconds_per_disk_frame"])
 
 
@@ -99,7 +107,8 @@ def expectation(derived, *, prepared: bool, np_ranks: int = 1, omp_threads: int 
     steps = derived.n_shear + (0 if prepared else derived.n_grow + derived.n_relax)
     frames = derived.n_shear // derived.dump_every + 1 if derived.dump_every else 0
     seconds = wall_time(steps, s.n_small + s.n_large, frames, table,
-                        rolling=derived.coeffs.mu_roll > 0, base=s.mu_base > 0)
+                        rolling=derived.coeffs.mu_roll > 0, base=s.mu_base > 0,
+                        base_every=s.base_every)
     cls, why = accuracy_class(s.to_dict(), table)
     return {"wall_time_s": seconds, "accuracy_class": cls, "accuracy_reason": why,
             "parallel": np_ranks * omp_threads > 1,
