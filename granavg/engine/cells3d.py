@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granavg.engine.geometry import _cell_of, _edges, _layout, cartesian_basis, polar_basis
+from granavg.engine.geometry import (_cell_of, _edges, _layout, cartesian_basis,
+                                     edge_coordinates, polar_basis)
 from granavg.engine.sphere_weights import box_weights, layer_weights, shell_weights
 from granavg.errors import UserError
 
@@ -130,9 +131,7 @@ class Slabs3D(Spheres):
         return _cell_of(pos["xyz".index(self.axis)], self.edges, slack)
 
     def coordinates(self) -> dict:
-        u = self.axis
-        return {f"{u}_lo": self.edges[:-1], f"{u}_hi": self.edges[1:],
-                u: 0.5 * (self.edges[1:] + self.edges[:-1])}
+        return edge_coordinates({self.axis: (self.edges, np.arange(len(self.edges) - 1))})
 
     def describe(self) -> dict:
         return {"kind": self.kind, "edges": list(self.edges), "axis": self.axis,
@@ -187,14 +186,9 @@ class Boxes(Spheres):
         return np.where((i >= 0) & (j >= 0) & (k >= 0), (i * ny + j) * nz + k, -1)
 
     def coordinates(self) -> dict:
-        nx, ny, nz = self.shape
         i, j, k = np.unravel_index(np.arange(self.n), self.shape)
-        out = {}
-        for name, e, m in (("x", self.xedges, i), ("y", self.yedges, j), ("z", self.zedges, k)):
-            out[f"{name}_lo"], out[f"{name}_hi"] = e[m], e[m + 1]
-        for name, e, m in (("x", self.xedges, i), ("y", self.yedges, j), ("z", self.zedges, k)):
-            out[name] = 0.5 * (e[m] + e[m + 1])
-        return out
+        return edge_coordinates({"x": (self.xedges, i), "y": (self.yedges, j),
+                                 "z": (self.zedges, k)})
 
     def describe(self) -> dict:
         return {"kind": self.kind, "xedges": list(self.xedges), "yedges": list(self.yedges),
@@ -265,9 +259,7 @@ class Shells(Spheres):
 
     def coordinates(self) -> dict:
         i, k = np.unravel_index(np.arange(self.n), self.shape)
-        r, z = self.edges, self.zedges
-        return {"r_lo": r[i], "r_hi": r[i + 1], "z_lo": z[k], "z_hi": z[k + 1],
-                "r": 0.5 * (r[i] + r[i + 1]), "z": 0.5 * (z[k] + z[k + 1])}
+        return edge_coordinates({"r": (self.edges, i), "z": (self.zedges, k)})
 
     def describe(self) -> dict:
         return {"kind": self.kind, "edges": list(self.edges), "zedges": list(self.zedges),

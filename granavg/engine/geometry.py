@@ -198,9 +198,7 @@ class Slabs(Disks):
         return _cell_of(pos["xy".index(self.axis)], self.edges, slack)
 
     def coordinates(self) -> dict:
-        u = self.axis
-        return {f"{u}_lo": self.edges[:-1], f"{u}_hi": self.edges[1:],
-                u: 0.5 * (self.edges[1:] + self.edges[:-1])}
+        return edge_coordinates({self.axis: (self.edges, np.arange(len(self.edges) - 1))})
 
     def describe(self) -> dict:
         out = {"kind": "slabs", "edges": list(self.edges), "h": self.h,
@@ -247,13 +245,23 @@ class Grid(Disks):
     def coordinates(self) -> dict:
         nx, ny = len(self.xedges) - 1, len(self.yedges) - 1
         i, j = np.divmod(np.arange(nx * ny), ny)
-        xe, ye = self.xedges, self.yedges
-        return {"x_lo": xe[i], "x_hi": xe[i + 1], "y_lo": ye[j], "y_hi": ye[j + 1],
-                "x": 0.5 * (xe[i] + xe[i + 1]), "y": 0.5 * (ye[j] + ye[j + 1])}
+        return edge_coordinates({"x": (self.xedges, i), "y": (self.yedges, j)})
 
     def describe(self) -> dict:
         return {"kind": "grid", "xedges": list(self.xedges), "yedges": list(self.yedges),
                 "h": self.h}
+
+
+def edge_coordinates(cuts: dict) -> dict:
+    """Each cell's lower and upper edge along each axis, then its centres: ``cuts`` maps
+    an axis name to (its edges, the cells' index along it, shape (n_cells,)); returns
+    ``{name_lo, name_hi, ..., name, ...}``, arrays of shape (n_cells,)."""
+    out = {}
+    for name, (e, m) in cuts.items():
+        out[f"{name}_lo"], out[f"{name}_hi"] = e[m], e[m + 1]
+    for name, (e, m) in cuts.items():
+        out[name] = 0.5 * (e[m] + e[m + 1])
+    return out
 
 
 def _cell_of(u, edges, slack=0.0):
