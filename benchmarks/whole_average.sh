@@ -4,19 +4,19 @@
 #   sh benchmarks/whole_average.sh RUN [LONG]     (from the repo root; .venv from make test)
 # RUN: a paper-cell run directory (granavg simulate --preset paper ...); LONG: a long run
 # made from it (python benchmarks/long_run.py RUN LONG 20: ~1000 frames). Every figure is
-# farm-bench's median, each ratio paired in the same call.
+# a median of benchmarks/paired.py, each ratio paired in the same call.
 set -e
 RUN=${1:?usage: whole_average.sh RUN [LONG]}
 ROOT=$(cd "$(dirname "$0")/.." && pwd); BIN=${VIRTUAL_ENV:-$ROOT/.venv}/bin
 T=$(mktemp -d)
-avg() { echo "sh -c 'rm -f $T/$2.csv*; exec $BIN/granavg average $1 --bins 20 $3 --out $T/$2.csv --no-progress'"; }
-bench() { eval farm-bench -n "${N:-5}" --timeout 900 --vs "\"$2\"" -- "$1" | grep -E "A wall|B wall|A/B wall"; }
+avg() { echo "rm -f $T/$2.csv*; exec $BIN/granavg average $1 --bins 20 $3 --out $T/$2.csv --no-progress"; }
+bench() { "$BIN/python" "$ROOT/benchmarks/paired.py" -n "${N:-5}" "$1" "$2" | grep -E "A wall|B wall|A/B wall"; }
 for R in "$RUN" ${2:+"$2"}; do
   echo "## $R"
   echo "### whole average / reading both dumps (benchmarks/read_dumps.py)"
   bench "$(avg "$R" a)" "$BIN/python $ROOT/benchmarks/read_dumps.py $R"
   echo "### whole average / zcat of both dumps"
-  bench "$(avg "$R" a)" "sh -c 'zcat $R/atoms.dump.gz $R/contacts.dump.gz > /dev/null'"
+  bench "$(avg "$R" a)" "zcat $R/atoms.dump.gz $R/contacts.dump.gz > /dev/null"
   echo "### --quantities nu,v / all quantities"
   bench "$(avg "$R" b "--quantities nu,v")" "$(avg "$R" a)"
   echo "### --sectors off / default"
@@ -24,7 +24,7 @@ for R in "$RUN" ${2:+"$2"}; do
   N=3
 done
 echo "### cold numba cache / warm"
-bench "sh -c 'export NUMBA_CACHE_DIR=\$(mktemp -d); rm -f $T/d.csv*; exec $BIN/granavg average $RUN --bins 20 --out $T/d.csv --no-progress'" "$(avg "$RUN" a)"
+bench "export NUMBA_CACHE_DIR=\$(mktemp -d); rm -f $T/d.csv*; exec $BIN/granavg average $RUN --bins 20 --out $T/d.csv --no-progress" "$(avg "$RUN" a)"
 echo "### start-up: granavg --version / python -c pass"
 bench "$BIN/granavg --version" "$BIN/python -c pass"
 rm -rf "$T"
