@@ -225,3 +225,18 @@ def test_one_runs_undetermined_verdict_is_information_and_a_drift_a_warning(capl
     with caplog.at_level(logging.INFO, logger="granavg"):
         assert warn_if_drifting(drifting, 60.0) == ["C_bulk"]
     assert logging.WARNING in [r.levelno for r in caplog.records]
+
+
+def test_a_verdict_said_twice_in_one_command_is_printed_once():
+    """The demo judges the same window for 20 and for 60 rings: the command's log says
+    the verdict once, and a different line still gets through."""
+    import subprocess
+    import sys
+    code = ("import logging; from granavg.pipeline.session import configure_logging; "
+            "configure_logging(False); log = logging.getLogger('granavg.x'); "
+            "[log.info('the window t >= 6.3 s: cannot tell a drift') for _ in range(2)]; "
+            "log.warning('the window t >= 6.3 s: cannot tell a drift'); log.info('another')")
+    err = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stderr.splitlines()
+    assert err == ["granavg: the window t >= 6.3 s: cannot tell a drift",
+                   "granavg: the window t >= 6.3 s: cannot tell a drift", "granavg: another"]

@@ -46,11 +46,29 @@ def _unraisable(previous):
     return hook
 
 
+class _Once(logging.Filter):
+    """Lets each distinct line through once per command: a verdict on the same window
+    (the demo averages it over 20 and over 60 rings) is said once."""
+
+    def __init__(self):
+        super().__init__()
+        self._seen = set()
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        key = (record.levelno, record.getMessage())
+        if key in self._seen:
+            return False
+        self._seen.add(key)
+        return True
+
+
 def configure_logging(verbose: bool) -> None:
     """granavg's log lines on stderr; dask's INFO chatter (and its shutdown tracebacks)
     only with ``verbose``."""
-    logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
-                        format="granavg: %(message)s")
+    handler = logging.StreamHandler()
+    handler.addFilter(_Once())
+    handler.setFormatter(logging.Formatter("granavg: %(message)s"))
+    logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO, handlers=[handler])
     quiet = "debug" if verbose else "warning"
     for noisy in ("distributed", "tornado", "bokeh"):     # dask's own chatter
         logging.getLogger(noisy).setLevel(quiet.upper())
