@@ -27,6 +27,19 @@ def _segment(theta):
     return theta - math.sin(theta) * math.cos(theta)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _cut(r2, chord, x):
+    """Area of the segment of a circle (radius^2 ``r2``) cut off by a chord of
+    half-length ``chord`` at distance ``x`` from its centre (x < 0: the larger part):
+    r^2 theta - chord x with theta = atan2(chord, x), since sin theta cos theta =
+    chord x / r^2 (no sine or cosine to evaluate); :func:`_segment`'s series where the
+    difference would cancel."""
+    theta = math.atan2(chord, x)
+    if theta < 1e-2:
+        return r2 * _segment(theta)
+    return r2 * theta - chord * x
+
+
 def _area(d, a, R):
     """Area (m^2) of a disk of radius ``a`` centred at distance ``d`` from the origin that
     lies inside the circle of radius ``R`` about the origin; a numpy ufunc.
@@ -45,8 +58,7 @@ def _area(d, a, R):
     k = (-d + a + R) * (d + a - R) * (d - a + R) * (d + a + R)
     chord = 0.5 * math.sqrt(max(k, 0.0)) / d
     x = (d * d + R * R - a * a) / (2.0 * d)
-    return (R * R * _segment(math.atan2(chord, x))
-            + a * a * _segment(math.atan2(chord, d - x)))
+    return _cut(R * R, chord, x) + _cut(a * a, chord, d - x)
 
 
 _area_scalar = njit(cache=True, nogil=True)(_area)
