@@ -200,11 +200,11 @@ class CellAverage:
                         dropped.get("contacts_not_touching", 0))
         series = None
         if self.series is not None and self.series.rows:
-            series = self.series.frame()
+            series = self.series.columns()
             meta["stationarity"] = stationarity(series, self.t_min)
             warn_if_drifting(meta["stationarity"], self.t_min)
         self.results = Profiles(self.rings, vals, sem, ring_flags, acc.n_frames, meta,
-                                    replicates, timeseries=series)
+                                replicates, series=series)
         return self.results
 
 

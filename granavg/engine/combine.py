@@ -7,7 +7,7 @@ import warnings
 
 import numpy as np
 
-from granavg.engine.profiles import Profiles
+from granavg.engine.profiles import Profiles, columns_of
 from granavg.engine.uncertainty import Replicates
 from granavg.errors import UserError
 
@@ -67,8 +67,8 @@ def combine_runs(profiles: list, names: list) -> Profiles:
     meta["frames"] = {**first.meta.get("frames", {}),
                       "n": int(sum(p.n_frames for p in profiles))}
     return Profiles(first.rings, values, sem, flags, int(sum(p.n_frames for p in profiles)),
-                        meta, reps, n_runs, pd.concat(series, ignore_index=True) if series
-                        else None)
+                    meta, reps, n_runs, columns_of(pd.concat(series, ignore_index=True))
+                    if series else None)
 
 
 def _within_run_error(sems, values) -> np.ndarray:

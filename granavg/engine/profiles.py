@@ -55,9 +55,10 @@ class Profiles:
         errors of derived numbers (fits, maxima) come from them.
     n_runs : ndarray, optional
         Realisations with a finite value per ring (ensembles only), shape (n_rings,).
-    timeseries : DataFrame, optional
-        The state of every frame read (:mod:`granavg.engine.timeseries`), written as
-        ``<path>.timeseries.csv``; ``meta["stationarity"]`` judges the averaging window.
+    series : dict of name -> ndarray, shape (n_frames_read,), optional
+        The state of every frame read (:mod:`granavg.engine.timeseries`), as columns;
+        written as ``<path>.timeseries.csv``; ``meta["stationarity"]`` judges the
+        averaging window. :attr:`timeseries` gives it as a DataFrame.
     """
 
     rings: Rings
@@ -68,13 +69,24 @@ class Profiles:
     meta: dict = field(default_factory=dict)
     replicates: Replicates | None = None
     n_runs: np.ndarray | None = None
-    timeseries: pd.DataFrame | None = None
+    series: dict | None = None
 
-    def to_frame(self) -> pd.DataFrame:
-        """One row per cell: its coordinates (r_lo, r_hi, r for rings), V, n_frames, each
-        value and ``<name>_sem``, flags."""
+    @property
+    def timeseries(self) -> pd.DataFrame | None:
+        """:attr:`series` as a new DataFrame (None without one); set from a DataFrame or
+        from columns. pandas is imported here, not by the engine's own path."""
+        if self.series is None:
+            return None
         import pandas as pd
+        return pd.DataFrame(self.series)
 
+    @timeseries.setter
+    def timeseries(self, table) -> None:
+        self.series = None if table is None else columns_of(table)
+
+    def to_columns(self) -> dict:
+        """One row per cell, as columns: its coordinates (r_lo, r_hi, r for rings), V,
+        n_frames, [n_runs,] each value and ``<name>_sem``, flags."""
         cols = {**self.rings.coordinates(), "V": self.rings.volume,
                 "n_frames": np.full(self.rings.n, self.n_frames)}
         if self.n_runs is not None:
@@ -82,7 +94,18 @@ class Profiles:
         for name, v in self.values.items():
             cols[name], cols[f"{name}_sem"] = v, self.sem[name]
         cols["flags"] = self.flags
-        return pd.DataFrame(cols)
+        return cols
+
+    def to_frame(self) -> pd.DataFrame:
+        """:meth:`to_columns` as a DataFrame."""
+        import pandas as pd
+        return pd.DataFrame(self.to_columns())
+
+
+def columns_of(table) -> dict:
+    """A table's columns, name -> 1-D ndarray: of a DataFrame, or of a mapping of
+    columns (returned as arrays)."""
+    return {str(name): np.asarray(table[name]) for name in table}
 
 
 def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups, layout: Layout) -> dict:

@@ -20,7 +20,7 @@ Zones by disk centre, as fractions of the gap R_o - R_i: ``in`` [0, 0.2), ``bulk
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+import warnings
 
 import numpy as np
 
@@ -28,9 +28,6 @@ from numba import njit
 
 from granavg.engine.kernels import contact_rows
 from granavg.engine.uncertainty import blocking_errors
-
-if TYPE_CHECKING:
-    import pandas as pd
 
 ZONES = {"in": (0.0, 0.2), "bulk": (0.3, 0.8), "out": (0.85, 1.0)}
 #: Half-window means further apart than this many combined errors flag a drift. With
@@ -179,24 +176,29 @@ class TimeSeries:
         self.rows.append({"step": frame.timestep, "t_s": frame.time,
                           **frame_state(frame.atoms, frame.contacts, *self.geometry)})
 
-    def frame(self) -> pd.DataFrame:
-        import pandas as pd
-        return pd.DataFrame(self.rows)
+    def columns(self) -> dict:
+        """The rows as columns, name -> ndarray (NaN where a frame lacks a quantity)."""
+        names = list(dict.fromkeys(k for row in self.rows for k in row))
+        return {k: np.array([row.get(k, np.nan) for row in self.rows]) for k in names}
 
 
-def window_mean(series: pd.DataFrame, column: str, t_min: float) -> dict:
+def window_mean(series, column: str, t_min: float) -> dict:
     """Mean of a per-frame quantity over t >= t_min with its standard error: between
     realisations for an ensemble's series (a ``run`` column), else by blocking analysis
-    of the frames (``lower_bound`` where no plateau was reached); None if absent."""
+    of the frames (``lower_bound`` where no plateau was reached); None if absent.
+    ``series``: a table (DataFrame, or a mapping of columns)."""
     if series is None or column not in series:
         return None
-    w = series[series.t_s >= t_min]
-    if "run" in w:
-        means = w.groupby("run")[column].mean().to_numpy(float)
+    inside = np.asarray(series["t_s"], float) >= t_min
+    x = np.asarray(series[column], float)[inside]
+    if "run" in series:
+        runs = np.asarray(series["run"])[inside]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)      # a run with no value: NaN
+            means = np.array([np.nanmean(x[runs == r]) for r in np.unique(runs)])
         err = float(np.std(means, ddof=1) / np.sqrt(len(means))) if len(means) > 1 else np.nan
         return {"mean": float(np.mean(means)), "err": err, "n_runs": int(len(means)),
                 "error": "between realisations"}
-    x = w[column].to_numpy(float)
     x = x[np.isfinite(x)]
     if len(x) < 2:
         return {"mean": float(np.mean(x)) if len(x) else np.nan, "err": np.nan}
@@ -215,8 +217,9 @@ def _fluctuation_error(t, x):
     return float(sem["x"][0]), bool(lower["x"][0])
 
 
-def stationarity(series: pd.DataFrame, t_min: float, t_max: float | None = None) -> dict:
-    """Judge each quantity of :data:`JUDGED` over the window t_min <= t <= t_max.
+def stationarity(series, t_min: float, t_max: float | None = None) -> dict:
+    """Judge each quantity of :data:`JUDGED` over the window t_min <= t <= t_max of a
+    table (DataFrame, or a mapping of columns with ``t_s``).
 
     Returns
     -------
@@ -228,16 +231,20 @@ def stationarity(series: pd.DataFrame, t_min: float, t_max: float | None = None)
         samples to tell a drift from slow fluctuations), ``error_lower_bound``,
         ``steady_from_s`` (earliest start that would be steady).
     """
-    window = series[(series.t_s >= t_min) & ((series.t_s <= t_max) if t_max is not None
-                                             else True)]
+    t = np.asarray(series["t_s"], float)
+    upto = t <= (t_max if t_max is not None else np.inf)
+    window = (t >= t_min) & upto
     out = {}
     for q in JUDGED:
-        if q not in window or window[q].notna().sum() < 8:
+        if q not in series:
             continue
-        res = _judge(window.t_s.to_numpy(), window[q].to_numpy(float))
+        x = np.asarray(series[q], float)
+        if np.sum(~np.isnan(x[window])) < 8:
+            continue
+        res = _judge(t[window], x[window])
         if res is None:
             continue
-        res["steady_from_s"] = steady_from(series[series.t_s <= (t_max or np.inf)], q, t_min)
+        res["steady_from_s"] = steady_from({"t_s": t[upto], q: x[upto]}, q, t_min)
         out[q] = res
     return out
 
@@ -269,13 +276,13 @@ def _ratio(a, b):
     return a / b if b > 0 else (0.0 if a == 0 else np.inf)
 
 
-def steady_from(series: pd.DataFrame, q: str, t_min: float, min_frames: int = 16):
+def steady_from(series, q: str, t_min: float, min_frames: int = 16):
     """Earliest start (s, t >= t_min) of a steady stretch of ``q``: the start that
     maximises the effective number of independent frames n / g, g the statistical
     inefficiency from blocking (Chodera, J. Chem. Theory Comput. 12, 1799, 2016), if
     the stretch from there does not drift; None otherwise (or with < min_frames)."""
-    t = series.t_s.to_numpy()
-    x = series[q].to_numpy(float)
+    t = np.asarray(series["t_s"], float)
+    x = np.asarray(series[q], float)
     keep = (t >= t_min) & np.isfinite(x)
     t, x = t[keep], x[keep]
     if len(x) < min_frames:

@@ -4,15 +4,15 @@ docs/profiles.md)."""
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import signal
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
-from granavg.engine.profiles import Profiles
+from granavg.engine.profiles import Profiles, columns_of
 from granavg.engine.geometry import from_description
 from granavg.engine.uncertainty import Replicates
 from granavg.engine.units import SI, UnitSystem
@@ -27,6 +27,8 @@ TIMESERIES = ".timeseries.csv"
 def read_profiles(path) -> Profiles:
     """Profiles written by :func:`write_profiles` (CSV or Parquet, with its JSON sidecar),
     checked: a damaged table or sidecar is a one-line error naming the file."""
+    import pandas as pd
+
     path = Path(path)
     side = path.with_name(path.name + ".json")
     for f in (path, side):
@@ -80,7 +82,7 @@ def read_profiles(path) -> Profiles:
                np.array([f if isinstance(f, str) else "" for f in table["flags"]], dtype=object),
                int(table["n_frames"].iloc[0]), meta, replicates,
                table["n_runs"].to_numpy() if "n_runs" in table.columns else None,
-               pd.read_csv(series) if series.exists() else None)
+               columns_of(pd.read_csv(series)) if series.exists() else None)
 
 
 def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
@@ -89,10 +91,10 @@ def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
     temporary name first, renamed only when all are complete."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    table = profiles.to_frame()
+    table = profiles.to_columns()
     system = profiles.meta.get("unit_system")
     units = UnitSystem(**system) if system else SI
-    profiles.meta["columns"] = units.columns([c for c in table.columns if c != "flags"])
+    profiles.meta["columns"] = units.columns([c for c in table if c != "flags"])
     if parquet:
         try:
             import pyarrow  # noqa: F401  (pandas' Parquet engine)
@@ -101,14 +103,14 @@ def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
     targets = [path, path.with_name(path.name + ".json")]
     if profiles.replicates is not None:
         targets.append(path.with_name(path.name + REPLICATES))
-    if profiles.timeseries is not None:
+    if profiles.series is not None:
         targets.append(path.with_name(path.name + TIMESERIES))
     tmp = [t.with_name(f".{t.name}.tmp{os.getpid()}") for t in targets]
     try:
         if parquet:
-            table.to_parquet(tmp[0], index=False)
+            profiles.to_frame().to_parquet(tmp[0], index=False)
         else:
-            table.to_csv(tmp[0], index=False, float_format="%.10g")
+            write_csv(tmp[0], table, "%.10g")
         tmp[1].write_text(json.dumps(profiles.meta, indent=2) + "\n")
         extra = iter(tmp[2:])
         if profiles.replicates is not None:
@@ -116,8 +118,8 @@ def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
                 reps = profiles.replicates
                 parts = {"parts": json.dumps(reps.parts)} if reps.parts else {}
                 np.savez(fh, kind=reps.kind, **parts, **reps.values)
-        if profiles.timeseries is not None:
-            profiles.timeseries.to_csv(next(extra), index=False, float_format="%.8g")
+        if profiles.series is not None:
+            write_csv(next(extra), profiles.series, "%.8g")
         # the table last: when it exists, its companions do; no signal in between
         blocked = {signal.SIGINT, signal.SIGTERM}
         old = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
@@ -130,3 +132,21 @@ def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
         for t in tmp:
             t.unlink(missing_ok=True)
     return path
+
+
+def write_csv(path, columns: dict, float_format: str) -> None:
+    """Columns (name -> 1-D array, equal lengths) as a CSV table with a header, as pandas
+    writes one: floats with ``float_format``, NaN and None as empty fields, integers and
+    strings as they are (quoted where the format needs it)."""
+    text = []
+    for v in columns.values():
+        v = np.asarray(v)
+        if v.dtype.kind == "f":
+            text.append(["" if x != x else float_format % x for x in v.tolist()])
+        else:
+            text.append(["" if x is None or (isinstance(x, float) and x != x) else str(x)
+                         for x in v.tolist()])
+    with open(path, "w", newline="") as fh:
+        out = csv.writer(fh, lineterminator="\n")
+        out.writerow(columns)
+        out.writerows(zip(*text))

@@ -90,7 +90,7 @@ class InSituAverage:
             if first is None:
                 first = profiles
             else:
-                profiles.timeseries = first.timeseries
+                profiles.series = first.series
                 profiles.meta["stationarity"] = first.meta.get("stationarity")
             profiles.meta["files"] = {"atoms": "in situ (no file)",
                                       "contacts": "in situ (no file)" if self.contacts else None}
