@@ -51,3 +51,19 @@ def test_overlap_uses_each_atoms_own_radius():
     out = dict(zip(COLUMNS, contact_table([row], radius)[0]))
     assert np.isclose(out["overlap"], 0.0036 + 0.0041 - 0.0076)
     assert np.isnan(radius_by_id([2], [0.001])[1])
+
+
+def test_atom_ids_are_found_alike_through_a_table_and_by_sorted_search():
+    """Dense ids go through a table indexed by id, sparse ones (here 10^7 apart) through
+    a sorted search: the same rows, and unknown ids (absent, negative, beyond the
+    largest) are not found; float columns (as dumps are read) and integers alike."""
+    from granavg.engine.kernels import lookup
+    rng = np.random.default_rng(4)
+    ids = rng.permutation(np.arange(1, 1001))
+    wanted = np.concatenate([rng.choice(ids, 300), [0, -3, 1001, 5000]])
+    truth = {int(i): k for k, i in enumerate(ids)}
+    for scale in (1, 10**7):                           # table / search
+        for kind in (float, np.int64):
+            rows, found = lookup((ids * scale).astype(kind), (wanted * scale).astype(kind))
+            assert list(found) == [int(w) in truth for w in wanted]
+            assert [truth[int(w)] for w in wanted[found]] == list(rows[found])

@@ -59,12 +59,20 @@ def contact_rows(atoms, contacts):
     last, rows = _last_rows                 # one read: another thread may replace it
     if last is not None and all(a is b for a, b in zip(key, last)):
         return rows
-    pair = contacts["wall"] == 0
-    i1 = rows_of(atoms["id"], contacts["id1"])
-    i2 = np.full(len(i1), -1, dtype=np.int64)
-    i2[pair] = rows_of(atoms["id"], contacts["id2"][pair])
+    ids = atoms["id"]
+    i1 = rows_of(ids, contacts["id1"])
+    rows2, found2 = lookup(ids, contacts["id2"])
+    pair = np.asarray(contacts["wall"]) == 0
+    if not np.all(found2[pair]):
+        _unknown(np.asarray(contacts["id2"])[pair & ~found2][0])
+    i2 = np.where(pair, rows2, -1)
     _last_rows = (key, (i1, i2))
     return i1, i2
+
+
+def _unknown(atom_id):
+    raise UserError(f"the contact dump names atom id {int(atom_id)}, which is not in the "
+                    "atom dump of the same time step; use dumps of the same run")
 
 
 def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks, basis,
@@ -298,31 +306,38 @@ def lookup(ids, wanted):
         Meaningful where ``found``.
     found : ndarray of bool, shape (N,)
     """
-    ids = np.asarray(ids).astype(np.int64)
-    wanted = np.asarray(wanted).astype(np.int64)
+    ids, wanted = np.asarray(ids), np.asarray(wanted)
     if len(ids) == 0:
         return np.zeros(len(wanted), np.int64), np.zeros(len(wanted), bool)
-    top = int(ids.max(initial=0))
-    if top < 8 * len(ids) + 1_000_000:               # a lookup table: O(P + N)
-        table = np.full(top + 2, -1, dtype=np.int64)
-        table[ids] = np.arange(len(ids))
-        rows = table[np.clip(wanted, 0, top + 1)]
-        bad = (rows < 0) | (wanted < 0) | (wanted > top)
-    else:                                           # sparse ids: sort and search
-        order = np.argsort(ids, kind="stable")
-        pos = np.minimum(np.searchsorted(ids[order], wanted), len(ids) - 1)
-        rows = order[pos]
-        bad = ids[rows] != wanted
-    return rows, ~bad
+    top = int(ids.max())
+    if ids.min() >= 0 and top < 8 * len(ids) + 1_000_000:         # a table: O(P + N)
+        rows = _table_rows(ids, wanted, top)
+        return rows, rows >= 0
+    ids, wanted = ids.astype(np.int64), wanted.astype(np.int64)   # sparse: sort and search
+    order = np.argsort(ids, kind="stable")
+    rows = order[np.minimum(np.searchsorted(ids[order], wanted), len(ids) - 1)]
+    return rows, ids[rows] == wanted
+
+
+@njit(cache=True, nogil=True)
+def _table_rows(ids, wanted, top):
+    """Row of each wanted id through a table indexed by id (0 <= ids <= top, integers
+    or floats holding them, truncated as astype does); -1 if unknown."""
+    table = np.full(top + 1, -1, np.int64)
+    for p in range(ids.shape[0]):
+        table[int(ids[p])] = p
+    rows = np.full(wanted.shape[0], -1, np.int64)
+    for c in range(wanted.shape[0]):
+        if 0 <= wanted[c] < top + 1:
+            rows[c] = table[int(wanted[c])]
+    return rows
 
 
 def rows_of(ids, wanted):
     """Row of each id in the atom ids (:func:`lookup`); an unknown id is a user error."""
     rows, found = lookup(ids, wanted)
-    bad = ~found
-    if np.any(bad):
-        raise UserError(f"the contact dump names atom id {int(wanted[bad][0])}, which is not "
-                        "in the atom dump of the same time step; use dumps of the same run")
+    if not np.all(found):
+        _unknown(np.asarray(wanted)[~found][0])
     return rows
 
 
