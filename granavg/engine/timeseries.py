@@ -26,7 +26,7 @@ import numpy as np
 
 from numba import njit
 
-from granavg.engine.kernels import contact_rows
+from granavg.engine.kernels import contact_rows, wall_points
 from granavg.engine.uncertainty import blocking_errors
 
 ZONES = {"in": (0.0, 0.2), "bulk": (0.3, 0.8), "out": (0.85, 1.0)}
@@ -100,7 +100,7 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
     out["wall_contacts_in"] = int(np.sum(contacts["wall"] == 1))
     out["wall_contacts_out"] = int(np.sum(contacts["wall"] == 2))
     if "fnx" in contacts and "overlap" in contacts:
-        out.update(wall_torques(atoms, contacts, i1))
+        out.update(wall_torques(atoms, contacts, (i1, i2)))
     return out
 
 
@@ -135,22 +135,18 @@ def _contact_state(i1, i2, fn, a, x, y, n):
     return count, trace, bonds, re6, im6
 
 
-def wall_torques(atoms, contacts, i1) -> dict:
+def wall_torques(atoms, contacts, rows) -> dict:
     """Torque about the centre (N m) that the packing exerts on each wall: minus the
-    wall contacts' forces on the disks, at their contact points x + (a - delta/2) n.
-    The shear cell's torque, which the experiments measure (``torque_in_Nm`` on the
-    turning inner ring, ``torque_out_Nm`` on the outer)."""
-    out = {}
-    for name, code in (("torque_in_Nm", 1), ("torque_out_Nm", 2)):
-        k = contacts["wall"] == code
-        p = i1[k]
-        reach = atoms["radius"][p] - 0.5 * contacts["overlap"][k]
-        cx = atoms["x"][p] + reach * contacts["nx"][k]
-        cy = atoms["y"][p] + reach * contacts["ny"][k]
-        fx = contacts["fnx"][k] + contacts["ftx"][k]
-        fy = contacts["fny"][k] + contacts["fty"][k]
-        out[name] = float(np.sum(-(cx * fy - cy * fx)))
-    return out
+    wall contacts' forces on the disks, at their contact points x + (a - delta/2) n
+    (:func:`~granavg.engine.kernels.wall_points`). The shear cell's torque, which the
+    experiments measure (``torque_in_Nm`` on the turning inner ring, ``torque_out_Nm``
+    on the outer)."""
+    points, forces = wall_points(atoms, contacts, 2, "contact", rows)
+    code = np.asarray(contacts["wall"])
+    code = code[code != 0]
+    torque = -(points[:, 0] * forces[:, 1] - points[:, 1] * forces[:, 0])
+    return {name: float(np.sum(torque[code == c]))
+            for name, c in (("torque_in_Nm", 1), ("torque_out_Nm", 2))}
 
 
 def _hexatic(bonds, re6, im6, bulk):
