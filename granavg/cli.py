@@ -151,9 +151,11 @@ def _parser() -> argparse.ArgumentParser:
     avg.add_argument("--vtk", action="store_true", help="also write <out>.vtu for ParaView "
                      "(grids, boxes and cylindrical shells)")
     avg.add_argument("--workers", type=int, help="average on a local dask cluster of this "
-                     "many processes (frames split in chunks; same result as serial)")
+                     "many processes (frames split in chunks; same result as serial): run "
+                     "directories, LAMMPS dump.* series and uncompressed dumps")
     avg.add_argument("--scheduler", metavar="ADDRESS", help="average on this dask "
-                     "scheduler's workers (tcp://host:8786); they must see the run directory")
+                     "scheduler's workers (tcp://host:8786); they must see the run directory "
+                     "or the dumps")
     avg.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
     ana = sub.add_parser("analyze", help="figures 2-9, summary.json and report.html from "

@@ -9,6 +9,7 @@ boxes holding the pile is LAMMPS' summed per-atom pair virial; boxes covering th
 periodic box hold every sphere's volume (images across the periodic faces); a dump.*
 file series reads as the single dump; the CLI refuses 2D-only options in one line."""
 
+import gzip
 import math
 from pathlib import Path
 
@@ -193,3 +194,33 @@ def test_the_piles_slabs_balance_with_gravity(pile, tmp_path):
     assert np.all(np.isnan(full["residual"][:, [0, -1]]))
     assert np.all(np.abs(full["residual"][:, inner]) < 0.02), full["residual"]
     assert np.all(np.abs(bare["residual"][2, inner]) > 0.05), bare["residual"]
+
+
+def test_dask_workers_average_a_series_and_a_plain_dump_as_one_process_does(tmp_path):
+    """`--workers 2` on the deck's dump.* series and on its single uncompressed dumps:
+    the chunks (whole time blocks) merge into the serial profiles bit for bit."""
+    args = ("--slabs", "z", "--range", 0, 0.024, "--bins", 6)
+    for name, files in (("many", dict(atoms="atoms.*.txt", contacts="contacts.*.txt")),
+                        ("one", {})):
+        run = tmp_path / name
+        run_deck(run, series="yes" if files else "no", kn=100.0)
+        serial = average(run, tmp_path / f"{name}-s.csv", *args, **files)
+        parallel = average(run, tmp_path / f"{name}-p.csv", *args, "--workers", 2, **files)
+        assert len(parallel.meta["dask"]["chunks"]) > 1
+        assert parallel.n_frames == serial.n_frames == 11
+        for q in serial.values:
+            assert np.array_equal(serial.values[q], parallel.values[q], equal_nan=True), q
+            assert np.array_equal(serial.sem[q], parallel.sem[q], equal_nan=True), q
+        assert np.array_equal(serial.flags, parallel.flags)
+
+
+def test_dask_workers_refuse_a_single_gzip_dump_in_one_line(pile, tmp_path):
+    """One gzip file is one stream: --workers cannot split it, and says so."""
+    out, _ = pile
+    gz = tmp_path / "atoms.dump.gz"
+    gz.write_bytes(gzip.compress((out / "atoms.dump").read_bytes()))
+    proc = run_cli("average", "--atoms", gz, "--slabs", "z", "--workers", "2",
+                   "--out", tmp_path / "x.csv", "--no-progress")
+    assert proc.returncode == 2 and "one gzip file is one stream" in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "x.csv").exists()

@@ -25,11 +25,20 @@ from granavg.engine.units import SI, UnitSystem
 from granavg.errors import ParameterError, UserError
 
 
-def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
-            t_min: float = 0.0, block_time: float | None = None,
-            progress: bool | None = False, units: UnitSystem = SI,
-            branch: str = "contact", sectors="auto") -> Profiles:
-    """Time-averaged profiles of ``frames`` over the cells of ``geometry`` (Eqs. 1-7).
+def average(frames, geometry, *, progress: bool | None = False, **options) -> Profiles:
+    """Time-averaged profiles of ``frames`` over the cells of ``geometry`` (Eqs. 1-7):
+    :func:`averager`'s, run over every frame (``progress``: a progress bar; None: on
+    a terminal)."""
+    return averager(frames, geometry, **options).run(progress)
+
+
+def averager(frames, geometry, *, rho_p: float | None = None, quantities=None,
+             t_min: float = 0.0, block_time: float | None = None, units: UnitSystem = SI,
+             branch: str = "contact", sectors="auto") -> CellAverage:
+    """The averager of ``frames`` over the cells of ``geometry`` (Eqs. 1-7), its
+    quantities and blocks chosen from the first two frames (which it keeps); ``run()``
+    it, or ``prepare()``, ``add()`` frames, ``merge()`` other averagers' ``state()``
+    (disjoint frames: a dask worker's) and ``conclude()``.
 
     Parameters
     ----------
@@ -66,8 +75,9 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
 
     Returns
     -------
-    Profiles
-        Values, standard errors, flags and jackknife replicates per cell, in ``units``.
+    CellAverage
+        Its profiles (:meth:`~granavg.engine.average.CellAverage.conclude`): values,
+        standard errors, flags and jackknife replicates per cell, in ``units``.
     """
     it = iter(frames)
     head = list(itertools.islice(it, 2))
@@ -92,4 +102,4 @@ def average(frames, geometry, *, rho_p: float | None = None, quantities=None,
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
                 "geometry": geometry.describe(),
                 "frames": {"t_min_s": t_min, "block_time_s": block_time}}
-    return avg.run(progress)
+    return avg

@@ -195,6 +195,8 @@ class LammpsDumps(PairedDumps):
         where there is one.
     dim : {2, 3}, optional
         The dimension (default from the dump: :func:`dimension`).
+    steps : (int, int), optional
+        Only the frames with first <= timestep <= last (a dask worker's chunk).
 
     Attributes
     ----------
@@ -206,7 +208,7 @@ class LammpsDumps(PairedDumps):
     """
 
     def __init__(self, atoms, contacts=None, *, atom_map=None, contact_map=None,
-                 wall_types=(), dt=None, units=None, dim=None):
+                 wall_types=(), dt=None, units=None, dim=None, steps=None):
         unit_system = choose_units(dump_header(atoms)[1], units)
         if contacts is not None and (said := dump_header(contacts)[1]) is not None:
             if choose_units(said, None).style != unit_system.style:
@@ -223,8 +225,8 @@ class LammpsDumps(PairedDumps):
             raise UserError(f"{atoms}: --wall-types needs the atoms' type column")
         if self.cmap is not None and "id" not in self.amap:
             raise UserError(f"{atoms}: contacts need the atoms' id column")
-        super().__init__(DumpReader(atoms, sorted(set(self.amap.values()))),
-                         DumpReader(contacts, sorted(set(self.cmap.values())))
+        super().__init__(DumpReader(atoms, sorted(set(self.amap.values())), steps=steps),
+                         DumpReader(contacts, sorted(set(self.cmap.values())), steps=steps)
                          if self.cmap is not None else None, dt, unit_system)
 
     format_name = "lammps"
@@ -367,4 +369,4 @@ def _claims(path) -> bool:
 
 FORMAT = Format("lammps", "LAMMPS text dumps: dump custom (atoms) and dump local (contacts: "
                 "pair/local + property/local, or granavg's own columns)", _claims, LammpsDumps,
-                ("atom_map", "contact_map", "wall_types", "dt", "units", "dim"))
+                ("atom_map", "contact_map", "wall_types", "dt", "units", "dim", "steps"))

@@ -7,7 +7,7 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-from granavg.engine import average
+from granavg.engine.api import averager
 from granavg.engine.average import warn_if_drifting
 from granavg.engine.combine import combine_runs
 from granavg.engine.profiles import Profiles
@@ -17,7 +17,7 @@ from granavg.io import formats, validate
 from granavg.io.profiles_io import REPLICATES, TIMESERIES, write_profiles
 from granavg.engine import body_forces
 from granavg.pipeline.description import DumpAverage, WithBodyForces
-from granavg.pipeline.on_dask import average_run_dask
+from granavg.pipeline.on_dask import average_dumps_dask, average_run_dask
 from granavg.pipeline.prefetch import Prefetched
 from granavg.pipeline.runs import average_run
 
@@ -42,11 +42,21 @@ def average_runs(run_dirs, average_one=average_run, **options) -> Profiles:
     return combined
 
 
-def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
-                  quantities=None, t_min=None, block_time=None, progress=None,
-                  gravity=None, branch="contact", sectors="auto",
-                  **source_options) -> Profiles:
-    """Profiles of anyone's dumps (no run directory), in their own units.
+def average_dumps(atoms, contacts=None, *, progress=None, **options) -> Profiles:
+    """Profiles of anyone's dumps (no run directory), in their own units
+    (:func:`dump_averager`'s options; ``progress``: a progress bar, None on a terminal)."""
+    avg, frames = dump_averager(atoms, contacts, **options)
+    profiles = avg.run(progress)
+    if any(frames.dropped.values()):
+        profiles.meta["dropped"] = dict(frames.dropped)
+    return profiles
+
+
+def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
+                  quantities=None, t_min=None, block_time=None, gravity=None,
+                  branch="contact", sectors="auto", **source_options):
+    """The averager of anyone's dumps (:func:`granavg.engine.api.averager`) and the
+    frame source it reads (whose ``dropped`` counts rows left out).
 
     Parameters
     ----------
@@ -70,7 +80,8 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
         for the errors' spatial replicas (:mod:`granavg.engine.replicas`).
     **source_options
         Options of the format (e.g. ``atom_map``, ``contact_map``, ``wall_types``,
-        ``dt``, ``units`` for LAMMPS dumps).
+        ``dt``, ``units`` for LAMMPS dumps; ``steps``, a time-step window, for a dask
+        worker's chunk).
     """
     validate.positive("--density", density)
     validate.positive("--block-time", block_time)
@@ -92,18 +103,16 @@ def average_dumps(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     if frames.units.style == "unstated":
         log.info("%s does not say its units: the outputs are labelled 'unstated'; --units "
                  "STYLE names them", atoms)
-    profiles = average(Prefetched(frames), spec.geometry, rho_p=density, quantities=quantities,
-                       t_min=t_min or 0.0, block_time=block_time, progress=progress,
-                       units=frames.units, branch=branch, sectors=sectors)
-    profiles.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
-                                    else None},
-                          "inputs": {"format": frames.format_name,
-                                     **({"thickness": cells["thickness"]} if dim == 2 else {}),
-                                     "density": density, **frames.describe()},
-                          "body_forces": [t.describe for t in terms]})
-    if any(frames.dropped.values()):
-        profiles.meta["dropped"] = dict(frames.dropped)
-    return profiles
+    avg = averager(Prefetched(frames), spec.geometry, rho_p=density, quantities=quantities,
+                   t_min=t_min or 0.0, block_time=block_time, units=frames.units,
+                   branch=branch, sectors=sectors)
+    avg.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
+                               else None},
+                     "inputs": {"format": frames.format_name,
+                                **({"thickness": cells["thickness"]} if dim == 2 else {}),
+                                "density": density, **frames.describe()},
+                     "body_forces": [t.describe for t in terms]})
+    return avg, frames
 
 
 def average_to_file(run_dirs, out, *, parquet=False, netcdf=False, vtk=False, workers=None,
@@ -121,6 +130,9 @@ def average_to_file(run_dirs, out, *, parquet=False, netcdf=False, vtk=False, wo
                         "run's rings are 1D (--netcdf writes them)")
     extra = (".nc",) * bool(netcdf) + (".vtu",) * bool(vtk)
     out = validate.free_output(Path(out), ("", ".json", REPLICATES, TIMESERIES, *extra))
+    if workers is not None and workers < 1:
+        raise UserError(f"--workers {workers}: must be >= 1 (leave it out to average "
+                        "in this process)")
     if run_dirs:
         profiles = _average_run_dirs(run_dirs, atoms, contacts, workers, scheduler,
                                      progress, options)
@@ -129,12 +141,13 @@ def average_to_file(run_dirs, out, *, parquet=False, netcdf=False, vtk=False, wo
         if not atoms:
             raise UserError("give a run directory, or a LAMMPS dump with --atoms (and "
                             "--contacts)")
+        atoms = validate.existing_file("--atoms", atoms)
+        contacts = validate.existing_file("--contacts", contacts)
         if workers is not None or scheduler:
-            raise UserError("--workers and --scheduler average run directories; plain "
-                            "dumps are averaged in this process")
-        profiles = average_dumps(validate.existing_file("--atoms", atoms),
-                                 validate.existing_file("--contacts", contacts),
-                                 progress=progress, **options)
+            profiles = average_dumps_dask(atoms, contacts, workers=workers or 2,
+                                          scheduler=scheduler, **options)
+        else:
+            profiles = average_dumps(atoms, contacts, progress=progress, **options)
     if netcdf or vtk:
         from granavg.io import field_files
 
@@ -159,9 +172,6 @@ def _average_run_dirs(run_dirs, atoms, contacts, workers, scheduler, progress, o
     if len(run_dirs) > 1 and (atoms or contacts):
         raise UserError("--atoms and --contacts name the dumps of one run; give one run "
                         "directory with them")
-    if workers is not None and workers < 1:
-        raise UserError(f"--workers {workers}: must be >= 1 (leave it out to average "
-                        "in this process)")
     options = dict(options, atoms=atoms, contacts=contacts)
     if workers is not None or scheduler:
         return average_runs(run_dirs, average_run_dask, workers=workers or 2,

@@ -15,22 +15,31 @@ import numpy as np
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.profiles import Profiles
 from granavg.dask_cluster import local_cluster
+from granavg.errors import UserError
 from granavg.pipeline.runs import run_averager
 
 log = logging.getLogger(__name__)
 
 
 def chunk_windows(manifest: dict, t_min: float, block_time: float, n_chunks: int) -> list:
-    """Time-step windows ``(first, last)`` of the dump frames with t >= t_min, cut only
-    at block boundaries into at most ``n_chunks`` parts of about equal frame counts."""
+    """Time-step windows ``(first, last)`` of a run's dump frames with t >= t_min
+    (:func:`cut_windows`)."""
     d = manifest["derived"]
-    dt, every = d["dt_s"], d["dump_every_steps"]
-    steps = np.arange(d["first_dump_step"], d["n_shear_steps"] + 1, every)
-    steps = steps[steps * dt >= t_min]
+    steps = np.arange(d["first_dump_step"], d["n_shear_steps"] + 1, d["dump_every_steps"])
+    return cut_windows(steps, steps * d["dt_s"], t_min, block_time, n_chunks)
+
+
+def cut_windows(steps, times, t_min: float, block_time: float, n_chunks: int) -> list:
+    """Time-step windows ``(first, last)`` of the frames (``steps`` at ``times``) with
+    t >= t_min, cut only at block boundaries into at most ``n_chunks`` parts of about
+    equal frame counts."""
+    steps, times = np.asarray(steps), np.asarray(times, float)
+    steps = steps[times >= t_min]
+    times = times[times >= t_min]
     if len(steps) == 0:
         return []
     acc = CellAccumulator((1, 1), t_min, block_time)
-    blocks = np.array([acc.block_of(s * dt) for s in steps])
+    blocks = np.array([acc.block_of(t) for t in times])
     starts = np.flatnonzero(np.r_[True, blocks[1:] != blocks[:-1]])   # first frame of a block
     cuts = sorted({int(starts[np.argmin(np.abs(starts - k * len(steps) / n_chunks))])
                    for k in range(n_chunks)} | {0})
@@ -91,6 +100,78 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
         base.series.rows.extend(rows)
     base.series.rows.sort(key=lambda row: row["step"])
     profiles = base.conclude()
+    profiles.meta["dask"] = {"chunks": [list(w) for w in windows], "workers": workers_used,
+                             "peak_rss_bytes_per_chunk": [int(r) for _, r, _ in results]}
+    return profiles
+
+
+def _dump_chunk(atoms, contacts, window, options):
+    """One worker's job for anyone's dumps: the accumulators of the frames in
+    ``window``, its peak RSS and the rows it dropped."""
+    from granavg.pipeline.averaging import dump_averager
+
+    avg, frames = dump_averager(atoms, contacts, steps=window, **options)
+    avg.prepare()
+    for frame in avg.frames:
+        avg.add(frame)
+    return (avg.state(), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
+            dict(frames.dropped))
+
+
+def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
+                       scheduler: str | None = None, chunks: int | None = None,
+                       **options) -> Profiles:
+    """:func:`granavg.pipeline.averaging.average_dumps` on dask workers, for LAMMPS
+    dumps each worker can read its own part of: a ``dump.*`` file series, or a plain
+    (uncompressed) file (each worker skips to its frames by scanning). Identical
+    profiles; ``meta["dask"]`` records the chunks. A single gzip file is refused: it is
+    one stream, which only one process can decompress."""
+    from dask.distributed import Client
+
+    from granavg.io.reader import DumpReader, series
+    from granavg.pipeline.averaging import dump_averager
+
+    files = [series(atoms)] + ([series(contacts)] if contacts else [])
+    if options.get("fmt") not in (None, "lammps"):
+        raise UserError("--workers averages LAMMPS dumps; average other formats in this "
+                        "process (leave out --workers)")
+    if any(len(f) == 1 and f[0].suffix == ".gz" for f in files):
+        raise UserError(f"{atoms if len(files[0]) == 1 else contacts}: one gzip file is one "
+                        "stream that only one process can decompress, so --workers cannot "
+                        "help; give a dump.* series or an uncompressed dump, or leave out "
+                        "--workers")
+    base, frames = dump_averager(atoms, contacts, **options)    # checks; two frames read
+    base.frames = ()                                  # (and stops its reader thread)
+    if not hasattr(frames, "time"):
+        raise UserError("--workers averages LAMMPS dumps; average other formats in this "
+                        "process (leave out --workers)")
+    heads = list(DumpReader(atoms, []))
+    windows = cut_windows([f.timestep for f in heads], [frames.time(f) for f in heads],
+                          base.t_min, base.block_time, chunks or 2 * workers)
+    if not windows:
+        raise UserError(f"no frame at t >= {base.t_min:g}, the start of the average "
+                        "(--t-min); lower it")
+    fixed = dict(options, quantities=base.groups, block_time=base.block_time)
+    cluster = None if scheduler else local_cluster(workers)
+    client = Client(scheduler or cluster)
+    try:
+        futures = [client.submit(_dump_chunk, str(atoms), str(contacts) if contacts else None,
+                                 w, fixed, pure=False) for w in windows]
+        results = client.gather(futures)
+        workers_used = len(client.scheduler_info()["workers"])
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    base.prepare()
+    dropped = {}
+    for state, _, rows in results:
+        base.merge(state)
+        for k, v in rows.items():
+            dropped[k] = dropped.get(k, 0) + v
+    profiles = base.conclude()
+    if any(dropped.values()):
+        profiles.meta["dropped"] = dropped
     profiles.meta["dask"] = {"chunks": [list(w) for w in windows], "workers": workers_used,
                              "peak_rss_bytes_per_chunk": [int(r) for _, r, _ in results]}
     return profiles
