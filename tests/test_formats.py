@@ -90,6 +90,10 @@ def test_csv_options_and_damage_are_refused_with_one_line(tables, tmp_path):
     proc = run_cli("average", "--atoms", tables / "atoms.csv", "--thickness", 0.006,
                    "--edges", 0.04, 0.08, "--wall-types", 3, "--out", tmp_path / "x.csv")
     assert proc.returncode == 2 and "csv format takes no wall_types" in proc.stderr
+    proc = run_cli("average", "--atoms", tables / "atoms.csv", "--thickness", 0.006,
+                   "--edges", 0.04, 0.08, "--workers", 2, "--out", tmp_path / "x.csv")
+    assert proc.returncode == 2 and "--workers averages LAMMPS dumps" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
     bad = tmp_path / "bad.csv"
     rows = pd.read_csv(tables / "atoms.csv")
     rows.iloc[[0, -1]] = rows.iloc[[-1, 0]].to_numpy()          # a later step first

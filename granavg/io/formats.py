@@ -57,20 +57,24 @@ def available() -> dict:
     return found
 
 
-def open_frames(atoms, contacts=None, *, fmt: str | None = None, **options):
-    """The frame source of ``atoms`` (and ``contacts``) in format ``fmt``, or in the
-    first format that claims the atoms file; options left at None are not passed."""
+def choose(atoms, fmt: str | None = None) -> Format:
+    """The format ``fmt``, or the first that claims the atoms file (one-line refusals)."""
     known = available()
     if fmt is not None:
         if fmt not in known:
             raise UserError(f"--format {fmt}: unknown; choose from {', '.join(sorted(known))}")
-        chosen = known[fmt]
-    else:
-        claiming = [f for f in known.values() if f.claims(Path(atoms))]
-        if not claiming:
-            raise UserError(f"{atoms}: not a format granavg reads ({', '.join(sorted(known))}); "
-                            "give --format NAME, or a LAMMPS dump")
-        chosen = claiming[0]
+        return known[fmt]
+    claiming = [f for f in known.values() if f.claims(Path(atoms))]
+    if not claiming:
+        raise UserError(f"{atoms}: not a format granavg reads ({', '.join(sorted(known))}); "
+                        "give --format NAME, or a LAMMPS dump")
+    return claiming[0]
+
+
+def open_frames(atoms, contacts=None, *, fmt: str | None = None, **options):
+    """The frame source of ``atoms`` (and ``contacts``) in format ``fmt``, or in the
+    first format that claims the atoms file; options left at None are not passed."""
+    chosen = choose(atoms, fmt)
     given = {k: v for k, v in options.items() if v not in (None, (), [], {})}
     foreign = [k for k in given if k not in chosen.options]
     if foreign:

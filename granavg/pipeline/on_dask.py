@@ -128,23 +128,22 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
     one stream, which only one process can decompress."""
     from dask.distributed import Client
 
+    from granavg.io import formats
     from granavg.io.reader import DumpReader, series
     from granavg.pipeline.averaging import dump_averager
 
-    files = [series(atoms)] + ([series(contacts)] if contacts else [])
-    if options.get("fmt") not in (None, "lammps"):
-        raise UserError("--workers averages LAMMPS dumps; average other formats in this "
-                        "process (leave out --workers)")
-    if any(len(f) == 1 and f[0].suffix == ".gz" for f in files):
-        raise UserError(f"{atoms if len(files[0]) == 1 else contacts}: one gzip file is one "
-                        "stream that only one process can decompress, so --workers cannot "
-                        "help; give a dump.* series or an uncompressed dump, or leave out "
-                        "--workers")
+    chosen = formats.choose(atoms, options.get("fmt")).name
+    if chosen != "lammps":
+        raise UserError(f"{atoms}: --workers averages LAMMPS dumps; average {chosen} files "
+                        "in this process (leave out --workers)")
+    for path in filter(None, (atoms, contacts)):
+        files = series(path)
+        if len(files) == 1 and files[0].suffix == ".gz":
+            raise UserError(f"{path}: one gzip file is one stream that only one process can "
+                            "decompress, so --workers cannot help; give a dump.* series or "
+                            "an uncompressed dump, or leave out --workers")
     base, frames = dump_averager(atoms, contacts, **options)    # checks; two frames read
     base.frames = ()                                  # (and stops its reader thread)
-    if not hasattr(frames, "time"):
-        raise UserError("--workers averages LAMMPS dumps; average other formats in this "
-                        "process (leave out --workers)")
     heads = list(DumpReader(atoms, []))
     windows = cut_windows([f.timestep for f in heads], [frames.time(f) for f in heads],
                           base.t_min, base.block_time, chunks or 2 * workers)
