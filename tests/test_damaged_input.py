@@ -497,3 +497,25 @@ def test_a_block_with_fewer_rows_than_its_header_is_never_read_beyond():
         assert (status, row) == (MALFORMED, 2)
     out, status, row, col = parse_block(buf, 0, 2, 3, np.array([0, 1, 2]), end)
     assert status == 0 and col == end and out.tolist() == [[1, 2.5, 3], [4, 5.5, 6]]
+
+
+@pytest.mark.parametrize("gz", [False, True])
+def test_frames_skipped_by_a_step_window_keep_the_line_numbers_after_them(tmp_path, gz):
+    """A worker's window skips the frames before it by counting their lines (in place
+    in a mapped plain file): a damaged row after them is still named at its line, and
+    the frames in the window are read whole."""
+    from granavg.errors import UserError
+    from granavg.io.reader import DumpReader
+
+    def frame(step, bad=False):
+        rows = ["1 0.1 0.1", "2 0.2 abc" if bad else "2 0.2 0.2", "3 0.3 0.3"]
+        return (f"ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n3\nITEM: BOX BOUNDS ff ff pp\n"
+                "0 1\n0 1\n-0.5 0.5\nITEM: ATOMS id x y\n" + "\n".join(rows) + "\n")
+    text = frame(0) + frame(10) + frame(20) + frame(30, bad=True)     # 12 lines a frame
+    path = tmp_path / ("d.dump.gz" if gz else "d.dump")
+    path.write_bytes(gzip.compress(text.encode()) if gz else text.encode())
+    (got,) = list(DumpReader(path, ["x", "y"], steps=(20, 20)))
+    assert got.timestep == 20 and got.line == 34 and np.allclose(got.column("y"), [0.1, 0.2, 0.3])
+    for steps in ((30, 30), None):
+        with pytest.raises(UserError, match=rf"{path}:47: malformed row"):
+            list(DumpReader(path, ["x", "y"], steps=steps))

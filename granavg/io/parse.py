@@ -181,3 +181,13 @@ def parse_block(buf: np.ndarray, start: int, nrows: int, ncol: int, target: np.n
     status, row, col = parse_rows(buf, start, nrows, ncol, target, out, _POW10,
                                   len(buf) if limit is None else limit)
     return out, int(status), int(row), int(col)
+
+
+@njit(cache=True, nogil=True)
+def count_newlines(buf, start, end):
+    """Newlines in buf[start:end] (uint8), counted in place: a mapped file's block is
+    not copied to be counted."""
+    n = 0
+    for i in range(start, end):
+        n += buf[i] == 10
+    return n

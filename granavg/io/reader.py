@@ -28,7 +28,7 @@ from isal import igzip, isal_zlib
 
 from granavg.errors import UserError
 from granavg.io.dumpfile import gzip_chunks
-from granavg.io.parse import MALFORMED, NOT_FINITE, OK, parse_block
+from granavg.io.parse import MALFORMED, NOT_FINITE, OK, count_newlines, parse_block
 
 log = logging.getLogger(__name__)
 
@@ -369,7 +369,7 @@ class _Scanner:
     def _lines(self, start, end) -> int:
         """Newlines in buf[start:end] (a mapped file has no count of its own)."""
         if isinstance(self.buf, mmap.mmap):
-            return bytes(self.buf[start:end]).count(b"\n")
+            return count_newlines(np.frombuffer(self.buf, dtype=np.uint8), start, end)
         return self.buf.count(b"\n", start, end)
 
     def _block_end(self) -> int:
