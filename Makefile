@@ -8,10 +8,13 @@ BIN     = $(VENV)/bin
 
 .PHONY: demo test clean
 
+# compileall: an editable install leaves granavg's bytecode unwritten (and where
+# PYTHONDONTWRITEBYTECODE is set, Python never writes it): each command compiled it again
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[test]'
+	$(BIN)/python -m compileall -q granavg
 	touch $@
 
 demo: $(VENV)/.installed

@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
-from granavg.engine.weights import _area_scalar, _below_sphere, _triplets, push, span, triplets
+from granavg.engine.weights import _area_scalar, _below_sphere, _triplets, buffers, spans
 
 #: Gauss-Legendre nodes per piece of the shells' quadrature: 32 agree with 64 to 6e-11
 #: of a sphere's volume (16: 1e-8; tests/test_sphere_weights.py).
@@ -138,20 +138,22 @@ def below3(X, Y, Z, a):
 @njit(cache=True, nogil=True)
 def _box_triplets(x, y, z, a, xe, ye, ze):
     ny, nz = ye.shape[0] - 1, ze.shape[0] - 1
-    particle, cell, w, t = triplets(x.shape[0] * 4)
+    I0, I1 = spans(xe, x, a)
+    J0, J1 = spans(ye, y, a)
+    K0, K1 = spans(ze, z, a)
+    particle, cell, w = buffers(np.sum((I1 - I0 + 1) * (J1 - J0 + 1) * (K1 - K0 + 1)))
+    t = 0
     corners = np.empty(64)
     for p in range(x.shape[0]):
         ap = a[p]
-        i0, i1 = span(xe, x[p], ap)
-        j0, j1 = span(ye, y[p], ap)
-        k0, k1 = span(ze, z[p], ap)
+        i0, i1, j0, j1, k0, k1 = I0[p], I1[p], J0[p], J1[p], K0[p], K1[p]
         mi, mj, mk = i1 - i0 + 2, j1 - j0 + 2, k1 - k0 + 2
         if (mi == 2 and mj == 2 and mk == 2
                 and xe[i0] <= x[p] - ap and x[p] + ap <= xe[i0 + 1]
                 and ye[j0] <= y[p] - ap and y[p] + ap <= ye[j0 + 1]
                 and ze[k0] <= z[p] - ap and z[p] + ap <= ze[k0 + 1]):
-            particle, cell, w, t = push(particle, cell, w, t, p, (i0 * ny + j0) * nz + k0,
-                                        1.0)             # inside one box (most spheres)
+            particle[t], cell[t], w[t] = p, (i0 * ny + j0) * nz + k0, 1.0   # inside one box
+            t += 1                                                         # (most spheres)
             continue
         xin = mi == 2 and xe[i0] <= x[p] - ap and x[p] + ap <= xe[i0 + 1]
         yin = mj == 2 and ye[j0] <= y[p] - ap and y[p] + ap <= ye[j0 + 1]
@@ -173,8 +175,8 @@ def _box_triplets(x, y, z, a, xe, ye, ze):
                 if wk > 0:
                     i, j, k = (m if not xin else i0), (m if not yin else j0), \
                         (m if not zin else k0)
-                    particle, cell, w, t = push(particle, cell, w, t, p,
-                                                (i * ny + j) * nz + k, wk)
+                    particle[t], cell[t], w[t] = p, (i * ny + j) * nz + k, wk
+                    t += 1
             continue
         if mi * mj * mk > corners.shape[0]:
             corners = np.empty(mi * mj * mk)
@@ -196,8 +198,8 @@ def _box_triplets(x, y, z, a, xe, ye, ze):
                            + corners[c000 + di] - corners[c000])
                     wk = vol / full
                     if wk > 0:
-                        particle, cell, w, t = push(
-                            particle, cell, w, t, p, ((i0 + i) * ny + j0 + j) * nz + k0 + k, wk)
+                        particle[t], cell[t], w[t] = p, ((i0 + i) * ny + j0 + j) * nz + k0 + k, wk
+                        t += 1
     return particle[:t], cell[:t], w[:t]
 
 
@@ -238,12 +240,14 @@ def box_weights(x, y, z, a, xedges, yedges, zedges):
 @njit(cache=True, nogil=True)
 def _shell_triplets(d, z, a, re, ze, mt, mw):
     nz = ze.shape[0] - 1
-    particle, cell, w, t = triplets(d.shape[0] * 4)
+    I0, I1 = spans(re, d, a)
+    K0, K1 = spans(ze, z, a)
+    particle, cell, w = buffers(np.sum((I1 - I0 + 1) * (K1 - K0 + 1)))
+    t = 0
     for p in range(d.shape[0]):
         ap = a[p]
         full = 4.0 / 3.0 * math.pi * ap * ap * ap
-        i0, i1 = span(re, d[p], ap)
-        k0, k1 = span(ze, z[p], ap)
+        i0, i1, k0, k1 = I0[p], I1[p], K0[p], K1[p]
         acc = np.zeros((i1 - i0 + 1, k1 - k0 + 1))
         if i0 == i1 and re[i0] <= d[p] - ap and d[p] + ap <= re[i0 + 1]:
             # radially inside one ring: caps between the layers' edges
@@ -287,7 +291,8 @@ def _shell_triplets(d, z, a, re, ze, mt, mw):
             for k in range(k0, k1 + 1):
                 wk = acc[i - i0, k - k0] / full
                 if wk > 0:
-                    particle, cell, w, t = push(particle, cell, w, t, p, i * nz + k, wk)
+                    particle[t], cell[t], w[t] = p, i * nz + k, wk
+                    t += 1
     return particle[:t], cell[:t], w[:t]
 
 

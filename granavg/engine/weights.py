@@ -29,15 +29,17 @@ def _segment(theta):
 
 @njit(cache=True, nogil=True, inline="always")
 def _cut(r2, chord, x):
-    """Area of the segment of a circle (radius^2 ``r2``) cut off by a chord of
-    half-length ``chord`` at distance ``x`` from its centre (x < 0: the larger part):
-    r^2 theta - chord x with theta = atan2(chord, x), since sin theta cos theta =
-    chord x / r^2 (no sine or cosine to evaluate); :func:`_segment`'s series where the
-    difference would cancel."""
-    theta = math.atan2(chord, x)
-    if theta < 1e-2:
-        return r2 * _segment(theta)
-    return r2 * theta - chord * x
+    """Area of the segment of a circle (radius^2 ``r2`` = chord^2 + x^2) cut off by a
+    chord of half-length ``chord`` at distance ``x`` from its centre (x < 0: the larger
+    part): r^2 theta - chord x with theta = atan2(chord, x), since sin theta cos theta =
+    chord x / r^2. A thin segment (t = chord / x < 0.1, a ring's edge across a disk)
+    takes the series (chord^3 / x) sum_k (-1)^k 2 t^2k / ((2k + 3)(2k + 1)) instead, with
+    no arctangent and no cancellation (truncated after t^10: 1e-14 relative)."""
+    if x > 10.0 * chord:
+        t2 = (chord / x) * (chord / x)
+        return chord * chord * chord / x * (2.0 / 3.0 - t2 * (2.0 / 15.0 - t2 * (
+            2.0 / 35.0 - t2 * (2.0 / 63.0 - t2 * (2.0 / 99.0 - t2 * (2.0 / 143.0))))))
+    return r2 * math.atan2(chord, x) - chord * x
 
 
 def _area(d, a, R):
@@ -88,41 +90,29 @@ def _cumulative(mode, pos, a, edge):
 def _triplets(pos, a, edges, mode):
     """(particle, cell, weight) of disks (or spheres, mode 2) in 1D cells, from
     differences of cumulative areas (volumes) at consecutive edges."""
-    particle, cell, w, t = triplets(pos.shape[0] * 4)
-    for p in range(pos.shape[0]):
-        lo, hi = span(edges, pos[p], a[p])
-        full = math.pi * a[p] * a[p] if mode < 2 else 4.0 / 3.0 * math.pi * a[p] * a[p] * a[p]
-        inner = _cumulative(mode, pos[p], a[p], edges[lo])
-        for k in range(lo, hi + 1):
-            outer = _cumulative(mode, pos[p], a[p], edges[k + 1])
+    n = pos.shape[0]
+    lo, hi = spans(edges, pos, a)
+    particle, cell, w = buffers(np.sum(hi - lo) + n)
+    t = 0
+    for p in range(n):
+        u, ap = pos[p], a[p]
+        full = math.pi * ap * ap if mode < 2 else 4.0 / 3.0 * math.pi * ap * ap * ap
+        inner = _cumulative(mode, u, ap, edges[lo[p]])
+        for k in range(lo[p], hi[p] + 1):
+            outer = _cumulative(mode, u, ap, edges[k + 1])
             wk = (outer - inner) / full
             inner = outer
             if wk > 0:
-                particle, cell, w, t = push(particle, cell, w, t, p, k, wk)
+                particle[t], cell[t], w[t] = p, k, wk
+                t += 1
     return particle[:t], cell[:t], w[:t]
 
 
-@njit(cache=True, nogil=True)
-def _grow(arr, cap):
-    out = np.empty(cap, arr.dtype)
-    out[:arr.shape[0]] = arr
-    return out
-
-
 @njit(cache=True, nogil=True, inline="always")
-def triplets(n):
-    """Empty (particle, cell, weight) buffers for about ``n`` entries, and the count 0."""
-    return np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n), 0
-
-
-@njit(cache=True, nogil=True, inline="always")
-def push(particle, cell, w, t, p, k, wk):
-    """Append (p, k, wk) at t, doubling the buffers when full; returns them and t + 1."""
-    if t == particle.shape[0]:
-        cap = 2 * particle.shape[0]
-        particle, cell, w = _grow(particle, cap), _grow(cell, cap), _grow(w, cap)
-    particle[t], cell[t], w[t] = p, k, wk
-    return particle, cell, w, t + 1
+def buffers(size):
+    """Empty (particle, cell, weight) arrays for at most ``size`` weights: the cells
+    each particle's span reaches, counted beforehand, so the fill never grows them."""
+    return np.empty(size, np.int64), np.empty(size, np.int64), np.empty(size)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -131,6 +121,15 @@ def span(edges, u, a):
     n = edges.shape[0] - 1
     lo = min(max(np.searchsorted(edges, u - a, side="right") - 1, 0), n - 1)
     hi = min(max(np.searchsorted(edges, u + a, side="left") - 1, 0), n - 1)
+    return lo, hi
+
+
+@njit(cache=True, nogil=True, inline="always")
+def spans(edges, u, a):
+    """:func:`span` of every particle: its first and last cell, shape (P,) each."""
+    lo, hi = np.empty(u.shape[0], np.int64), np.empty(u.shape[0], np.int64)
+    for p in range(u.shape[0]):
+        lo[p], hi[p] = span(edges, u[p], a[p])
     return lo, hi
 
 
@@ -226,20 +225,22 @@ def _corner(X, Y, a):
 @njit(cache=True, nogil=True)
 def _grid_triplets(x, y, a, xe, ye):
     ny = ye.shape[0] - 1
-    particle, cell, w, t = triplets(x.shape[0] * 8)
+    I0, I1 = spans(xe, x, a)
+    J0, J1 = spans(ye, y, a)
+    particle, cell, w = buffers(np.sum((I1 - I0 + 1) * (J1 - J0 + 1)))
+    t = 0
     for p in range(x.shape[0]):
-        i0, i1 = span(xe, x[p], a[p])
-        j0, j1 = span(ye, y[p], a[p])
         full = math.pi * a[p] * a[p]
-        for i in range(i0, i1 + 1):
+        for i in range(I0[p], I1[p] + 1):
             xl, xh = xe[i] - x[p], xe[i + 1] - x[p]
-            for j in range(j0, j1 + 1):
+            for j in range(J0[p], J1[p] + 1):
                 yl, yh = ye[j] - y[p], ye[j + 1] - y[p]
                 area = (_corner(xh, yh, a[p]) - _corner(xl, yh, a[p])
                         - _corner(xh, yl, a[p]) + _corner(xl, yl, a[p]))
                 wk = area / full
                 if wk > 0:
-                    particle, cell, w, t = push(particle, cell, w, t, p, i * ny + j, wk)
+                    particle[t], cell[t], w[t] = p, i * ny + j, wk
+                    t += 1
     return particle[:t], cell[:t], w[:t]
 
 

@@ -12,7 +12,7 @@ import queue
 import threading
 
 #: Frames read ahead at most (memory: this many frames beyond the one averaged; a
-#: million-sphere frame is about 100 MB).$
+#: million-sphere frame is about 100 MB).
 DEPTH = 2
 _END = object()
 
