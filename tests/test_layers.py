@@ -4,6 +4,7 @@
 pipeline wires them, and the CLI is a shell around the pipeline."""
 
 import ast
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -88,7 +89,7 @@ def test_importing_the_engine_and_the_cli_loads_no_lammps_no_mpi_no_analysis():
     assert proc.stdout.split() == ["False", "False", "False"]
 
 
-HEAVY = ("scipy.stats", "scipy.spatial", "pandas", "dask", "matplotlib", "lammps")
+HEAVY = ("scipy.stats", "scipy.spatial", "pandas", "dask", "matplotlib", "lammps", "tqdm")
 
 
 @pytest.mark.parametrize("modules", [
@@ -96,7 +97,8 @@ HEAVY = ("scipy.stats", "scipy.spatial", "pandas", "dask", "matplotlib", "lammps
     "granavg.pipeline.averaging, granavg.io.lammps_dumps, granavg.io.profiles_io"])
 def test_averaging_imports_nothing_it_does_not_use(modules):
     """The engine, the CLI and the average command's own modules load no statistics,
-    no triangulation, no dask, no plotting and no pandas (0.3 s of start-up)."""
+    no triangulation, no dask, no plotting and no pandas (0.3 s of start-up), nor tqdm
+    unless a progress bar shows (0.04 s)."""
     code = (f"import sys, {modules}; "
             f"print(' '.join(m for m in {HEAVY!r} if m in sys.modules))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
@@ -116,3 +118,42 @@ def test_a_whole_average_of_a_real_run_loads_none_of_them(small_run, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.split() == ["0"], proc.stdout + proc.stderr
     assert out.with_name("p.csv.timeseries.csv").exists()
+
+
+def test_the_averaging_bar_shows_on_a_terminal_only(small_run, tmp_path):
+    """`granavg average` under a pseudo-terminal draws its tqdm bar (and loads tqdm);
+    through a pipe it draws none and loads none."""
+    import pty
+
+    def average(out, terminal):
+        code = ("import sys; from granavg.cli import main; "
+                f"code = main(['average', {str(small_run)!r}, '--bins', '6', '--t-min', "
+                f"'1.5', '--out', {str(out)!r}]); "
+                "sys.stdout.write('tqdm' in sys.modules and ' TQDM' or '')")
+        if not terminal:
+            proc = subprocess.run([sys.executable, "-c", code], capture_output=True,
+                                  text=True)
+            assert proc.returncode == 0, proc.stderr
+            return proc.stdout + proc.stderr
+        leader, follower = pty.openpty()
+        proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                                stderr=follower)
+        os.close(follower)
+        seen = b""
+        while True:                              # read as it comes: the pty's buffer is small
+            try:
+                chunk = os.read(leader, 1 << 16)
+            except OSError:                      # the child has closed its end
+                break
+            if not chunk:
+                break
+            seen += chunk
+        os.close(leader)
+        stdout = proc.stdout.read().decode()
+        assert proc.wait() == 0, seen.decode(errors="replace")
+        return stdout + seen.decode(errors="replace")
+
+    on_terminal = average(tmp_path / "t.csv", True)
+    assert "averaging" in on_terminal and "frame" in on_terminal and "TQDM" in on_terminal
+    piped = average(tmp_path / "p.csv", False)
+    assert "averaging:" not in piped and "TQDM" not in piped
