@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import sys
 
 from granavg import __version__
@@ -20,8 +21,15 @@ PLAIN_ONLY = ("thickness", "density", "dt", "r_range", "slabs", "grid", "wall_ty
               "range", "length", "x_range", "y_range", "z_range", "layers", "area", "dim")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, its refusals as one line (a :class:`UserError`) without the usage."""
+
+    def error(self, message):
+        raise UserError(f"{message} (see {self.prog} --help)")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="granavg", description=__doc__.splitlines()[0])
+    p = _Parser(prog="granavg", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"granavg {__version__}")
     p.add_argument("-v", "--verbose", action="store_true", help="log more")
     sub = p.add_subparsers(dest="command", required=True)
@@ -49,9 +57,9 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--average", type=int, nargs="+", metavar="N",
                      help="average in situ over N rings (several counts allowed) while "
                      "LAMMPS runs: writes profiles_N.csv; with --set dumps=0 no dump files")
-    sim.add_argument("--t-min", type=float, help="in-situ averages from t >= T s (default: "
+    sim.add_argument("--t-min", type=_finite, help="in-situ averages from t >= T s (default: "
                      "the scene's discarded transient: discard_rotations inner-ring rotations)")
-    sim.add_argument("--block-time", type=float, help="in-situ standard errors: base blocks "
+    sim.add_argument("--block-time", type=_finite, help="in-situ standard errors: base blocks "
                      "of this length in s (default: one dump interval, at most 512)")
     sim.add_argument("--quantities", help="comma-separated quantities the run is for (as "
                      "for 'average'); if none needs contact forces (nu, rho, v, omega, "
@@ -79,7 +87,7 @@ def _parser() -> argparse.ArgumentParser:
     rings = avg.add_mutually_exclusive_group()
     rings.add_argument("--bins", type=int, help="number of equal rings (from R_i to R_o of "
                        "a run, default 20; or over --r-range) or slabs (over --range)")
-    rings.add_argument("--edges", type=float, nargs="+", metavar="R",
+    rings.add_argument("--edges", type=_finite, nargs="+", metavar="R",
                        help="ring (or slab) edges in m, increasing")
     plain = avg.add_argument_group("plain LAMMPS dumps (no run directory; every number in "
                                    "the dump's own units)")
@@ -90,34 +98,34 @@ def _parser() -> argparse.ArgumentParser:
                        "ITEM: UNITS header (dump_modify units yes); only labels the outputs")
     plain.add_argument("--dim", type=int, choices=[2, 3], help="2 (disks) or 3 "
                        "(spheres); default from the dump: 3 where the atoms' z differ")
-    plain.add_argument("--thickness", type=float, metavar="H", help="2D: disk height h "
+    plain.add_argument("--thickness", type=_finite, metavar="H", help="2D: disk height h "
                        "(disks of volume pi h a^2); required in 2D")
-    plain.add_argument("--density", type=float, metavar="RHO", help="material density "
+    plain.add_argument("--density", type=_finite, metavar="RHO", help="material density "
                        "(masses rho pi h a^2 for disks, rho 4/3 pi a^3 for spheres); or the "
                        "dump's mass column")
-    plain.add_argument("--dt", type=float, help="time step, for dumps without ITEM: TIME")
-    plain.add_argument("--center", type=float, nargs=2, metavar=("X", "Y"),
+    plain.add_argument("--dt", type=_finite, help="time step, for dumps without ITEM: TIME")
+    plain.add_argument("--center", type=_finite, nargs=2, metavar=("X", "Y"),
                        help="centre of the rings (3D: the axis of the cylindrical shells, "
                        "parallel to z; default 0 0)")
-    plain.add_argument("--r-range", type=float, nargs=2, metavar=("R1", "R2"),
+    plain.add_argument("--r-range", type=_finite, nargs=2, metavar=("R1", "R2"),
                        help="rings (3D: cylindrical shells): --bins equal rings from R1 to R2")
     plain.add_argument("--layers", type=int, metavar="NZ", help="3D shells: NZ layers over "
                        "--z-range (default 1)")
     plain.add_argument("--slabs", choices=["x", "y", "z"], help="Cartesian slabs across x, "
                        "y (or z in 3D) (--bins over --range, or --edges) instead of rings")
-    plain.add_argument("--range", type=float, nargs=2, metavar=("LO", "HI"),
+    plain.add_argument("--range", type=_finite, nargs=2, metavar=("LO", "HI"),
                        help="slabs: from LO to HI (default the box)")
-    plain.add_argument("--length", type=float, help="2D slabs: their length along the "
+    plain.add_argument("--length", type=_finite, help="2D slabs: their length along the "
                        "other axis (default the box's)")
-    plain.add_argument("--area", type=float, help="3D slabs: their cross-section (default "
+    plain.add_argument("--area", type=_finite, help="3D slabs: their cross-section (default "
                        "the box's)")
     plain.add_argument("--grid", type=int, nargs="+", metavar="N",
                        help="a grid: NX NY rectangles (2D) or NX NY NZ boxes (3D) over "
                        "--x-range, --y-range (--z-range)")
-    plain.add_argument("--x-range", type=float, nargs=2, metavar=("X1", "X2"))
-    plain.add_argument("--y-range", type=float, nargs=2, metavar=("Y1", "Y2"))
-    plain.add_argument("--z-range", type=float, nargs=2, metavar=("Z1", "Z2"))
-    plain.add_argument("--gravity", type=float, nargs="+", metavar="G",
+    plain.add_argument("--x-range", type=_finite, nargs=2, metavar=("X1", "X2"))
+    plain.add_argument("--y-range", type=_finite, nargs=2, metavar=("Y1", "Y2"))
+    plain.add_argument("--z-range", type=_finite, nargs=2, metavar=("Z1", "Z2"))
+    plain.add_argument("--gravity", type=_finite, nargs="+", metavar="G",
                        help="gravitational acceleration GX GY (3D: GX GY GZ): a body force "
                        "m g on every particle")
     plain.add_argument("--wall-types", type=int, nargs="+", metavar="T", default=[],
@@ -128,9 +136,9 @@ def _parser() -> argparse.ArgumentParser:
     plain.add_argument("--contact-columns", metavar="MAP", help="e.g. id1=c_pp[1],"
                        "id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
                        "ftx=c_pl[5],fty=c_pl[6]")
-    avg.add_argument("--t-min", type=float, help="average frames with t >= T s (default: "
+    avg.add_argument("--t-min", type=_finite, help="average frames with t >= T s (default: "
                      "the scene's discarded transient, discard_rotations rotations)")
-    avg.add_argument("--block-time", type=float, help="base time blocks of the errors' "
+    avg.add_argument("--block-time", type=_finite, help="base time blocks of the errors' "
                      "blocking analysis, s (default: one dump interval, at most 512 blocks)")
     avg.add_argument("--quantities", help="comma-separated subset of: nu, rho, v, omega, "
                      "coordination, F, sigma, dsigma, dsigma_fluct, eps, boundary, body "
@@ -141,7 +149,7 @@ def _parser() -> argparse.ArgumentParser:
     avg.add_argument("--sectors", type=_sectors, default="auto", help=(
         "spatial replicas for the errors: each ring (slab) split into K sectors along phi "
         "(its length) to count the packing's frozen structure; auto (default: K from the "
-        "sectors' correlation), a number >= 4, or off (errors from time alone)"))
+        "sectors' correlation), a number from 4 to 48, or off (errors from time alone)"))
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
     avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
@@ -174,10 +182,22 @@ def _parser() -> argparse.ArgumentParser:
                           "rings, analyse and write the report")
     demo.add_argument("--out", required=True, help="directory to create (must be new)")
     demo.add_argument("--omp", type=int, default=2, help="OpenMP threads (default 2)")
-    demo.add_argument("--t-min", type=float, default=None,
+    demo.add_argument("--t-min", type=_finite, default=None,
                       help="average frames with t >= T s (default: the scene's discarded "
                       "start, 6.3 s)")
     return p
+
+
+def _finite(text):
+    """A float option: a finite number (nan and inf are refused where a length, a time
+    or an acceleration is meant)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r}: give a finite number")
+    return value
 
 
 def _sectors(text):
@@ -226,7 +246,7 @@ def _average(args):
         options = dict(common, bins=args.bins, edges=args.edges)
     else:
         cells = dict(thickness=args.thickness, bins=args.bins, edges=args.edges,
-                     center=args.center or (0.0, 0.0), r_range=args.r_range, slabs=args.slabs,
+                     center=args.center, r_range=args.r_range, slabs=args.slabs,
                      range=args.range, length=args.length, grid=args.grid,
                      x_range=args.x_range, y_range=args.y_range, z_range=args.z_range,
                      layers=args.layers, area=args.area)
@@ -253,16 +273,22 @@ def _demo(args):
     return demo_command(args.out, omp=args.omp, t_min=args.t_min)
 
 
+def argv_command(argv) -> str | None:
+    """The command word of the arguments (``sys.argv`` without one)."""
+    words = list(sys.argv[1:] if argv is None else argv)
+    return next((w for w in words if w in ("simulate", "average", "analyze", "demo")), None)
+
+
 def main(argv=None) -> int:
     """Entry point of the ``granavg`` command."""
-    from granavg.pipeline.session import (configure_logging, interrupt_code,
-                                          signals_as_interrupts)
+    from granavg.pipeline.session import (configure_logging, interrupt_code, no_room,
+                                          outputs_written, signals_as_interrupts)
 
-    args = _parser().parse_args(argv)
-    command = {"simulate": _simulate, "average": _average, "analyze": _analyze,
-               "demo": _demo}[args.command]
     with signals_as_interrupts():
         try:
+            args = _parser().parse_args(argv)
+            command = {"simulate": _simulate, "average": _average, "analyze": _analyze,
+                       "demo": _demo}[args.command]
             configure_logging(args.verbose)
             done = command(args)
             if args.command == "simulate":
@@ -274,10 +300,16 @@ def main(argv=None) -> int:
             return exc.exit_code
         except (KeyboardInterrupt, Exception) as raised:
             code = interrupt_code(raised)
+            if code is None and (full := no_room(raised)):
+                print(f"granavg: error: {full}", file=sys.stderr)
+                return 2
             if code is None:
                 raise
+            done = outputs_written()
             what = "stopped (the run is kept; --resume continues it)" if \
-                args.command in ("simulate", "demo") else "nothing written"
+                argv_command(argv) in ("simulate", "demo") else \
+                f"the outputs were complete before it: {done[-1]} (with its companions)" \
+                if done else "nothing written"
             print(f"granavg: interrupted; {what}", file=sys.stderr)
             return code
 

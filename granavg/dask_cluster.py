@@ -1,14 +1,37 @@
-"""A local dask cluster of single-threaded processes: what averaging on dask and an
-ensemble of simulations both start when no scheduler is given (granavg has no scheduler
-of its own)."""
+"""Dask for granavg's commands: a local cluster of single-threaded processes (granavg has
+no scheduler of its own), or a given scheduler, and the jobs' results gathered so that a
+signal stops the command quickly and quietly.
+
+:func:`cluster_client` defers SIGINT and SIGTERM while dask runs: the handler only
+records the signal, :meth:`Cluster.completed` and :meth:`Cluster.gather` poll the
+futures and stop waiting when one came, the futures are cancelled, the client and the
+cluster are closed with dask's own messages muted, and the signal is then passed to the
+handler that was there before (the command's, which reports it). A job's refusal of its
+input (a :class:`~granavg.errors.UserError` in a worker) travels back as a value
+(:func:`refusal_safe`), so the worker logs no stack for it.
+"""
 
 from __future__ import annotations
+
+import functools
+import logging
+import time
+from contextlib import contextmanager
+
+from granavg.errors import UserError
+from granavg.signals import deferred
+
+#: How often the futures are polled while waiting, s.
+POLL = 0.05
+#: How long closing the client and the cluster may take after a signal, s.
+CLOSE_TIMEOUT = 5
 
 
 def local_cluster(workers: int):
     """A local dask cluster of ``workers`` single-threaded processes. glibc's default
     malloc trim threshold is kept (dask lowers it to 64 kB, which made a worker's frames
-    1.2x slower here: the reader's 8 MB buffers went back to the OS every time)."""
+    1.2x slower here: the reader's 8 MB buffers went back to the OS every time). The
+    workers log only dask's errors (a job cancelled by a signal is not one)."""
     import dask
     from dask.distributed import LocalCluster
 
@@ -16,3 +39,139 @@ def local_cluster(workers: int):
                           128 << 20}):
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                             dashboard_address=None)
+
+
+def _quiet_worker():
+    """In a worker of granavg's local cluster: only dask's errors are logged (the
+    workers' logging is set up from the environment at their start, before any config
+    reaches them)."""
+    logging.getLogger("distributed").setLevel(logging.ERROR)
+
+
+class Refused:
+    """A worker's :class:`UserError`, carried back as a value."""
+
+    def __init__(self, message: str):
+        self.message = message
+
+
+def refusal_safe(job):
+    """``job`` returning a :class:`Refused` instead of raising a UserError in a worker."""
+    @functools.wraps(job)
+    def wrapped(*args, **kwargs):
+        try:
+            return job(*args, **kwargs)
+        except UserError as exc:
+            return Refused(str(exc))
+    return wrapped
+
+
+class _Stopped(Exception):
+    """Waiting ended because a signal came."""
+
+
+class Cluster:
+    """The client of :func:`cluster_client` and the signals deferred meanwhile."""
+
+    def __init__(self, client, signals: list):
+        self.client, self.signals = client, signals
+
+    def completed(self, futures):
+        """The futures as they finish (any order); stops (the block ends, then the
+        signal acts) when a signal came."""
+        waiting = list(futures)
+        while waiting:
+            if self.signals:
+                self.client.cancel(waiting)
+                raise _Stopped()
+            done = [f for f in waiting if f.done()]
+            if not done:
+                time.sleep(POLL)
+                continue
+            for f in done:
+                waiting.remove(f)
+                yield f
+
+    def gather(self, futures) -> list:
+        """The futures' results, in order; a worker's refusal (:class:`Refused`) raised
+        here as the UserError it was, a failure at the first that fails."""
+        futures, results = list(futures), {}
+        for f in self.completed(futures):
+            if f.status == "error":
+                self.client.cancel(futures)
+            results[f.key] = r = f.result()                  # raises the job's error
+            if isinstance(r, Refused):
+                self.client.cancel(futures)
+                raise UserError(r.message)
+        return [results[f.key] for f in futures]
+
+    @property
+    def n_workers(self) -> int:
+        return len(self.client.scheduler_info()["workers"])
+
+
+@contextmanager
+def cluster_client(workers: int = 2, scheduler: str | None = None):
+    """A :class:`Cluster` on ``scheduler``, or on a new local cluster of ``workers``
+    processes closed after the block; SIGINT and SIGTERM deferred within it (module
+    docstring)."""
+    from dask.distributed import Client
+
+    with deferred() as received:
+        cluster = client = None
+        failed = False
+        try:
+            cluster = None if scheduler else local_cluster(workers)
+            client = _connect(Client, scheduler, cluster)
+            if cluster is not None:
+                client.run(_quiet_worker)
+            if not received:
+                yield Cluster(client, received)
+        except _Stopped:
+            pass
+        except BaseException:
+            failed = True
+            raise
+        finally:
+            _close(client, cluster, quiet=bool(received) or failed)
+
+
+#: How long connecting to a given scheduler may take, s.
+CONNECT_TIMEOUT = 10
+
+
+def _connect(Client, scheduler, cluster):
+    """A client of the local cluster, or of ``scheduler`` (one-line refusal if it cannot
+    be reached within :data:`CONNECT_TIMEOUT`)."""
+    if scheduler is None:
+        return Client(cluster)
+    try:
+        return Client(scheduler, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise UserError(f"--scheduler {scheduler}: cannot reach it ({text}); give the "
+                        "address of a running dask scheduler (tcp://host:8786), or leave "
+                        "--scheduler out") from None
+
+
+def _close(client, cluster, quiet: bool):
+    """Close the client and the cluster; after a signal within :data:`CLOSE_TIMEOUT`
+    and with dask's messages (cancelled tasks, closing comms) muted."""
+    names = ("distributed", "asyncio", "tornado")
+    levels = {n: logging.getLogger(n).level for n in names}
+    if quiet:
+        for n in names:
+            logging.getLogger(n).setLevel(logging.CRITICAL + 1)
+    try:
+        for part in (client, cluster):
+            if part is None:
+                continue
+            try:
+                part.close(timeout=CLOSE_TIMEOUT) if quiet else part.close()
+            except Exception:                      # noqa: BLE001 - closing after a signal
+                if not quiet:
+                    raise
+    finally:
+        if quiet:
+            for n, level in levels.items():
+                logging.getLogger(n).setLevel(level)

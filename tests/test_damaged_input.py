@@ -340,11 +340,11 @@ def test_a_run_that_did_not_complete_is_averaged_with_a_warning(small_run, tmp_p
 # -- arguments and output paths ------------------------------------------------------------
 
 @pytest.mark.parametrize("extra, needle", [
-    (["--block-time", "-1"], "--block-time -1.0: must be a finite number > 0"),
-    (["--block-time", "nan"], "--block-time nan"),
-    (["--t-min", "inf"], "--t-min inf"),
+    (["--block-time", "-1"], "--block-time -1: must be a finite number > 0"),
+    (["--block-time", "nan"], "--block-time: 'nan': give a finite number"),
+    (["--t-min", "inf"], "--t-min: 'inf': give a finite number"),
     (["--bins", "1000000000"], "--bins 1000000000: give between 1 and"),
-    (["--edges", "0.05", "inf"], "finite ring edges"),
+    (["--edges", "0.05", "inf"], "--edges: 'inf': give a finite number"),
     (["--edges", "0.08", "0.05"], "increasing"),
     (["--workers", "0"], "--workers 0"),
 ])

@@ -15,11 +15,12 @@ ROOT = Path(__file__).resolve().parent.parent / "granavg"
 #: layer -> the granavg modules or packages it may import (besides itself)
 ALLOWED = {
     "engine": ("granavg.errors",),
-    "io": ("granavg.errors", "granavg.engine"),
-    "sim": ("granavg.errors", "granavg.dask_cluster", "granavg.io", "granavg.engine.quantities",
-            "granavg.engine.units", "granavg.__init__"),
+    "io": ("granavg.errors", "granavg.signals", "granavg.engine"),
+    "sim": ("granavg.errors", "granavg.signals", "granavg.dask_cluster", "granavg.io",
+            "granavg.engine.quantities", "granavg.engine.units", "granavg.__init__"),
     "analysis": ("granavg.errors", "granavg.engine"),
-    "pipeline": ("granavg.errors", "granavg.dask_cluster", "granavg.engine", "granavg.io",
+    "pipeline": ("granavg.errors", "granavg.signals", "granavg.dask_cluster", "granavg.engine",
+                 "granavg.io",
                  "granavg.sim", "granavg.analysis", "granavg.__init__"),
 }
 

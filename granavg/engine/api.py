@@ -17,12 +17,15 @@ and the contacts ``fnz ftz nz``.
 from __future__ import annotations
 
 import itertools
+import logging
 
 from granavg.engine.average import CellAverage
 from granavg.engine.profiles import Profiles
-from granavg.engine.quantities import groups_for
+from granavg.engine.quantities import groups_for, missing_columns
 from granavg.engine.units import SI, UnitSystem
 from granavg.errors import ParameterError, UserError
+
+log = logging.getLogger(__name__)
 
 
 def average(frames, geometry, *, progress: bool | None = False, **options) -> Profiles:
@@ -30,6 +33,27 @@ def average(frames, geometry, *, progress: bool | None = False, **options) -> Pr
     :func:`averager`'s, run over every frame (``progress``: a progress bar; None: on
     a terminal)."""
     return averager(frames, geometry, **options).run(progress)
+
+
+def _with_columns(groups, requested: bool, frame, dim: int) -> tuple:
+    """The groups whose columns the frame carries, and the others with the columns they
+    lack (for the sidecar). A requested group without its columns
+    is refused (one line naming the first missing column); of "all the data allow", the
+    others are left out, said in one log line."""
+    atoms = set(frame.atoms)
+    contacts = set(frame.contacts) if frame.contacts is not None else None
+    lacking = {g: missing_columns(g, atoms, contacts, dim) for g in groups}
+    lacking = {g: m for g, m in lacking.items() if m}
+    if lacking and requested:
+        g, m = next(iter(lacking.items()))
+        raise ParameterError("quantities", f"{g} needs the {m[0][0]} column {m[0][1]}, "
+                             "which the data do not have; dump it (or map it to a column "
+                             "of the dump), or leave " + g + " out of {param}")
+    if lacking:
+        log.info("left out, for want of columns in the data: %s", "; ".join(
+            f"{g} (no {' '.join(c for _, c in m)})" for g, m in lacking.items()))
+    return [g for g in groups if g not in lacking], {g: [c for _, c in m]
+                                                     for g, m in lacking.items()}
 
 
 def averager(frames, geometry, *, rho_p: float | None = None, quantities=None,
@@ -86,6 +110,10 @@ def averager(frames, geometry, *, rho_p: float | None = None, quantities=None,
     has_contacts = head[0].contacts is not None
     has_mass = "mass" in head[0].atoms
     groups = groups_for(quantities, has_contacts, "bx" in head[0].atoms)
+    groups, lacking = _with_columns(groups, quantities is not None, head[0], geometry.dim)
+    if rho_p is not None and has_mass:
+        log.info("the masses come from the atoms' mass column; the material density "
+                 "given is not used")
     massive = [g for g in groups if g in ("rho", "dsigma", "dsigma_fluct")]
     if rho_p is None and not has_mass:
         if quantities is not None and massive:
@@ -102,4 +130,6 @@ def averager(frames, geometry, *, rho_p: float | None = None, quantities=None,
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
                 "geometry": geometry.describe(),
                 "frames": {"t_min_s": t_min, "block_time_s": block_time}}
+    if lacking:
+        avg.meta["left_out"] = {g: f"no {' '.join(c)} in the data" for g, c in lacking.items()}
     return avg

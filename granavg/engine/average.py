@@ -74,6 +74,10 @@ class CellAverage:
                                  f"number of sectors from {replicas.MIN_REPLICAS} to "
                                  f"{replicas.MAX_SECTORS}")
         sectors = int(sectors) if isinstance(sectors, numbers.Integral) else sectors
+        if isinstance(sectors, int) and not rings.symmetry:
+            raise ParameterError("sectors", f"{{param}} {sectors}: {rings.kind} have no "
+                                 "direction to split into sectors (their errors come from "
+                                 "time alone); leave it out")
         self.branch = branch
         self.sectors = sectors if rings.symmetry else None
         self.k_fine = (replicas.FINE_SECTORS if self.sectors == "auto"

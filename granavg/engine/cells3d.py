@@ -15,62 +15,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granavg.engine.geometry import (_cell_of, _edges, _layout, cartesian_basis,
-                                     edge_coordinates, polar_basis)
+from granavg.engine.geometry import (Imaged, _cell_of, _edges, _layout, _spans,
+                                     cartesian_basis, edge_coordinates, polar_basis)
 from granavg.engine.sphere_weights import box_weights, layer_weights, shell_weights
 from granavg.errors import UserError
 
 
-def with_images(pos, a, periods):
-    """The spheres and, along each axis with a period (the cells spanning a periodic box),
-    the images of those that reach across its ends, so that their volume beyond one end
-    lands in the cells at the other.
-
-    Parameters
-    ----------
-    pos : tuple of 3 ndarray, shape (P,)
-    a : ndarray, shape (P,)
-    periods : tuple of 3 (lo, hi) or None
-        The periodic span along each axis.
-
-    Returns
-    -------
-    pos, a, index : the extended arrays and, for each entry, the sphere it is of.
-    """
-    index = np.arange(len(a))
-    pos = [np.asarray(u, float) for u in pos]
-    for k, span in enumerate(periods):
-        if span is None:
-            continue
-        lo, hi = span
-        low, high = pos[k] - a < lo, pos[k] + a > hi
-        if not (low.any() or high.any()):
-            continue
-        extra = np.concatenate([np.flatnonzero(low), np.flatnonzero(high)])
-        shift = np.concatenate([np.full(low.sum(), hi - lo), np.full(high.sum(), lo - hi)])
-        pos = [np.concatenate([u, u[extra] + (shift if j == k else 0.0)])
-               for j, u in enumerate(pos)]
-        a = np.concatenate([a, a[extra]])
-        index = np.concatenate([index, index[extra]])
-    return tuple(pos), a, index
-
-
-class Spheres:
+class Spheres(Imaged):
     """What the 3D cells share: spheres (volume 4/3 pi a^3), positions ``(x, y, z)``;
     ``periods``: per axis, the span over which the packing is periodic (the cells then
-    take the spheres' images across its ends, :func:`with_images`), or None."""
+    take the spheres' images across its ends, :func:`~granavg.engine.geometry.with_images`),
+    or None."""
 
     dim = 3
     position_names = ("x", "y", "z")
     periodic = False
-
-    def _imaged(self, weigh, pos, a):
-        periods = getattr(self, "periods", None)
-        if not periods or all(p is None for p in periods):
-            return weigh(pos, a)
-        pos, a, index = with_images(pos, a, periods)
-        particle, cell, w = weigh(pos, a)
-        return index[particle], cell, w
 
     @property
     def layout(self):
@@ -214,7 +173,8 @@ class Shells(Spheres):
     def __post_init__(self):
         e = _edges(self.edges, "shell radii")
         if e[0] < 0:
-            raise UserError(f"shell radii must be >= 0 and increasing (got {list(e)})")
+            raise UserError("shell radii must be >= 0 and increasing (got "
+                            f"{' '.join(f'{v:g}' for v in e)})")
         object.__setattr__(self, "edges", e)
         object.__setattr__(self, "zedges", _edges(self.zedges, "shell layer edges"))
         object.__setattr__(self, "center", tuple(float(c) for c in self.center))
@@ -264,8 +224,3 @@ class Shells(Spheres):
     def describe(self) -> dict:
         return {"kind": self.kind, "edges": list(self.edges), "zedges": list(self.zedges),
                 "center": list(self.center), "periods": _spans(self.periods)}
-
-
-def _spans(periods):
-    """The periods for the sidecar (lists, None where not periodic)."""
-    return None if periods is None else [None if p is None else list(p) for p in periods]

@@ -24,9 +24,68 @@ from granavg.engine.weights import grid_weights, ring_weights, strip_weights
 from granavg.errors import ParameterError, UserError
 
 
-class Disks:
+def with_images(pos, a, periods):
+    """The spheres and, along each axis with a period (the cells spanning a periodic box),
+    the images of those that reach across its ends, so that their volume beyond one end
+    lands in the cells at the other.
+
+    Parameters
+    ----------
+    pos : tuple of 3 ndarray, shape (P,)
+    a : ndarray, shape (P,)
+    periods : tuple of 3 (lo, hi) or None
+        The periodic span along each axis.
+
+    Returns
+    -------
+    pos, a, index : the extended arrays and, for each entry, the sphere it is of.
+    """
+    index = np.arange(len(a))
+    pos = [np.asarray(u, float) for u in pos]
+    for k, span in enumerate(periods):
+        if span is None:
+            continue
+        lo, hi = span
+        low, high = pos[k] - a < lo, pos[k] + a > hi
+        if not (low.any() or high.any()):
+            continue
+        extra = np.concatenate([np.flatnonzero(low), np.flatnonzero(high)])
+        shift = np.concatenate([np.full(low.sum(), hi - lo), np.full(high.sum(), lo - hi)])
+        pos = [np.concatenate([u, u[extra] + (shift if j == k else 0.0)])
+               for j, u in enumerate(pos)]
+        a = np.concatenate([a, a[extra]])
+        index = np.concatenate([index, index[extra]])
+    return tuple(pos), a, index
+
+
+class Imaged:
+    """Cells that may span a periodic box: ``periods``, per axis, the span over which the
+    packing is periodic (the cells then take the particles' images across its ends,
+    :func:`with_images`), or None."""
+
+    def _imaged(self, weigh, pos, a):
+        periods = getattr(self, "periods", None)
+        if not periods or all(p is None for p in periods):
+            return weigh(pos, a)
+        pos, a, index = with_images(pos, a, periods)
+        particle, cell, w = weigh(pos, a)
+        return index[particle], cell, w
+
+
+def _spans(periods):
+    """The periods for the sidecar (lists, None where not periodic)."""
+    return None if periods is None else [None if p is None else list(p) for p in periods]
+
+
+def _periods(periods):
+    """Periods as tuples of floats (None where not periodic), or None."""
+    return None if periods is None else tuple(None if p is None else
+                                              tuple(float(v) for v in p) for p in periods)
+
+
+class Disks(Imaged):
     """What the 2D cells share: disks of height ``h`` (volume pi h a^2, Eq. 7's factor
-    V^p / a^2 = pi h), positions ``(x, y)``."""
+    V^p / a^2 = pi h), positions ``(x, y)``; ``periods`` as :class:`Imaged`."""
 
     dim = 2
     position_names = ("x", "y")
@@ -61,7 +120,8 @@ def cartesian_basis(n, dim):
 def _edges(values, what) -> np.ndarray:
     e = np.asarray(values, dtype=float)
     if e.ndim != 1 or len(e) < 2 or not np.all(np.isfinite(e)) or not np.all(np.diff(e) > 0):
-        raise UserError(f"{what} must be finite and increasing, at least two (got {list(e)})")
+        shown = " ".join(f"{v:g}" for v in np.ravel(e))
+        raise UserError(f"{what} must be finite and increasing, at least two (got {shown})")
     return e
 
 
@@ -93,7 +153,8 @@ class Rings(Disks):
     def __post_init__(self):
         e = _edges(self.edges, "ring edges")
         if e[0] < 0:
-            raise UserError(f"ring edges must be >= 0 and increasing (got {list(e)})")
+            raise UserError("ring edges must be >= 0 and increasing (got "
+                            f"{' '.join(f'{v:g}' for v in e)})")
         object.__setattr__(self, "edges", e)
         object.__setattr__(self, "center", tuple(float(c) for c in self.center))
 
@@ -150,6 +211,7 @@ class Slabs(Disks):
     axis: str = "x"
     length: float = 1.0
     span: tuple | None = None
+    periods: tuple | None = None
 
     kind = "slabs"
     axes = ("x", "y")
@@ -188,7 +250,8 @@ class Slabs(Disks):
         return self.h * np.diff(self.edges) * self.length
 
     def weights(self, pos, a):
-        return strip_weights(pos["xy".index(self.axis)], a, self.edges)
+        k = "xy".index(self.axis)
+        return self._imaged(lambda p, r: strip_weights(p[k], r, self.edges), pos, a)
 
     def basis(self, pos):
         return cartesian_basis(len(pos[0]), 2)
@@ -203,7 +266,8 @@ class Slabs(Disks):
     def describe(self) -> dict:
         out = {"kind": "slabs", "edges": list(self.edges), "h": self.h,
                "axis": self.axis, "length": self.length}
-        return out if self.span is None else {**out, "span": list(self.span)}
+        out = out if self.span is None else {**out, "span": list(self.span)}
+        return out if self.periods is None else {**out, "periods": _spans(self.periods)}
 
 
 @dataclass(frozen=True)
@@ -214,6 +278,7 @@ class Grid(Disks):
     xedges: np.ndarray
     yedges: np.ndarray
     h: float
+    periods: tuple | None = None
 
     kind = "grid"
     axes = ("x", "y")
@@ -232,7 +297,8 @@ class Grid(Disks):
         return self.h * np.outer(np.diff(self.xedges), np.diff(self.yedges)).ravel()
 
     def weights(self, pos, a):
-        return grid_weights(pos[0], pos[1], a, self.xedges, self.yedges)
+        return self._imaged(lambda p, r: grid_weights(p[0], p[1], r, self.xedges,
+                                                      self.yedges), pos, a)
 
     basis = Slabs.basis
 
@@ -248,8 +314,9 @@ class Grid(Disks):
         return edge_coordinates({"x": (self.xedges, i), "y": (self.yedges, j)})
 
     def describe(self) -> dict:
-        return {"kind": "grid", "xedges": list(self.xedges), "yedges": list(self.yedges),
-                "h": self.h}
+        out = {"kind": "grid", "xedges": list(self.xedges), "yedges": list(self.yedges),
+               "h": self.h}
+        return out if self.periods is None else {**out, "periods": _spans(self.periods)}
 
 
 def edge_coordinates(cuts: dict) -> dict:
@@ -294,15 +361,15 @@ def from_description(d: dict):
     if kind == "rings":
         return Rings(np.asarray(d["edges"], float), float(d["h"]),
                      tuple(d.get("center", (0.0, 0.0))))
+    periods = _periods(d.get("periods"))
     if kind == "slabs":
         return Slabs(np.asarray(d["edges"], float), float(d["h"]), d["axis"],
-                     float(d["length"]), tuple(d["span"]) if d.get("span") else None)
+                     float(d["length"]), tuple(d["span"]) if d.get("span") else None,
+                     periods)
     if kind == "grid":
         return Grid(np.asarray(d["xedges"], float), np.asarray(d["yedges"], float),
-                    float(d["h"]))
+                    float(d["h"]), periods)
     from granavg.engine.cells3d import Boxes, Shells, Slabs3D
-    periods = tuple(None if p is None else tuple(p) for p in d["periods"]) \
-        if d.get("periods") else None
     if kind == "slabs3d":
         return Slabs3D(np.asarray(d["edges"], float), d["axis"], float(d["area"]), periods)
     if kind == "boxes":

@@ -113,6 +113,25 @@ def needed_columns(groups, dim: int = 2):
     return atoms, contacts
 
 
+def missing_columns(group: str, atoms, contacts, dim: int) -> list:
+    """The columns ``group`` needs that the frames lack: ``atoms`` and ``contacts`` are
+    the column names the frames carry (contacts None: no contact data). Positions and
+    radii are every group's and are not checked here; masses are (``rho_p`` or a mass
+    column).
+
+    Returns
+    -------
+    list of (str, str)
+        ``("atom", name)`` or ``("contact", name)`` of each missing column, in order.
+    """
+    missing = []
+    for b in QUANTITIES[group].blocks:
+        missing += [("atom", c) for c in atom_columns(b, dim) if b != "vol" and c not in atoms]
+        if contacts is not None:
+            missing += [("contact", c) for c in contact_columns(b, dim) if c not in contacts]
+    return list(dict.fromkeys(missing))
+
+
 def groups_for(quantities, have_contacts: bool, have_body: bool = False) -> list:
     """The quantity groups to compute: the requested ones (checked), or all that the
     data allow (without contacts, only those that need none; ``body`` only where the

@@ -45,7 +45,8 @@ def contact_columns(id1, id2, d, dist, fn, ft, wall1, wall2, r1, r2) -> dict:
         printed: they agree only to the printed precision; the normal is d over its own
         length).
     fn, ft : ndarray, shape (n, D)
-        Normal and tangential force on atom 1.
+        Normal and tangential force on atom 1; ``ft`` None where the data hold no
+        tangential force (then the result has no ``ft<x>`` columns).
     wall1, wall2 : ndarray of int, shape (n,)
         Wall code of each atom: 0 a particle of the packing, 1 or 2 a wall.
     r1, r2 : ndarray, shape (n,)
@@ -58,7 +59,8 @@ def contact_columns(id1, id2, d, dist, fn, ft, wall1, wall2, r1, r2) -> dict:
         ``overlap``, with the wall atom second (its forces and normal as seen by the
         particle), plus ``packing`` (False for wall-wall pairs) and ``reach`` (r1 + r2).
     """
-    d, fn, ft = (np.asarray(v, float) for v in (d, fn, ft))
+    d, fn = np.asarray(d, float), np.asarray(fn, float)
+    ft = None if ft is None else np.asarray(ft, float)
     swap = (wall1 > 0) & (wall2 == 0)                 # the particle goes first
     sign = np.where(swap, -1.0, 1.0)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -68,7 +70,9 @@ def contact_columns(id1, id2, d, dist, fn, ft, wall1, wall2, r1, r2) -> dict:
     out = {"id1": np.where(swap, id2, id1), "id2": np.where(swap, id1, id2),
            "wall": np.where(swap, wall1, wall2).astype(float)}
     for k, x in enumerate("xyz"[:d.shape[1]]):
-        out[f"fn{x}"], out[f"ft{x}"] = sign * fn[:, k], sign * ft[:, k]
+        out[f"fn{x}"] = sign * fn[:, k]
+        if ft is not None:
+            out[f"ft{x}"] = sign * ft[:, k]
     for k, x in enumerate("xyz"[:d.shape[1]]):
         out[f"n{x}"] = sign * n[:, k]
     out.update({"overlap": r1 + r2 - dist, "packing": (wall1 == 0) | (wall2 == 0),

@@ -19,7 +19,6 @@ Nothing is converted: the units are the profiles' (the sidecar's ``columns``).
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
@@ -87,14 +86,10 @@ def to_dataset(profiles):
 
 
 def write_netcdf(profiles, path) -> Path:
-    """:func:`to_dataset` as NetCDF (to a temporary name, renamed when complete)."""
+    """:func:`to_dataset` as NetCDF, to ``path`` (the ``average`` command gives the
+    temporary name of its :class:`~granavg.io.output_set.OutputSet`)."""
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    try:
-        to_dataset(profiles).to_netcdf(tmp, engine="scipy")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    to_dataset(profiles).to_netcdf(path, engine="scipy")
     return path
 
 
@@ -145,9 +140,20 @@ def _cartesian(profiles, axes, angle=None):
     return out
 
 
+#: Cells that VTK output draws.
+VTK_KINDS = ("boxes", "grid", "shells")
+
+
+def vtk_cells(geometry) -> None:
+    """Refuse, before any work, cells that VTK output cannot draw (one line)."""
+    if geometry.kind not in VTK_KINDS:
+        raise UserError(f"--vtk: {geometry.kind} are not a grid; VTK output is for grids, "
+                        "boxes and cylindrical shells (tables and NetCDF hold every kind)")
+
+
 def write_vtk(profiles, path) -> Path:
     """The cells as a VTK unstructured grid (``.vtu``) with every value as cell data
-    (module docstring); grids, boxes and cylindrical shells."""
+    (module docstring), to ``path``; grids, boxes and cylindrical shells."""
     import meshio
 
     g = profiles.rings
@@ -172,8 +178,7 @@ def write_vtk(profiles, path) -> Path:
         cells, per_cell = [("hexahedron", hexes)], i * nz + k
         angle = 0.5 * (phi[j] + phi[j + 1])
     else:
-        raise UserError(f"--vtk: {kind} are not a grid; VTK output is for grids, boxes and "
-                        "cylindrical shells (tables and NetCDF hold every kind)")
+        vtk_cells(g)
     data = {"V": g.volume[per_cell]}
     for name, value in profiles.values.items():
         data[name] = np.asarray(value, float)[per_cell]
@@ -189,10 +194,5 @@ def write_vtk(profiles, path) -> Path:
         data.update(_cartesian(expanded, g.axes, angle))
     mesh = meshio.Mesh(points, cells, cell_data={k: [v] for k, v in data.items()})
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}.vtu")
-    try:
-        mesh.write(tmp, file_format="vtu")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    mesh.write(path, file_format="vtu")
     return path

@@ -49,11 +49,26 @@ class Frame:
 CONSISTENCY = 1e-4
 
 
+#: Ids at or beyond 2^53 are not read exactly: dump values are read as doubles, whose
+#: integers are exact only below it (two such ids may read as one).
+EXACT_IDS = 2.0 ** 53
+IDS = ("id", "id1", "id2")
+
+
 def check_integers(path, frame, cols, names):
-    """Refuse a value that should be an integer (an id, a type, a wall code) and is not."""
+    """Refuse a value that should be an integer (an id, a type, a wall code) and is not,
+    and an id too large to be read exactly (:data:`EXACT_IDS`)."""
     for name in names:
         if name in cols:
             v = cols[name]
+            if name in IDS:
+                huge = np.flatnonzero(np.abs(v) >= EXACT_IDS)
+                if len(huge):
+                    raise UserError(
+                        f"{path}:{frame.line + huge[0]}: {name} {v[huge[0]]:.17g} is 2^53 "
+                        f"or more (timestep {frame.timestep}); ids that large are not read "
+                        "exactly (two may read as one): renumber the atoms (LAMMPS: "
+                        "reset_atoms id) and dump again")
             bad = np.flatnonzero(v != np.round(v))
             if len(bad):
                 raise UserError(f"{path}:{frame.line + bad[0]}: {name} {v[bad[0]]:g} is not "
@@ -87,12 +102,12 @@ def check_atoms(path, frame) -> dict:
             raise UserError(f"{path}:{frame.line + rows[1]}: atom id {int(dup)} appears twice "
                             f"in timestep {frame.timestep} (also line {frame.line + rows[0]}); "
                             "the dump is damaged")
-    if "radius" in cols:
-        bad = np.flatnonzero(~(cols["radius"] > 0))
+    for name, why in (("mass", "the dump is damaged, or the column map names the wrong "
+                               "column"), ("radius", "disks need a radius > 0")):
+        bad = np.flatnonzero(~(cols[name] > 0)) if name in cols else ()
         if len(bad):
-            raise UserError(f"{path}:{frame.line + bad[0]}: radius {cols['radius'][bad[0]]:g} "
-                            f"is not positive (timestep {frame.timestep}); disks need a radius "
-                            "> 0")
+            raise UserError(f"{path}:{frame.line + bad[0]}: {name} {cols[name][bad[0]]:g} is "
+                            f"not positive (timestep {frame.timestep}); {why}")
     return cols
 
 
@@ -142,6 +157,11 @@ class Columns:
         return dict(self.columns)
 
 
+def _file(frame, reader):
+    """The file a frame is in (one file of a series), else the reader's path."""
+    return getattr(frame, "path", None) or reader.path
+
+
 class PairedDumps:
     """Frames of a per-atom dump paired by time step with those of a per-contact dump;
     a format adapter subclasses it and turns each pair into a :class:`Frame`
@@ -176,8 +196,9 @@ class PairedDumps:
                 if fc.timestep != fa.timestep:
                     raise UserError(
                         f"time steps do not match: frame {k + 1} is timestep {fa.timestep} in "
-                        f"{self.atoms.path} (line {fa.line}) but {fc.timestep} in "
-                        f"{self.contacts.path} (line {fc.line}); use dumps of the same run")
+                        f"{_file(fa, self.atoms)} (line {fa.line}) but {fc.timestep} in "
+                        f"{_file(fc, self.contacts)} (line {fc.line}); use dumps of the same "
+                        "run")
             yield self.frame(fa, fc)
 
     def frame(self, fa, fc) -> Frame:
@@ -198,7 +219,7 @@ class PairedDumps:
         """Refuse contact rows whose atom ids are not among the frame's atoms."""
         if not known.all():
             k = int(np.argmin(known))
-            raise UserError(f"{self.contacts.path}:{fc.line + k}: atom id "
+            raise UserError(f"{_file(fc, self.contacts)}:{fc.line + k}: atom id "
                             f"{int(rows['id1'][k]) if 'id1' in rows else '?'} (or its partner)"
                             f" is not in {self.atoms.path} at timestep {fc.timestep}; use the "
                             "atom and contact dumps of one run")

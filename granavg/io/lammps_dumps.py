@@ -35,6 +35,7 @@ of contacts into the frames the engine averages (in the dumps' own units):
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +43,7 @@ from isal import igzip
 
 from granavg.errors import UserError
 from granavg.engine.kernels import lookup
+from granavg.io.box import Box
 from granavg.io.contacts import contact_columns
 from granavg.io.dumpfile import open_text
 from granavg.io.formats import Format
@@ -49,6 +51,8 @@ from granavg.io.frames import (CONSISTENCY, Columns, Frame, PairedDumps, check_a
                                check_contacts, check_integers)
 from granavg.io.reader import DumpReader, series
 from granavg.io.units import choose_units
+
+log = logging.getLogger(__name__)
 
 ATOM_ALIASES = {"x": ("x", "xu", "xs", "xsu"), "y": ("y", "yu", "ys", "ysu"),
                 "z": ("z", "zu", "zs", "zsu"),
@@ -105,6 +109,10 @@ def dump_header(path):
 def resolve_atoms(path, explicit: dict, dim: int) -> dict:
     """Our atom name -> the dump's column, by the explicit map, then by alias."""
     names, _ = dump_header(path)
+    unknown = [k for k in explicit if k not in ATOM_ALIASES]
+    if unknown:
+        raise UserError(f"--atom-columns {unknown[0]}=...: granavg has no atom column "
+                        f"{unknown[0]!r}; name one of {' '.join(ATOM_ALIASES)}")
     out = {}
     for ours, aliases in ATOM_ALIASES.items():
         if ours in explicit:
@@ -132,9 +140,16 @@ def resolve_contacts(path, explicit: dict, dim: int) -> dict:
     if not explicit and all(c in names for c in own):
         return {c: c for c in own}
     xyz = "xyz"[:dim]
+    known = ("id1", "id2", *(f"d{x}" for x in xyz), "dist", *(f"fn{x}" for x in xyz),
+             *(f"ft{x}" for x in xyz), "force")
+    unknown = [k for k in explicit if k not in known]
+    if unknown:
+        hint = " (a 2D dump: no z components)" if dim == 2 and unknown[0].endswith("z") \
+            and unknown[0][:-1] + "x" in known else ""
+        raise UserError(f"--contact-columns {unknown[0]}=...: granavg has no contact column "
+                        f"{unknown[0]!r}{hint}; name one of {' '.join(known)}")
     out = {k: v for k, v in explicit.items()}
-    for ours in ("id1", "id2", *(f"d{x}" for x in xyz), "dist", *(f"fn{x}" for x in xyz),
-                 *(f"ft{x}" for x in xyz), "force"):
+    for ours in known:
         if ours not in out and ours in names:
             out[ours] = ours
     for ours, col in out.items():
@@ -154,11 +169,18 @@ def resolve_contacts(path, explicit: dict, dim: int) -> dict:
     return out
 
 
-def dimension(path, explicit_map, dim=None, first=None) -> int:
-    """The dump's dimension: ``dim`` if given (3 needs a z column), else 3 where the
-    first frame's z coordinates differ, 2 where there is no z column or all share one
-    (a 2D LAMMPS run writes z = 0). ``first``: a callable giving the first frame with
-    the z column (read once by the caller)."""
+def dimension(path, explicit_map, dim=None) -> tuple:
+    """The dump's dimension and why: ``dim`` if given (3 needs a z column), else 3 where
+    the z coordinates of the first frame that holds atoms differ, 2 where there is no z
+    column or they all share one (a 2D LAMMPS run writes z = 0). Frames with no atom (a
+    pour before its first insertion) are passed over.
+
+    Returns
+    -------
+    dim : int
+    why : str
+        The reason, for messages that depend on it ("has no z column", ...).
+    """
     names, _ = dump_header(path)
     zcol = explicit_map.get("z") or next((a for a in ATOM_ALIASES["z"] if a in names), None)
     if dim not in (None, 2, 3):
@@ -166,15 +188,24 @@ def dimension(path, explicit_map, dim=None, first=None) -> int:
     if dim == 3 and zcol is None:
         raise UserError(f"{path}: --dim 3 needs a z column (columns: {' '.join(names)}); "
                         "dump z, or name it with --atom-columns z=COLUMN")
-    if dim is not None:
-        return dim
+    if dim == 3 or (dim is not None and zcol is None):
+        return dim, "given"
     if zcol is None:
-        return 2
-    frame = first(zcol) if first else next(iter(DumpReader(path, [zcol])), None)
+        return 2, f"{series(path)[0]} has no z column"
+    frame = next((f for f in DumpReader(path, [zcol]) if len(f.data)), None)
     if frame is None:
-        return 2
+        raise UserError(f"{path}: no frame holds an atom; give a dump of a run with atoms")
     z = frame.column(zcol)
-    return 3 if len(z) and np.ptp(z) > 0 else 2
+    if dim == 2:
+        if np.ptp(z) > 0:
+            log.warning("%s: --dim 2, but the atoms' z differ (by up to %g in the first frame "
+                        "with atoms): they are averaged as disks in the x-y plane",
+                        path, np.ptp(z))
+        return 2, "given"
+    if np.ptp(z) > 0:
+        return 3, "z differs"
+    return 2, (f"every atom of the first frame with atoms ({frame.path}:{frame.line}, "
+               f"timestep {frame.timestep}) has z = {z[0]:g}")
 
 
 class LammpsDumps(PairedDumps):
@@ -216,7 +247,7 @@ class LammpsDumps(PairedDumps):
                                 f"atom dump's units are {unit_system.style}; use the dumps "
                                 "of one run")
         self._head = (atoms, None)
-        self.dim = dimension(atoms, atom_map or {}, dim, self._read_first)
+        self.dim, self.dim_reason = dimension(atoms, atom_map or {}, dim)
         self.amap = resolve_atoms(atoms, atom_map or {}, self.dim)
         self.cmap = resolve_contacts(contacts, contact_map or {}, self.dim) \
             if contacts else None
@@ -238,26 +269,27 @@ class LammpsDumps(PairedDumps):
                 "dim": self.dim}
 
     def box(self):
-        """The box bounds of the atom dump's first frame, one (lo, hi) per axis of the
-        dimension."""
-        return self.first().box[:self.dim]
+        """The bounds of the atom dump's first frame's cell (of a tilted box: its own,
+        not its bounding box's; :class:`~granavg.io.box.Box`), one (lo, hi) per axis of
+        the dimension."""
+        return Box.of(self.first()).bounds(self.dim)
 
     def periodic(self) -> tuple:
         """Per axis of the dimension, whether the box is periodic along it (``pp``)."""
         return tuple(b == "pp" for b in self.first().boundary[:self.dim])
 
+    def tilt(self) -> tuple:
+        """The first frame's tilt factors (xy, xz, yz): zeros for an orthogonal box."""
+        return Box.of(self.first()).tilt
+
     def first(self):
         """The atom dump's first frame (its box and boundary), read once."""
-        frame = self._head[1] or self._read_first(None)
+        path, frame = self._head
         if frame is None:
-            raise UserError(f"{self.atoms.path}: holds no frame")
-        return frame
-
-    def _read_first(self, column):
-        """The first frame of the atom dump (with ``column`` converted, if given)."""
-        path = self._head[0]
-        frame = next(iter(DumpReader(path, [column] if column else [])), None)
-        self._head = (path, frame)
+            frame = next(iter(DumpReader(path, [])), None)
+            if frame is None:
+                raise UserError(f"{self.atoms.path}: holds no frame")
+            self._head = (path, frame)
         return frame
 
     def frame(self, fa, fc) -> Frame:
@@ -268,18 +300,23 @@ class LammpsDumps(PairedDumps):
     def _atoms(self, fa):
         raw = fa.as_dict()
         col = {ours: raw[theirs] for ours, theirs in self.amap.items()}
-        for k, axis in enumerate("xyz"[:self.dim]):
-            lo, hi = fa.box[k]
-            if self.amap[axis] in SCALED:
-                col[axis] = lo + col[axis] * (hi - lo)
-            if fa.boundary[k] == "pp" and not fa.triclinic and hi > lo:
-                u = col[axis]
-                outside = (u < lo) | (u >= hi)
-                if outside.any():                    # wrap into the periodic box
-                    col[axis] = np.where(outside, lo + np.mod(u - lo, hi - lo), u)
+        axes = "xyz"[:self.dim]
+        box = Box.of(fa)
+        scaled = [self.amap[a] in SCALED for a in axes]
+        if box.tilted and any(scaled):
+            if not all(scaled):
+                raise UserError(f"{fa.path}: the box is tilted and only some coordinates "
+                                "are scaled; dump x y z, or xs ys zs")
+            col.update(zip(axes, box.unscale([col[a] for a in axes], self.dim)))
+        elif any(scaled):
+            for k, axis in enumerate(axes):
+                if scaled[k]:
+                    lo, hi = fa.box[k]
+                    col[axis] = lo + col[axis] * (hi - lo)
+        col.update(zip(axes, box.wrap([col[a] for a in axes], self.dim)))  # periodic axes
         if self.amap["radius"] == "diameter":
             col["radius"] = 0.5 * col["radius"]
-        col = check_atoms(self.atoms.path, Columns(col, fa))
+        col = check_atoms(fa.path, Columns(col, fa))
         if not len(self.wall_types):
             return {k: v for k, v in col.items() if k != "type"}, {}
         wall = np.isin(col["type"], self.wall_types)
@@ -290,13 +327,13 @@ class LammpsDumps(PairedDumps):
     def _contacts(self, fc, atoms, walls):
         raw = fc.as_dict()
         c = {ours: raw[theirs] for ours, theirs in self.cmap.items()}
-        check_integers(self.contacts.path, fc, c, ("id1", "id2"))
+        check_integers(fc.path, fc, c, ("id1", "id2"))
         if "wall" in c and "overlap" in c:                      # granavg's own format
             rows = dict(c, packing=np.ones(len(c["id1"]), bool))
         else:
             rows = self._convert(c, fc, atoms, walls)
         packing = rows.pop("packing")
-        rows = check_contacts(self.contacts.path, Columns(rows, fc))
+        rows = check_contacts(fc.path, Columns(rows, fc))
         touching = self._touching(rows, fc)
         self.dropped["contacts_not_touching"] += int(np.sum(packing & ~touching))
         keep = packing & touching
@@ -318,10 +355,10 @@ class LammpsDumps(PairedDumps):
             if far.any():
                 k = int(np.flatnonzero(far)[0])
                 raise UserError(
-                    f"{self.contacts.path}:{fc.line + k}: atoms {int(rows['id1'][k])} and "
+                    f"{fc.path}:{fc.line + k}: atoms {int(rows['id1'][k])} and "
                     f"{int(rows['id2'][k])} carry a normal force but are {-overlap[k]:.3g} "
                     f"apart by their radii (timestep {fc.timestep}); check the radius or "
-                    f"diameter column ({self.amap['radius']}) of {self.atoms.path}")
+                    f"diameter column ({self.amap['radius']}) of the atom dump {self.atoms.path}")
             rows["overlap"] = overlap = np.where(gap, 0.0, overlap)
         return (overlap > 0) | force
 
@@ -341,7 +378,7 @@ class LammpsDumps(PairedDumps):
         if off.any():
             k = int(np.flatnonzero(off)[0])
             what = "(dx, dy)" if self.dim == 2 else "(dx, dy, dz)"
-            raise UserError(f"{self.contacts.path}:{fc.line + k}: |{what}| = {length[k]:g} "
+            raise UserError(f"{fc.path}:{fc.line + k}: |{what}| = {length[k]:g} "
                             f"but dist = {dist[k]:g} (timestep {fc.timestep}), more apart "
                             "than printing's rounding; the dump is damaged or the column map "
                             "names the wrong columns")
@@ -349,8 +386,9 @@ class LammpsDumps(PairedDumps):
             fn = np.column_stack([c[f"fn{x}"] for x in xyz])
         else:                                                 # repulsive along d
             fn = c["force"][:, None] * d / length[:, None]
-        zero = np.zeros(len(dist))
-        ft = np.column_stack([c.get(f"ft{x}", zero) for x in xyz])
+        # without tangential forces the quantities that need them are left out
+        ft = np.column_stack([c[f"ft{x}"] for x in xyz]) \
+            if all(f"ft{x}" in c for x in xyz) else None
         return contact_columns(c["id1"], c["id2"], d, dist, fn, ft, is_wall[i1], is_wall[i2],
                                radii[i1], radii[i2])
 

@@ -40,6 +40,32 @@ def _digits(buf, q, mant):
 
 
 @njit(cache=True, nogil=True)
+def _non_finite_word(buf, pos):
+    """Whether ``buf[pos:]`` holds nan, inf or infinity (any case) up to a blank or
+    newline: how C's printf writes a non-finite number. Other words (``none``) are not
+    numbers at all."""
+    n = 0
+    while not (_blank(buf[pos + n]) or buf[pos + n] == _LF) and n < 9:
+        n += 1
+    if not (_blank(buf[pos + n]) or buf[pos + n] == _LF):
+        return False
+    lower = np.empty(n, np.uint8)
+    for k in range(n):
+        c = buf[pos + k]
+        lower[k] = c + 32 if 65 <= c <= 90 else c
+    if n == 3:
+        return ((lower[0] == 110 and lower[1] == 97 and lower[2] == 110) or
+                (lower[0] == 105 and lower[1] == 110 and lower[2] == 102))
+    if n == 8:
+        word = (105, 110, 102, 105, 110, 105, 116, 121)             # infinity
+        for k in range(8):
+            if lower[k] != word[k]:
+                return False
+        return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def _long_number(buf, pos, pow10):
     """A number of more than 17 digits (or a huge exponent): (status, value, end)."""
     neg = buf[pos] == 45
@@ -133,8 +159,7 @@ def parse_rows(buf, pos, nrows, ncol, target, out, pow10, limit):
                 exp10 = f - q
                 ndig += q - f
             if ndig == 0:
-                first = buf[pos]
-                if first == 110 or first == 78 or first == 105 or first == 73:  # nan, inf
+                if _non_finite_word(buf, pos):
                     return NOT_FINITE, row, col
                 return MALFORMED, row, col
             if buf[q] == 101 or buf[q] == 69:

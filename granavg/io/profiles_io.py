@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import csv
 import json
-import os
-import signal
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +15,7 @@ from granavg.engine.geometry import from_description
 from granavg.engine.uncertainty import Replicates
 from granavg.engine.units import SI, UnitSystem
 from granavg.errors import UserError
+from granavg.io.output_set import OutputSet
 
 #: Suffix of the replicate profiles written beside a profiles table.
 REPLICATES = ".replicates.npz"
@@ -87,10 +86,18 @@ def read_profiles(path) -> Profiles:
 
 def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
     """Write the table (CSV, or Parquet), a JSON sidecar ``<path>.json`` (with the unit
-    of every column, ``columns``) and the replicates ``<path>.replicates.npz``: each to a
-    temporary name first, renamed only when all are complete."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    of every column, ``columns``), the replicates ``<path>.replicates.npz`` and the time
+    series ``<path>.timeseries.csv``, as one :class:`~granavg.io.output_set.OutputSet`:
+    all appear, or none does."""
+    with OutputSet(path) as outputs:
+        write_profile_files(profiles, outputs, parquet)
+        outputs.commit()
+    return Path(path)
+
+
+def write_profile_files(profiles: Profiles, outputs: OutputSet, parquet: bool = False):
+    """The files of :func:`write_profiles` into the temporary names of ``outputs`` (the
+    caller commits them, with its other outputs)."""
     table = profiles.to_columns()
     system = profiles.meta.get("unit_system")
     units = UnitSystem(**system) if system else SI
@@ -100,38 +107,17 @@ def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
             import pyarrow  # noqa: F401  (pandas' Parquet engine)
         except ImportError:
             raise UserError("--parquet needs pyarrow: pip install 'granavg[parquet]'") from None
-    targets = [path, path.with_name(path.name + ".json")]
+        profiles.to_frame().to_parquet(outputs.temp(""), index=False)
+    else:
+        write_csv(outputs.temp(""), table, "%.10g")
+    outputs.temp(".json").write_text(json.dumps(profiles.meta, indent=2) + "\n")
     if profiles.replicates is not None:
-        targets.append(path.with_name(path.name + REPLICATES))
+        with open(outputs.temp(REPLICATES), "wb") as fh:
+            reps = profiles.replicates
+            parts = {"parts": json.dumps(reps.parts)} if reps.parts else {}
+            np.savez(fh, kind=reps.kind, **parts, **reps.values)
     if profiles.series is not None:
-        targets.append(path.with_name(path.name + TIMESERIES))
-    tmp = [t.with_name(f".{t.name}.tmp{os.getpid()}") for t in targets]
-    try:
-        if parquet:
-            profiles.to_frame().to_parquet(tmp[0], index=False)
-        else:
-            write_csv(tmp[0], table, "%.10g")
-        tmp[1].write_text(json.dumps(profiles.meta, indent=2) + "\n")
-        extra = iter(tmp[2:])
-        if profiles.replicates is not None:
-            with open(next(extra), "wb") as fh:
-                reps = profiles.replicates
-                parts = {"parts": json.dumps(reps.parts)} if reps.parts else {}
-                np.savez(fh, kind=reps.kind, **parts, **reps.values)
-        if profiles.series is not None:
-            write_csv(next(extra), profiles.series, "%.8g")
-        # the table last: when it exists, its companions do; no signal in between
-        blocked = {signal.SIGINT, signal.SIGTERM}
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
-        try:
-            for t, final in reversed(list(zip(tmp, targets))):
-                os.replace(t, final)
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old)
-    finally:
-        for t in tmp:
-            t.unlink(missing_ok=True)
-    return path
+        write_csv(outputs.temp(TIMESERIES), profiles.series, "%.8g")
 
 
 def write_csv(path, columns: dict, float_format: str) -> None:

@@ -56,7 +56,11 @@ class DumpFrame:
         ``ITEM: BOX BOUNDS`` gives them; ``("", "", "")`` if it gives none.
     triclinic : bool
         The box is tilted (``ITEM: BOX BOUNDS xy xz yz ...``): ``box`` holds the bounds
-        of its bounding box.
+        of its bounding box, ``tilt`` the tilt factors.
+    tilt : tuple of float
+        ``(xy, xz, yz)``; zeros for an orthogonal box.
+    path : Path or None
+        The file the frame is in (one file of a series).
     """
 
     timestep: int
@@ -67,6 +71,8 @@ class DumpFrame:
     line: int = 0
     boundary: tuple = ("", "", "")
     triclinic: bool = False
+    tilt: tuple = (0.0, 0.0, 0.0)
+    path: Path | None = None
 
     def column(self, name: str) -> np.ndarray:
         """The column called ``name``, shape (n_rows,)."""
@@ -107,7 +113,8 @@ class DumpReader:
             return
         last = None
         for path in self.files:
-            for frame in _Scanner(self, path).frames(must_hold=False):
+            scanner = _Scanner(self, path)
+            for frame in scanner.frames(must_hold=False):
                 if last is not None and frame.timestep <= last[0]:
                     raise UserError(
                         f"{path}:{frame.line}: timestep {frame.timestep} does not follow "
@@ -115,6 +122,9 @@ class DumpReader:
                         "increasing time steps (remove the repeated or stray file)")
                 last = (frame.timestep, path)
                 yield frame
+            if scanner.seen == 0:
+                log.warning("%s: holds no complete frame (empty or cut); skipped, the other "
+                            "files of %s are used", path, self.path)
 
 
 def series(path) -> list:
@@ -271,7 +281,7 @@ class _Scanner:
     # -- one frame ----------------------------------------------------------------------
     def _frame(self):
         head = {"time": None, "box": np.zeros((3, 2)), "boundary": ("", "", ""),
-                "triclinic": False}
+                "triclinic": False, "tilt": (0.0, 0.0, 0.0)}
         start_line = self.line
         while True:
             text = self._readline()
@@ -306,10 +316,12 @@ class _Scanner:
                     head["box"] = np.array([ln.split()[:2] for ln in lines], dtype=float)
                     flags = item.split()[2:]
                     head["triclinic"] = flags[:3] == ["xy", "xz", "yz"]
+                    if head["triclinic"]:
+                        head["tilt"] = tuple(float(ln.split()[2]) for ln in lines)
                     flags = flags[3:] if head["triclinic"] else flags
                     if len(flags) == 3:
                         head["boundary"] = tuple(flags)
-            except ValueError:
+            except (ValueError, IndexError):
                 raise UserError(f"{self.path}:{self.line - 1}: cannot read the {item!r} "
                                 f"header value {value!r}; the file is damaged") from None
         if "timestep" not in head or "n" not in head:
@@ -341,8 +353,7 @@ class _Scanner:
             if status == OK and col == end:
                 self.pos, first = end, self.line
                 self.line += n
-                return DumpFrame(step, head["time"], want, data, head["box"], first,
-                                 head["boundary"], head["triclinic"])
+                return self._made(head, want, data, first)
         rows = self._lines(self.pos, end)
         if skip and rows >= n:
             self.pos, self.line = end, self.line + rows
@@ -363,8 +374,11 @@ class _Scanner:
         self.pos = end
         first = self.line
         self.line += rows
-        return DumpFrame(step, head["time"], want, data, head["box"], first,
-                         head["boundary"], head["triclinic"])
+        return self._made(head, want, data, first)
+
+    def _made(self, head, columns, data, line):
+        return DumpFrame(head["timestep"], head["time"], columns, data, head["box"], line,
+                         head["boundary"], head["triclinic"], head["tilt"], self.path)
 
     def _lines(self, start, end) -> int:
         """Newlines in buf[start:end] (a mapped file has no count of its own)."""
@@ -405,11 +419,27 @@ class _Scanner:
         if status == NOT_FINITE:
             raise UserError(f"{self.path}:{line}: NaN or inf in column '{names[col]}' "
                             f"(timestep {step}); the run blew up or the file is damaged")
-        what = "too many values" if col >= len(names) else f"bad or missing value in column " \
-               f"'{names[col]}'"
+        words = self._row_text(row).split()
+        if col >= len(names):
+            what = "too many values"
+        elif col < len(words):
+            what = f"{words[col][:20]!r} is not a number, in column '{names[col]}'"
+        else:
+            what = f"no value in column '{names[col]}'"
         assert status == MALFORMED
         raise UserError(f"{self.path}:{line}: malformed row ({what}; expected "
                         f"{len(names)} numbers, timestep {step}); the file is damaged")
+
+    def _row_text(self, row) -> str:
+        """The text of the frame's ``row``-th row (0-based; the block starts at pos)."""
+        start = self.pos
+        for _ in range(row):
+            start = self.buf.find(b"\n", start) + 1
+            if start == 0:
+                return ""
+        end = self.buf.find(b"\n", start)
+        return bytes(self.buf[start:end if end >= 0 else len(self.buf)]).decode("ascii",
+                                                                               "replace")
 
     def _truncated(self, step, line):
         log.warning("%s:%d: last frame (timestep %s) is truncated; skipped; the last complete "

@@ -69,13 +69,13 @@ def _is_kind(value, kind) -> bool:
 def positive(name, value):
     """A finite number > 0, or a one-line refusal naming the option."""
     if value is not None and not (math.isfinite(value) and value > 0):
-        raise UserError(f"{name} {value}: must be a finite number > 0")
+        raise UserError(f"{name} {float(value):g}: must be a finite number > 0")
     return value
 
 
 def finite(name, value):
     if value is not None and not math.isfinite(value):
-        raise UserError(f"{name} {value}: must be a finite number")
+        raise UserError(f"{name} {float(value):g}: must be a finite number")
     return value
 
 

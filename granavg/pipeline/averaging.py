@@ -14,7 +14,8 @@ from granavg.engine.profiles import Profiles
 from granavg.engine.timeseries import ensemble_stationarity
 from granavg.errors import UserError
 from granavg.io import formats, validate
-from granavg.io.profiles_io import REPLICATES, TIMESERIES, write_profiles
+from granavg.io.output_set import OutputSet
+from granavg.io.profiles_io import REPLICATES, TIMESERIES, write_profile_files
 from granavg.engine import body_forces
 from granavg.pipeline.description import DumpAverage, WithBodyForces
 from granavg.pipeline.on_dask import average_dumps_dask, average_run_dask
@@ -54,7 +55,7 @@ def average_dumps(atoms, contacts=None, *, progress=None, **options) -> Profiles
 
 def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
                   quantities=None, t_min=None, block_time=None, gravity=None,
-                  branch="contact", sectors="auto", **source_options):
+                  branch="contact", sectors="auto", check_cells=None, **source_options):
     """The averager of anyone's dumps (:func:`granavg.engine.api.averager`) and the
     frame source it reads (whose ``dropped`` counts rows left out).
 
@@ -78,6 +79,9 @@ def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     sectors : "auto", int or None
         Sectors per cell along the symmetry direction (rings: phi; slabs: their length)
         for the errors' spatial replicas (:mod:`granavg.engine.replicas`).
+    check_cells : callable, optional
+        Called with the cells before any frame is averaged (e.g. that an output can hold
+        them); raises to refuse.
     **source_options
         Options of the format (e.g. ``atom_map``, ``contact_map``, ``wall_types``,
         ``dt``, ``units`` for LAMMPS dumps; ``steps``, a time-step window, for a dask
@@ -85,11 +89,19 @@ def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     """
     validate.positive("--density", density)
     validate.positive("--block-time", block_time)
+    validate.positive("--dt", source_options.get("dt"))
     validate.finite("--t-min", t_min)
+    if source_options.get("contact_map") and contacts is None:
+        raise UserError("--contact-columns maps the columns of a contact dump: give it "
+                        "with --contacts, or leave the map out")
     frames = formats.open_frames(atoms, contacts, fmt=fmt, **source_options)
     dim = getattr(frames, "dim", 2)
     spec = DumpAverage.of(frames.box, dim=dim, periodic=getattr(frames, "periodic", None) or
-                          (lambda: (False,) * 3), **cells)
+                          (lambda: (False,) * 3), tilt=getattr(frames, "tilt", None) or
+                          (lambda: (0.0, 0.0, 0.0)), why_2d=getattr(frames, "dim_reason", None),
+                          **cells)
+    if check_cells is not None:
+        check_cells(spec.geometry)
     if gravity and frames.units.momentum_flux:
         raise UserError(f"--gravity with LAMMPS units {frames.units.style}: m g is not in "
                         "that style's force unit; give the body force as a per-atom column "
@@ -143,19 +155,24 @@ def average_to_file(run_dirs, out, *, parquet=False, netcdf=False, vtk=False, wo
                             "--contacts)")
         atoms = validate.existing_file("--atoms", atoms)
         contacts = validate.existing_file("--contacts", contacts)
+        if vtk:
+            from granavg.io.field_files import vtk_cells
+            options = dict(options, check_cells=vtk_cells)
         if workers is not None or scheduler:
             profiles = average_dumps_dask(atoms, contacts, workers=workers or 2,
                                           scheduler=scheduler, **options)
         else:
             profiles = average_dumps(atoms, contacts, progress=progress, **options)
-    if netcdf or vtk:
-        from granavg.io import field_files
+    with OutputSet(out) as outputs:          # all of them, or none
+        if netcdf or vtk:
+            from granavg.io import field_files
 
-        if vtk:
-            field_files.write_vtk(profiles, out.with_name(out.name + ".vtu"))
-        if netcdf:
-            field_files.write_netcdf(profiles, out.with_name(out.name + ".nc"))
-    write_profiles(profiles, out, parquet=parquet)
+            if vtk:
+                field_files.write_vtk(profiles, outputs.temp(".vtu"))
+            if netcdf:
+                field_files.write_netcdf(profiles, outputs.temp(".nc"))
+        write_profile_files(profiles, outputs, parquet=parquet)
+        outputs.commit()
     log.info("%d %s x %d frames -> %s (+ %s.json)", profiles.rings.n, profiles.rings.kind,
              profiles.n_frames, out, out.name)
     return out

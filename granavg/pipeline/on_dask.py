@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import logging
 import resource
+from contextlib import contextmanager
 
 import numpy as np
 
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.profiles import Profiles
-from granavg.dask_cluster import local_cluster
+from granavg.dask_cluster import Cluster, cluster_client, refusal_safe
 from granavg.errors import UserError
 from granavg.pipeline.runs import run_averager
 
@@ -47,6 +48,7 @@ def cut_windows(steps, times, t_min: float, block_time: float, n_chunks: int) ->
     return [(int(steps[a]), int(steps[b - 1])) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 
 
+@refusal_safe
 def _chunk(run_dir, window, options):
     """One worker's job: the accumulators of the frames in ``window``, its peak RSS and
     the frames' time-series rows."""
@@ -77,23 +79,14 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
 
     The profiles' ``meta["dask"]`` records the chunks and each worker's peak memory (B).
     """
-    from dask.distributed import Client
-
     base = run_averager(run_dir, **options)          # validates; reads no frame
     windows = chunk_windows(base.meta["run_manifest"], base.t_min, base.block_time, chunks or 2 * workers)
-    own = client is None
-    if own:
-        cluster = None if scheduler else local_cluster(workers)
-        client = Client(scheduler or cluster)
-    try:
-        futures = [client.submit(_chunk, str(run_dir), w, options, pure=False) for w in windows]
-        results = client.gather(futures)
-        workers_used = len(client.scheduler_info()["workers"])
-    finally:
-        if own:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+    with cluster_client(workers, scheduler) if client is None else \
+            _given(client) as dask_jobs:
+        futures = [dask_jobs.client.submit(_chunk, str(run_dir), w, options, pure=False)
+                   for w in windows]
+        results = dask_jobs.gather(futures)
+        workers_used = dask_jobs.n_workers
     base.prepare()
     for state, _, rows in results:
         base.merge(state)
@@ -105,6 +98,14 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     return profiles
 
 
+@contextmanager
+def _given(client):
+    """A :class:`~granavg.dask_cluster.Cluster` of a client the caller owns (not closed
+    here; no signals deferred)."""
+    yield Cluster(client, [])
+
+
+@refusal_safe
 def _dump_chunk(atoms, contacts, window, options):
     """One worker's job for anyone's dumps: the accumulators of the frames in
     ``window``, its peak RSS and the rows it dropped."""
@@ -126,8 +127,6 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
     (uncompressed) file (each worker skips to its frames by scanning). Identical
     profiles; ``meta["dask"]`` records the chunks. A single gzip file is refused: it is
     one stream, which only one process can decompress."""
-    from dask.distributed import Client
-
     from granavg.io import formats
     from granavg.io.reader import DumpReader, series
     from granavg.pipeline.averaging import dump_averager
@@ -150,18 +149,14 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
     if not windows:
         raise UserError(f"no frame at t >= {base.t_min:g}, the start of the average "
                         "(--t-min); lower it")
-    fixed = dict(options, quantities=base.groups, block_time=base.block_time)
-    cluster = None if scheduler else local_cluster(workers)
-    client = Client(scheduler or cluster)
-    try:
-        futures = [client.submit(_dump_chunk, str(atoms), str(contacts) if contacts else None,
-                                 w, fixed, pure=False) for w in windows]
-        results = client.gather(futures)
-        workers_used = len(client.scheduler_info()["workers"])
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    fixed = dict(options, quantities=base.groups, block_time=base.block_time,
+                 check_cells=None)                    # checked above
+    with cluster_client(workers, scheduler) as dask_jobs:
+        futures = [dask_jobs.client.submit(_dump_chunk, str(atoms),
+                                           str(contacts) if contacts else None, w, fixed,
+                                           pure=False) for w in windows]
+        results = dask_jobs.gather(futures)
+        workers_used = dask_jobs.n_workers
     base.prepare()
     dropped = {}
     for state, _, rows in results:

@@ -10,6 +10,24 @@ import sys
 import threading
 from contextlib import contextmanager
 
+from granavg.io import output_set
+
+
+def outputs_written() -> list:
+    """The main files of the output sets this command committed (a signal after them
+    finds them complete; :mod:`granavg.io.output_set`)."""
+    return output_set.committed()
+
+
+def no_room(raised: BaseException) -> str | None:
+    """The one-line message for a write that failed for want of room (a full disk, a
+    file-size limit), else None."""
+    if isinstance(raised, OSError) and raised.errno in output_set.NO_ROOM:
+        where = f"{raised.filename}: " if raised.filename else ""
+        return (f"{where}{os.strerror(raised.errno).lower()} (the disk is full or a "
+                "file-size limit was reached); free some space or choose another --out")
+    return None
+
 
 class Terminated(KeyboardInterrupt):
     """SIGTERM, turned into an exception like Ctrl-C's."""
@@ -84,6 +102,7 @@ def signals_as_interrupts():
     """Within the block, SIGTERM and SIGINT raise :class:`Terminated` or
     KeyboardInterrupt (the previous handlers come back after it)."""
     _signalled.clear()
+    output_set.forget()
     previous = {}
     if threading.current_thread() is threading.main_thread():
         previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, _on_signal)

@@ -59,6 +59,10 @@ class ContactLaw:
     mu_roll: float = 0.0
 
     def __post_init__(self):
+        for name, value in asdict(self).items():
+            if not math.isfinite(value):
+                raise UserError(f"contact law: {name} = {value}: must be a finite number; "
+                                "fix the --set value")
         checks = [
             (self.k_n > 0, "k_n must be > 0 N/m"),
             (0 < self.e_n <= 1, "e_n must be in (0, 1]"),
@@ -68,7 +72,7 @@ class ContactLaw:
              "friction coefficients must be >= 0"),
         ]
         for ok, msg in checks:
-            if not (ok and all(math.isfinite(v) for v in asdict(self).values())):
+            if not ok:
                 raise UserError(f"contact law: {msg} (got {asdict(self)}); fix the --set value")
 
 

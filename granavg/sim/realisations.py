@@ -20,6 +20,7 @@ import os
 from pathlib import Path
 
 
+from granavg.dask_cluster import refusal_safe
 from granavg.errors import UserError
 from granavg.io.run_directory import claim_new
 from granavg.sim import packings, trade
@@ -38,6 +39,7 @@ def seeds_for(scene: Scene, k: int) -> list:
     return [scene.seed + SEED_STRIDE * i for i in range(k)]
 
 
+@refusal_safe
 def _one(scene_dict: dict, out: str, preset, quantities) -> str:
     """One dask task: simulate one realisation (single-threaded LAMMPS, no progress bar)."""
     from granavg.sim.simulate import simulate
@@ -71,9 +73,7 @@ def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
         The run directories, in seed order. A realisation that fails is reported after
         the others finished; the ones that completed are kept.
     """
-    from dask.distributed import Client, as_completed
-
-    from granavg.dask_cluster import local_cluster
+    from granavg.dask_cluster import Refused, cluster_client
 
     seeds = seeds_for(scene, k)
     for s in seeds:
@@ -92,26 +92,23 @@ def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
     record = {"scene": scene.to_dict(), "preset": preset, "seeds": seeds,
               "runs": {r.name: "running" for r in runs}}
     _write(out, record)
-    cluster = None if scheduler else local_cluster(min(workers, k))
     failed = []
-    try:
-        with Client(scheduler or cluster) as client:
-            futures = {client.submit(_one, dataclasses.replace(scene, seed=s).to_dict(),
-                                     str(r), preset, quantities, pure=False): r
-                       for s, r in zip(seeds, runs)}
-            for fut in as_completed(list(futures)):
-                run = futures[fut]
-                try:
-                    fut.result()
-                    record["runs"][run.name] = "complete"
-                    log.info("realisation %s complete", run.name)
-                except Exception as exc:                 # noqa: BLE001 - reported below
-                    record["runs"][run.name] = f"failed: {exc}"
-                    failed.append(f"{run.name}: {exc}")
-                _write(out, record)
-    finally:
-        if cluster is not None:
-            cluster.close()
+    with cluster_client(min(workers, k), scheduler) as dask_jobs:
+        futures = {dask_jobs.client.submit(_one, dataclasses.replace(scene, seed=s).to_dict(),
+                                           str(r), preset, quantities, pure=False): r
+                   for s, r in zip(seeds, runs)}
+        for fut in dask_jobs.completed(list(futures)):
+            run = futures[fut]
+            try:
+                result = fut.result()
+                if isinstance(result, Refused):
+                    raise UserError(result.message)
+                record["runs"][run.name] = "complete"
+                log.info("realisation %s complete", run.name)
+            except Exception as exc:                 # noqa: BLE001 - reported below
+                record["runs"][run.name] = f"failed: {exc}"
+                failed.append(f"{run.name}: {exc}")
+            _write(out, record)
     if failed:
         raise UserError(f"{len(failed)} of {k} realisations failed ({failed[0]}); the "
                         f"others are complete in {out}")

@@ -239,9 +239,11 @@ def area_fraction(s: Scene) -> float:
 
 
 def _check_geometry(s: Scene) -> None:
-    finite = all(math.isfinite(v) for v in s.to_dict().values() if not isinstance(v, str))
+    bad = [k for k, v in s.to_dict().items() if isinstance(v, (int, float))
+           and not isinstance(v, bool) and not math.isfinite(v)]
     problems = [
-        (finite, "every value must be finite"),
+        (not bad, f"{bad[0]} = {getattr(s, bad[0])}: every value must be finite" if bad
+         else ""),
         (0 < s.R_i < s.R_o, f"need 0 < R_i < R_o (got R_i={s.R_i}, R_o={s.R_o} m)"),
         (min(s.h, s.d_s, s.d_l, s.rho_p, s.Omega) > 0, "h, d_s, d_l, rho_p, Omega must be > 0"),
         (s.n_small >= 0 and s.n_large >= 0 and s.n_small + s.n_large > 0,
