@@ -19,12 +19,12 @@ import warnings
 from pathlib import Path
 
 from granavg.engine.average import CellAverage, frame_sums
-from granavg.engine.geometry import Rings
+from granavg.engine.cells.rings import Rings
 from granavg.pipeline.runs import average_run
 from granavg.engine.channels import BLOCKS
 from granavg.engine.quantities import groups_for
-from granavg.engine.replicas import FINE_SECTORS
-from granavg.engine.timeseries import frame_state
+from granavg.engine.uncertainty.structure import FINE_SECTORS
+from granavg.sim.couette_state import frame_state
 from granavg.io.frames import Frame
 from granavg.io.reader import DumpReader
 from granavg.io.run_dumps import RunDumps

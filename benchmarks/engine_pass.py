@@ -15,8 +15,8 @@ from pathlib import Path
 
 from granavg.engine.average import frame_sums
 from granavg.engine.channels import BLOCKS
-from granavg.engine.geometry import Rings
-from granavg.engine.replicas import FINE_SECTORS
+from granavg.engine.cells.rings import Rings
+from granavg.engine.uncertainty.structure import FINE_SECTORS
 from granavg.io.reader import DumpReader
 from granavg.io.run_directory import read_manifest
 from granavg.io.run_dumps import RunDumps

@@ -9,23 +9,43 @@ import math
 import sys
 
 from granavg import __version__
-from granavg.errors import ParameterError, UserError
+from granavg.errors import ParameterError, UserError, name_parameters
 
-#: How the command line names the parameters the engine's errors name.
-FLAGS = {"t_min": "--t-min", "block_time": "--block-time", "rho_p": "--density",
-         "bins": "--bins", "quantities": "--quantities", "contacts": "--contacts",
-         "sectors": "--sectors"}
+#: The options whose flag is not the library's parameter name with dashes
+#: (:func:`flag`): how the command line names them in messages.
+FLAGS = {"rho_p": "--density", "atom_map": "--atom-columns", "contact_map":
+         "--contact-columns", "fmt": "--format", "overrides": "--set", "run_dirs":
+         "the run directory", "progress": "--no-progress"}
+
+
+def flag(name: str) -> str:
+    """The command line's name of a library parameter: ``t_min`` -> ``--t-min``."""
+    return FLAGS.get(name, "--" + name.replace("_", "-"))
 #: Options that only plain dumps take (a run directory's manifest says them).
 PLAIN_ONLY = ("thickness", "density", "dt", "r_range", "slabs", "grid", "wall_types",
               "atom_columns", "contact_columns", "units", "format", "gravity", "center",
               "range", "length", "x_range", "y_range", "z_range", "layers", "area", "dim")
 
 
+#: Where the help names the quantities: filled in from their registry when help is shown
+#: (it is not imported for anything else the command line does).
+CATALOGUE = "<quantities>"
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse, its refusals as one line (a :class:`UserError`) without the usage."""
+    """argparse, its refusals as one line (a :class:`UserError`) without the usage, the
+    quantities' catalogue in its help."""
 
     def error(self, message):
         raise UserError(f"{message} (see {self.prog} --help)")
+
+    def format_help(self):
+        from granavg.pipeline.description import quantity_catalogue
+
+        for action in self._actions:
+            if action.help and CATALOGUE in action.help:
+                action.help = action.help.replace(CATALOGUE, quantity_catalogue())
+        return super().format_help()
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -61,9 +81,9 @@ def _parser() -> argparse.ArgumentParser:
                      "the scene's discarded transient: discard_rotations inner-ring rotations)")
     sim.add_argument("--block-time", type=_finite, help="in-situ standard errors: base blocks "
                      "of this length in s (default: one dump interval, at most 512)")
-    sim.add_argument("--quantities", help="comma-separated quantities the run is for (as "
-                     "for 'average'); if none needs contact forces (nu, rho, v, omega, "
-                     "dsigma, dsigma_fluct), LAMMPS computes and writes no contact output")
+    sim.add_argument("--quantities", help="comma-separated quantities the run is for, of: "
+                     + CATALOGUE + "; if none needs contact forces, LAMMPS computes and "
+                     "writes no contact output")
     sim.add_argument("--seeds", type=int, metavar="K", help="run K independent "
                      "realisations (different random packings) into OUT/seed<N>/, on a "
                      "dask cluster; average them together with 'granavg average RUN RUN ...'")
@@ -140,9 +160,8 @@ def _parser() -> argparse.ArgumentParser:
                      "the scene's discarded transient, discard_rotations rotations)")
     avg.add_argument("--block-time", type=_finite, help="base time blocks of the errors' "
                      "blocking analysis, s (default: one dump interval, at most 512 blocks)")
-    avg.add_argument("--quantities", help="comma-separated subset of: nu, rho, v, omega, "
-                     "coordination, F, sigma, dsigma, dsigma_fluct, eps, boundary, body "
-                     "(default: all the data allow)")
+    avg.add_argument("--quantities", help="comma-separated subset of: " + CATALOGUE +
+                     " (default: all the data allow)")
     avg.add_argument("--branch", choices=["contact", "paper"], default="contact", help=(
         "branch vectors of Eqs. 5, 7 to the contact point (default: the stress carries the "
         "contact forces exactly) or, as printed, to the surface (too large by ~overlap/d)"))
@@ -284,6 +303,7 @@ def main(argv=None) -> int:
     from granavg.pipeline.session import (configure_logging, interrupt_code, no_room,
                                           outputs_written, signals_as_interrupts)
 
+    name_parameters(flag)
     with signals_as_interrupts():
         try:
             args = _parser().parse_args(argv)
@@ -295,7 +315,7 @@ def main(argv=None) -> int:
                 logging.getLogger("granavg").info("run complete: %s", done)
             return 0
         except UserError as exc:
-            text = exc.named(FLAGS) if isinstance(exc, ParameterError) else str(exc)
+            text = exc.named(flag) if isinstance(exc, ParameterError) else str(exc)
             print(f"granavg: error: {text}", file=sys.stderr)
             return exc.exit_code
         except (KeyboardInterrupt, Exception) as raised:

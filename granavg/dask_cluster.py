@@ -18,7 +18,7 @@ import logging
 import time
 from contextlib import contextmanager
 
-from granavg.errors import UserError
+from granavg.errors import ParameterError, UserError, literal
 from granavg.signals import deferred
 
 #: How often the futures are polled while waiting, s.
@@ -149,9 +149,9 @@ def _connect(Client, scheduler, cluster):
         return Client(scheduler, timeout=CONNECT_TIMEOUT)
     except (OSError, TimeoutError, ValueError, TypeError) as exc:
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise UserError(f"--scheduler {scheduler}: cannot reach it ({text}); give the "
-                        "address of a running dask scheduler (tcp://host:8786), or leave "
-                        "--scheduler out") from None
+        raise ParameterError("scheduler", f"{{param}} {literal(scheduler)}: cannot reach it "
+                             f"({literal(text)}); give the address of a running dask "
+                             "scheduler (tcp://host:8786), or leave {param} out") from None
 
 
 def _close(client, cluster, quiet: bool):

@@ -36,7 +36,7 @@ def shells(tmp_path_factory):
 
 def test_the_shells_show_a_shear_band_at_the_inner_wall(shells):
     p = shells
-    assert p.rings.kind == "shells" and p.rings.periods[2] == (0.0, L)
+    assert p.cells.kind == "shells" and p.cells.periods[2] == (0.0, L)
     v, sem = p.values["v_phi"], p.sem["v_phi"]
     assert v[0] > 3 * v[1] > 0 and np.all(np.abs(v[2:]) < np.abs(v[1]))   # it decays
     assert np.all(np.abs(p.values["v_r"]) < 3 * p.sem["v_r"] + 1e-6)        # no mean radial flow
@@ -53,9 +53,9 @@ def test_the_torque_of_the_inner_wall_passes_through_every_shell(shells):
     on. Measured: every shell within 11%, their mean within 0.1%; taking the wall's force
     at the first shell's centre instead of its surface is 12.5% off."""
     p = shells
-    r = p.rings.centre_r
+    r = p.cells.centre_r
     T = p.values["sigma_phir"] - p.values["dsigma_phir"]
-    wall_force = np.sum((p.values["boundary_phi"] * p.rings.volume)[r < 0.5 * (R_I + R_O)])
+    wall_force = np.sum((p.values["boundary_phi"] * p.cells.volume)[r < 0.5 * (R_I + R_O)])
     torque = wall_force * R_I / (2 * np.pi * L)
     ratio = -r**2 * T / torque
     assert np.all(np.abs(ratio - 1) < 0.15), ratio
@@ -92,7 +92,7 @@ def test_the_shells_round_trip_through_netcdf_and_vtk(shells, tmp_path):
     assert np.allclose(ds["v_phi"].values.ravel(), p.values["v_phi"], rtol=1e-9, atol=0)
     assert np.allclose(ds["sigma_phir_sem"].values.ravel(), p.sem["sigma_phir"], rtol=1e-9)
     assert ds["sigma_rr"].attrs["units"] == "Pa" and ds["r"].attrs["units"] == "m"
-    assert np.allclose(ds["r_edges"].values, p.rings.edges)
+    assert np.allclose(ds["r_edges"].values, p.cells.edges)
     assert '"shells"' in ds.attrs["geometry"]
     mesh = meshio.read(tmp_path / "s.csv.vtu")
     hexes = mesh.cells_dict["hexahedron"]
@@ -101,7 +101,7 @@ def test_the_shells_round_trip_through_netcdf_and_vtk(shells, tmp_path):
     v = mesh.cell_data_dict["v"]["hexahedron"]
     phi = np.arctan2(centre[:, 1], centre[:, 0])
     e_phi = np.column_stack([-np.sin(phi), np.cos(phi)])
-    ring = np.clip(np.searchsorted(p.rings.edges, np.hypot(centre[:, 0], centre[:, 1])) - 1,
+    ring = np.clip(np.searchsorted(p.cells.edges, np.hypot(centre[:, 0], centre[:, 1])) - 1,
                    0, 4)
     layer = (centre[:, 2] > 0.003).astype(int)
     k = ring * 2 + layer

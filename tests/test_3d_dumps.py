@@ -77,8 +77,8 @@ def test_a_3d_pile_carries_its_weight(pile, tmp_path):
     args = ("--slabs", "z", "--range", 0, 0.024, "--bins", 6, "--gravity", 0, 0, -G)
     p = average(out, tmp_path / "c.csv", *args)
     paper = average(out, tmp_path / "p.csv", *args, "--branch", "paper")
-    assert p.rings.kind == "slabs3d" and p.meta["inputs"]["dim"] == 3
-    load = np.mean([weight_above(rows, cols, p.rings.edges)
+    assert p.cells.kind == "slabs3d" and p.meta["inputs"]["dim"] == 3
+    load = np.mean([weight_above(rows, cols, p.cells.edges)
                     for _, cols, rows in frames(out / "atoms.dump")], axis=0)
     ratio = -p.values["sigma_zz"] * SIDE * SIDE / load
     bulk = slice(1, 5)                                   # 4 to 20 mm
@@ -102,8 +102,8 @@ def test_the_summed_stress_is_lammps_virial(pile, tmp_path):
     last = int(head[head.index("ITEM: TIMESTEP") + 1]) * 1e-5          # the deck's dt
     p = average(out, tmp_path / "b.csv", "--grid", 2, 2, 3, "--z-range", -0.002, 0.09,
                 "--t-min", last - 1e-6, "--quantities", "nu,sigma")
-    assert p.n_frames == 1 and p.rings.kind == "boxes"
-    ours = np.sum(p.rings.volume * (p.values["sigma_xx"] + p.values["sigma_yy"] +
+    assert p.n_frames == 1 and p.cells.kind == "boxes"
+    ours = np.sum(p.cells.volume * (p.values["sigma_xx"] + p.values["sigma_yy"] +
                                     p.values["sigma_zz"]))
     _, _, rows = frames(out / "contacts.dump")[-1]
     force = rows[:, 6]
@@ -119,15 +119,15 @@ def test_boxes_over_the_periodic_box_hold_every_sphere(pile, tmp_path):
     out, _ = pile
     p = average(out, tmp_path / "g.csv", "--grid", 4, 4, 1, "--z-range", -0.002, 0.09,
                 "--quantities", "nu")
-    assert p.rings.periods[:2] == ((0.0, SIDE), (0.0, SIDE)) and p.rings.periods[2] is None
+    assert p.cells.periods[:2] == ((0.0, SIDE), (0.0, SIDE)) and p.cells.periods[2] is None
     _, cols, rows = frames(out / "atoms.dump")[0]
     a = 0.5 * rows[:, cols.index("diameter")]
     total = np.sum(4 / 3 * np.pi * a**3)
-    assert np.sum(p.values["nu"] * p.rings.volume) == pytest.approx(total, rel=1e-5)
-    plain = Boxes(p.rings.xedges, p.rings.yedges, p.rings.zedges)      # no images
+    assert np.sum(p.values["nu"] * p.cells.volume) == pytest.approx(total, rel=1e-5)
+    plain = Boxes(p.cells.xedges, p.cells.yedges, p.cells.zedges)      # no images
     pos = tuple(rows[:, cols.index(c)] for c in "xyz")
     _, _, w = plain.weights(pos, a)
-    part, _, w_all = p.rings.weights(pos, a)
+    part, _, w_all = p.cells.weights(pos, a)
     assert np.sum(w_all * 4 / 3 * np.pi * a[part] ** 3) == pytest.approx(total, rel=1e-12)
     assert w.sum() < len(a) - 1                           # spheres do cross the faces
 
@@ -176,7 +176,7 @@ def test_the_dimension_comes_from_the_dump(tmp_path):
     proc = run_cli("average", "--atoms", out / "atoms.dump", "--slabs", "y",
                    "--thickness", 1, "--out", tmp_path / "y.csv", "--no-progress")
     assert proc.returncode == 0, proc.stderr
-    assert read_profiles(tmp_path / "y.csv").rings.kind == "slabs"
+    assert read_profiles(tmp_path / "y.csv").cells.kind == "slabs"
     assert math.isfinite(read_profiles(tmp_path / "y.csv").values["nu"][3])
 
 

@@ -27,8 +27,8 @@ def test_rings_narrower_than_a_disk_keep_the_exact_area_sum(small_run):
     p = average_run(small_run, edges=edges, t_min=t, quantities=["nu"], progress=False)
     frame = list(DumpReader(small_run / "atoms.dump.gz", ["radius"]))[-1]
     disks = math.pi * m["h"] * np.sum(frame.data[:, 0] ** 2)
-    assert (p.rings.edges[1] - p.rings.edges[0]) < 0.05 * m["d_s"]
-    assert abs(np.sum(p.values["nu"] * p.rings.volume) / disks - 1) < 1e-12
+    assert (p.cells.edges[1] - p.cells.edges[0]) < 0.05 * m["d_s"]
+    assert abs(np.sum(p.values["nu"] * p.cells.volume) / disks - 1) < 1e-12
 
 
 def test_rings_without_disks_and_outside_the_annulus_are_nan_and_flagged(small_run):

@@ -60,10 +60,10 @@ def test_a_pile_at_rest_carries_its_weight(pile, tmp_path):
     d (measured +1.7 to +2.3%)."""
     p = slab_profiles(pile, tmp_path / "c.csv")
     paper = slab_profiles(pile, tmp_path / "p.csv", "--branch", "paper")
-    edges = p.rings.edges
+    edges = p.cells.edges
     load = np.mean([weight_above(a, edges) for _, _, a in frames(pile / "atoms.dump")], axis=0)
     carried = -p.values["sigma_yy"] * W * H
-    bulk = (p.rings.coordinates()["y"] >= 2) & (p.rings.coordinates()["y"] <= 8)
+    bulk = (p.cells.coordinates()["y"] >= 2) & (p.cells.coordinates()["y"] <= 8)
     assert bulk.sum() == 3
     ratio = carried[bulk] / load[bulk]
     assert np.all(np.abs(ratio - 1) < 0.01), ratio
@@ -94,7 +94,7 @@ def test_the_paper_branch_misses_a_pair_by_the_overlap_ratio(a1, a2, dist):
     got = {}
     for branch in ("paper", "contact"):
         p = average([pair(a1, a2, dist, 2.0)], cells, quantities=["sigma"], branch=branch)
-        got[branch] = float(p.rings.volume[0] * (p.values["sigma_xx"][0] +
+        got[branch] = float(p.cells.volume[0] * (p.values["sigma_xx"][0] +
                                                  p.values["sigma_yy"][0]))
     assert got["contact"] == pytest.approx(-2.0 * dist, rel=1e-14)
     assert got["paper"] == pytest.approx(-2.0 * (a1 + a2), rel=1e-14)

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from granavg.analysis.claims import analyze
-from granavg.engine.geometry import Rings
+from granavg.engine.cells.rings import Rings
 from granavg.engine.profiles import Profiles
 from granavg.analysis.continuum import deformation_rate_and_spin
-from granavg.engine.uncertainty import Replicates
+from granavg.engine.uncertainty.blocking import Replicates
 
 SCENE = {"R_i": 0.1032, "R_o": 0.2524, "h": 0.006, "d_s": 0.00742, "d_l": 0.00899,
          "n_small": 2538, "n_large": 407, "rho_p": 1060.0, "Omega": 0.1, "k_n": 10.0}

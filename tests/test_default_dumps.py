@@ -96,7 +96,7 @@ def test_default_dumps_give_lammps_virial(pile, tmp_path, branch):
     assert proc.returncode == 0, proc.stderr
     p = read_profiles(tmp_path / "s.csv")
     assert p.n_frames == 1 and p.meta["branch"] == branch    # the last frame only
-    ours = np.sum(p.rings.volume * (p.values["sigma_xx"] + p.values["sigma_yy"]))
+    ours = np.sum(p.cells.volume * (p.values["sigma_xx"] + p.values["sigma_yy"]))
     _, _, atoms = frames(out / "atoms.dump")[-1]
     _, _, rows = frames(out / "contacts.dump")[-1]
     radius = dict(zip(atoms[:, 0].astype(int), 0.5 * atoms[:, 2]))
@@ -276,7 +276,7 @@ def test_wall_atoms_of_a_default_dump(tmp_path):
     assert (~mobile).sum() == 20
     area = np.pi * H * np.sum((0.5 * atoms[mobile, 2]) ** 2)
     # time-averaged over frames of a pile at rest: the same disks in every frame
-    assert np.sum(p.values["nu"] * p.rings.volume) == pytest.approx(area, rel=1e-9)
+    assert np.sum(p.values["nu"] * p.cells.volume) == pytest.approx(area, rel=1e-9)
     assert p.values["coordination"][1] > 2.5               # the layer on the floor disks
 
 
@@ -291,7 +291,7 @@ def test_slabs_of_a_pile_get_segment_replicas_and_the_weight_time_errors(pile, t
     p = read_profiles(tmp_path / "s.csv")
     err = p.meta["errors"]
     assert err["kind"] == "time+structure" and err["sectors"]["axis"] == "x"
-    assert p.rings.span is not None and p.replicates.kind == "structure"
+    assert p.cells.span is not None and p.replicates.kind == "structure"
     assert set(err["sectors"]["time_only"]) == {"sigma_xy", "sigma_yx", "sigma_yy"}
     off = tmp_path / "t.csv"
     proc = average(out / "atoms.dump", out / "contacts.dump", off, "--contact-columns", MAP,

@@ -151,7 +151,6 @@ def test_shell_sectors_split_each_sphere_by_its_volume_beyond_the_planes():
     """A sphere straddling a sector boundary (a plane through the axis) goes to the two
     sectors by the exact cap volumes (against Monte Carlo), and a frame's sector sums
     add up to its shells' sums."""
-    from granavg.engine import replicas
     from granavg.engine.average import frame_sums
     from granavg.engine.channels import BLOCKS
 
@@ -159,7 +158,7 @@ def test_shell_sectors_split_each_sphere_by_its_volume_beyond_the_planes():
     k, a = 8, 0.004
     phi_b = 2 * np.pi / k                                 # the first boundary plane
     c = (0.06 * np.cos(phi_b - 0.03), 0.06 * np.sin(phi_b - 0.03), 0.001)
-    sector, share = replicas.sector_shares(cells, tuple(np.array([v]) for v in c),
+    sector, share = cells.sector_shares(tuple(np.array([v]) for v in c),
                                            np.array([a]), k)
     got = np.zeros(k)
     np.add.at(got, sector[0], share[0])

@@ -5,7 +5,7 @@ import pytest
 
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.average import CellAverage, frame_sums
-from granavg.engine.geometry import Rings
+from granavg.engine.cells.rings import Rings
 from granavg.engine.quantities import QUANTITIES
 from granavg.io.frames import Frame
 from granavg.engine.weights import ring_weights

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from granavg.engine.average import CellAverage
-from granavg.engine.geometry import Rings
+from granavg.engine.cells.rings import Rings
 from granavg.sim.lammps_session import lammps_session, load_lammps
 from granavg.engine.body_forces import base_plate
 from granavg.engine.quantities import groups_for

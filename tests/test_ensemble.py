@@ -11,7 +11,7 @@ from granavg.analysis.claims import analyze
 from granavg.analysis.report import stationarity_table
 from granavg.pipeline.runs import average_run
 from granavg.engine.combine import combine_runs
-from granavg.engine.timeseries import ensemble_stationarity
+from granavg.engine.stationarity import ensemble_stationarity
 from granavg.errors import UserError
 from granavg.io.profiles_io import read_profiles
 from tests.conftest import SMALL_CELL, SMALL_PRESET, run_cli

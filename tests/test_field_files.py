@@ -36,7 +36,7 @@ def test_boxes_round_trip_through_netcdf(boxes, tmp_path):
     i, j, l = 2, 1, 3
     k = (i * 2 + j) * 4 + l
     assert ds["v_x"].values[i, j, l] == boxes.values["v_x"][k]
-    assert ds["z"].values[l] == pytest.approx(0.5 * (boxes.rings.zedges[l] + boxes.rings.zedges[l + 1]))
+    assert ds["z"].values[l] == pytest.approx(0.5 * (boxes.cells.zedges[l] + boxes.cells.zedges[l + 1]))
     assert ds["v_x"].attrs["units"] == "m/s" and ds["V"].attrs["units"] == "m^3"
     assert not (tmp_path / ".b.nc.tmp").exists() and len(list(tmp_path.iterdir())) == 1
 
@@ -45,12 +45,12 @@ def test_boxes_round_trip_through_vtk(boxes, tmp_path):
     write_vtk(boxes, tmp_path / "b.vtu")
     mesh = meshio.read(tmp_path / "b.vtu")
     hexes = mesh.cells_dict["hexahedron"]
-    assert len(hexes) == boxes.rings.n
+    assert len(hexes) == boxes.cells.n
     centre = mesh.points[hexes].mean(axis=1)
-    cells = boxes.rings.cell_of(tuple(centre.T))
-    assert np.array_equal(cells, np.arange(boxes.rings.n))       # the k-th hexahedron is cell k
+    cells = boxes.cells.cell_of(tuple(centre.T))
+    assert np.array_equal(cells, np.arange(boxes.cells.n))       # the k-th hexahedron is cell k
     volume = np.prod(mesh.points[hexes].max(axis=1) - mesh.points[hexes].min(axis=1), axis=1)
-    assert np.allclose(volume, boxes.rings.volume, rtol=1e-12)
+    assert np.allclose(volume, boxes.cells.volume, rtol=1e-12)
     data = mesh.cell_data_dict
     assert np.array_equal(data["v"]["hexahedron"][:, 0], boxes.values["v_x"])
     sigma = data["sigma"]["hexahedron"].reshape(-1, 3, 3)
@@ -70,7 +70,7 @@ def test_a_2d_grid_is_quadrilaterals_and_slabs_have_no_vtk(tmp_path):
     quads = mesh.cells_dict["quad"]
     assert len(quads) == 12 and np.all(mesh.points[:, 2] == 0)
     centre = mesh.points[quads].mean(axis=1)
-    assert np.array_equal(grid.rings.cell_of((centre[:, 0], centre[:, 1])), np.arange(12))
+    assert np.array_equal(grid.cells.cell_of((centre[:, 0], centre[:, 1])), np.arange(12))
     assert np.allclose(mesh.cell_data_dict["v"]["quad"][:, 0], 1.0)
     spheres = {**atoms, "z": rng.uniform(0, 1, 400)}
     slabs = average([Frame(k, float(k), spheres, None) for k in range(2)],

@@ -17,10 +17,11 @@ ALLOWED = {
     "engine": ("granavg.errors",),
     "io": ("granavg.errors", "granavg.signals", "granavg.engine"),
     "sim": ("granavg.errors", "granavg.signals", "granavg.dask_cluster", "granavg.io",
-            "granavg.engine.quantities", "granavg.engine.units", "granavg.__init__"),
+            "granavg.engine.quantities", "granavg.engine.unit_system",
+            "granavg.engine.kernels", "granavg.__init__"),
     "analysis": ("granavg.errors", "granavg.engine"),
-    "pipeline": ("granavg.errors", "granavg.signals", "granavg.dask_cluster", "granavg.engine",
-                 "granavg.io",
+    "pipeline": ("granavg.errors", "granavg.signals", "granavg.extras", "granavg.dask_cluster",
+                 "granavg.engine", "granavg.io",
                  "granavg.sim", "granavg.analysis", "granavg.__init__"),
 }
 
@@ -158,3 +159,142 @@ def test_the_averaging_bar_shows_on_a_terminal_only(small_run, tmp_path):
     assert "averaging" in on_terminal and "frame" in on_terminal and "TQDM" in on_terminal
     piped = average(tmp_path / "p.csv", False)
     assert "averaging:" not in piped and "TQDM" not in piped
+
+
+# -- the plug-ins' promises: no circle, no dispatch on a kind, no flags below the CLI ------
+
+def module_name(path: Path, root: Path = ROOT) -> str:
+    rel = path.relative_to(root.parent).with_suffix("")
+    parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
+    return ".".join(parts)
+
+
+def import_graph(root: Path = ROOT) -> dict:
+    """granavg module -> the granavg modules it imports (top level or in functions), each
+    import resolved to the module it names (``from a.b import c`` is ``a.b.c`` where
+    that is a module, else ``a.b``)."""
+    modules = {module_name(p, root): p for p in root.rglob("*.py")}
+    graph = {}
+    for name, path in modules.items():
+        edges = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 and \
+                    node.module.startswith("granavg"):
+                for alias in node.names:
+                    full = f"{node.module}.{alias.name}"
+                    edges.add(full if full in modules else node.module)
+            elif isinstance(node, ast.Import):
+                edges.update(a.name for a in node.names if a.name in modules)
+        graph[name] = {e for e in edges if e in modules and e != name}
+    return graph
+
+
+def circles(graph: dict) -> list:
+    """Every import circle (strongly connected group of more than one module)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                out.append(sorted(group))
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_no_module_imports_itself_through_others():
+    assert circles(import_graph()) == []
+
+
+def test_the_circle_check_sees_a_circle(tmp_path):
+    pkg = tmp_path / "granavg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from granavg.b import f\n")
+    (pkg / "b.py").write_text("def f():\n    from granavg.a import g\n")
+    assert circles(import_graph(pkg)) == [["granavg.a", "granavg.b"]]
+
+
+def kinds() -> set:
+    from granavg.engine.cells import registry
+    return set(registry())
+
+
+def kind_dispatch(path: Path, known: set) -> list:
+    """Lines that compare something with the name of a kind of cells."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Compare):
+            for part in (node.left, *node.comparators):
+                names = [part] if isinstance(part, ast.Constant) else \
+                    list(part.elts) if isinstance(part, (ast.Tuple, ast.List, ast.Set)) else []
+                if any(isinstance(n, ast.Constant) and n.value in known for n in names):
+                    out.append(node.lineno)
+    return out
+
+
+def test_no_dispatch_on_a_kind_of_cells_outside_their_modules():
+    """Everything specific to a geometry is in its module of granavg/engine/cells: no
+    other code compares a kind with a geometry's name."""
+    known = kinds()
+    cells = ROOT / "engine" / "cells"
+    found = {str(p.relative_to(ROOT)): lines for p in sorted(ROOT.rglob("*.py"))
+             if cells not in p.parents and (lines := kind_dispatch(p, known))}
+    assert not found, found
+
+
+def test_the_dispatch_check_sees_a_dispatch(tmp_path):
+    probe = tmp_path / "probe.py"
+    probe.write_text("def f(g):\n    if g.kind in ('slabs', 'slabs3d'):\n        return 1\n")
+    assert kind_dispatch(probe, kinds()) == [2]
+
+
+FLAG = __import__("re").compile(r"(?<![\w-])--[a-z][a-z-]+")
+
+
+def flag_texts(path: Path) -> list:
+    """(line, flag) of each command-line flag in a string of the file that is not a
+    docstring (messages, log lines, data written into outputs)."""
+    tree = ast.parse(path.read_text())
+    docs = set()
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef,
+                             ast.ClassDef)) and body and isinstance(body[0], ast.Expr) \
+                and isinstance(body[0].value, ast.Constant):
+            docs.add(id(body[0].value))
+    return [(node.lineno, m) for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, str)
+            and id(node) not in docs for m in FLAG.findall(node.value)]
+
+
+def test_no_flag_text_below_the_cli():
+    """Flags live in cli.py; below it messages name parameters ({t_min}), which the CLI
+    names as its flags (errors.ParameterError, errors.named)."""
+    found = {str(p.relative_to(ROOT)): texts for p in sorted(ROOT.rglob("*.py"))
+             if p != ROOT / "cli.py" and (texts := flag_texts(p))}
+    assert not found, found
+
+
+def test_the_flag_check_sees_a_flag(tmp_path):
+    probe = tmp_path / "probe.py"
+    probe.write_text('"""Docs may say --t-min."""\n\ndef f():\n    raise ValueError("give '
+                     '--t-min T")\n')
+    assert flag_texts(probe) == [(4, "--t-min")]

@@ -101,7 +101,7 @@ def test_the_stress_trace_equals_lammps_virial(user_run, tmp_path, branch):
     assert proc.returncode == 0, proc.stderr
     p = read_profiles(tmp_path / "grid.csv")
     assert p.n_frames == 1                                   # the last frame only
-    ours = np.nansum(p.rings.volume * (p.values["sigma_xx"] + p.values["sigma_yy"]))
+    ours = np.nansum(p.cells.volume * (p.values["sigma_xx"] + p.values["sigma_yy"]))
     rows = last_rows(out / "contacts.dump")
     ids_r = last_rows(out / "atoms.dump")[:, [0, 2]]
     radius = dict(zip(ids_r[:, 0].astype(int), 0.5 * ids_r[:, 1]))
@@ -139,7 +139,7 @@ def test_wide_rings_match_lammps_chunk_sums_of_disk_area(user_run, tmp_path):
     lines = [ln.split() for ln in (out / "chunk_area.txt").read_text().splitlines()
              if ln and not ln.startswith("#")]
     areas = np.array([float(r[1]) for k, r in enumerate(lines) if k % 4]).reshape(-1, 3)
-    edges = p.rings.edges
+    edges = p.cells.edges
     lammps_nu = areas.mean(axis=0) / (np.pi * (edges[1:] ** 2 - edges[:-1] ** 2))
     assert p.n_frames == 11 and len(areas) == 11
     assert np.allclose(p.values["nu"], lammps_nu, rtol=0.03)
@@ -171,7 +171,7 @@ def test_wall_types_leave_the_packing_and_scaled_coordinates_are_unscaled(user_r
     p = read_profiles(tmp_path / "w.csv")
     atoms = last_rows(out / "atoms.dump")
     disks = np.pi * H * np.sum((0.5 * atoms[atoms[:, 1] == 1, 2]) ** 2)
-    assert np.sum(p.values["nu"] * p.rings.volume) == pytest.approx(disks, rel=1e-12)
+    assert np.sum(p.values["nu"] * p.cells.volume) == pytest.approx(disks, rel=1e-12)
     # scaled coordinates: rewrite the dump with xs ys
     text = (out / "atoms.dump").read_text().split("ITEM: TIME\n")      # TIME comes first
     frames = []

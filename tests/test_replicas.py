@@ -12,8 +12,8 @@ from granavg.engine import Grid, Rings, Slabs, average
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.average import CellAverage, frame_sums
 from granavg.engine.channels import BLOCKS, Layout
-from granavg.engine import replicas
-from granavg.engine.uncertainty import combine_errors, interaction_variance
+from granavg.engine.uncertainty import structure as replicas
+from granavg.engine.uncertainty.blocking import combine_errors, interaction_variance
 
 LAYOUT = Layout(("r", "phi"))
 CHANNELS, INDEX = LAYOUT.names, LAYOUT.index
@@ -43,7 +43,7 @@ def monte_carlo_shares(x, y, a, geometry, k, n=400_000, seed=0):
 ])
 def test_sector_shares_are_the_disk_areas_beyond_each_boundary(geometry, disk):
     k, a = 8, 0.004
-    sector, share = replicas.sector_shares(geometry, (np.array([disk[0]]),
+    sector, share = geometry.sector_shares((np.array([disk[0]]),
                                            np.array([disk[1]])), np.array([a]), k)
     exact = np.zeros(k)
     np.add.at(exact, sector[0], share[0])
@@ -54,7 +54,7 @@ def test_sector_shares_are_the_disk_areas_beyond_each_boundary(geometry, disk):
 
 def test_a_disk_wider_than_a_sector_or_a_point_goes_whole_to_its_centre():
     rings = Rings.count(2, 0.0, 0.1, 0.006)
-    sector, share = replicas.sector_shares(rings, (np.array([0.001, 0.05]),
+    sector, share = rings.sector_shares((np.array([0.001, 0.05]),
                                            np.array([0.0, 0.0])), np.array([0.004, 0.0]), 24)
     assert share[:, 0].tolist() == [1.0, 1.0]
 

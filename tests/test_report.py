@@ -45,7 +45,7 @@ def test_the_axes_hold_the_plotted_profiles(profiles):
     ax = fig2(p8, p16, summary)
     nu_lines = [ln for ln in ax[0].get_lines() if "nu (8 rings)" in ln.get_label()]
     assert len(nu_lines) == 1
-    assert np.allclose(nu_lines[0].get_xdata(), p8.rings.centre)
+    assert np.allclose(nu_lines[0].get_xdata(), p8.cells.centre)
     assert np.allclose(nu_lines[0].get_ydata(), p8.values["nu"])
     # 3 s of shear leave v_phi beyond the first layer within 2 errors of 0: no band fit
     assert not np.isfinite(summary["numbers"]["shear_band"]["s_m"])

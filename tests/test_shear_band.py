@@ -7,7 +7,7 @@ import pytest
 
 from granavg.analysis import shear_band as sb
 from granavg.analysis.claims import analyze
-from granavg.engine.uncertainty import Replicates
+from granavg.engine.uncertainty.blocking import Replicates
 from granavg.errors import UserError
 from tests.test_claims import D_MEAN, SCENE, profiles
 
@@ -124,7 +124,7 @@ def ensemble(n, s, runs, rng, rel=0.1, absolute=2e-5, v0_ratio=0.645):
     v_phi a first-layer staircase and exponential with realisation-to-realisation noise,
     relative and absolute (the creeping bulk's)."""
     p = profiles(n, n_rep=runs, noise=1e-3, seed=int(rng.integers(1 << 30)))
-    true = staircase(p.rings.centre, s, v0_ratio * OMEGA * R_I)
+    true = staircase(p.cells.centre, s, v0_ratio * OMEGA * R_I)
     reps = dict(p.replicates.values)
     reps["v_phi"] = (true[None] * (1 + rel * rng.standard_normal((runs, n)))
                      + absolute * rng.standard_normal((runs, n)))

@@ -5,8 +5,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from granavg.engine.timeseries import (DRIFT_Z, ensemble_stationarity, frame_state, stationarity,
-                                      steady_from)
+from granavg.engine.stationarity import (DRIFT_Z, ensemble_stationarity, stationarity,
+                                         steady_from)
+from granavg.sim.couette_state import frame_state
 from granavg.io.profiles_io import read_profiles, write_profiles
 
 R_I, R_O, H, RHO = 0.1, 0.2, 0.006, 1000.0

@@ -5,7 +5,7 @@ import pytest
 
 from granavg.engine.channels import Layout
 from granavg.engine.profiles import standard_errors
-from granavg.engine.uncertainty import (MIN_BLOCKS, Replicates, blocking_errors,
+from granavg.engine.uncertainty.blocking import (MIN_BLOCKS, Replicates, blocking_errors,
                                         jackknife_sums, merge_levels, spread_error)
 
 LAYOUT = Layout(("r", "phi"))

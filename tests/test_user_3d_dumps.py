@@ -161,14 +161,14 @@ def test_a_pour_without_spin_averages_everything_else_and_says_so(capsys, caplog
     rows, cols = last_rows(pour / "atoms.dump")
     z, a, m = (rows[:, cols.index(c)] for c in ("z", "radius", "mass"))
     above = []
-    for lo, hi in zip(p.rings.edges[:-1], p.rings.edges[1:]):
+    for lo, hi in zip(p.cells.edges[:-1], p.cells.edges[1:]):
         cuts = lo + (np.arange(400) + 0.5) / 400 * (hi - lo)
         u = np.clip((cuts[:, None] - z[None, :]) / a[None, :], -1, 1)
         above.append(np.mean(((1 - u) ** 2 * (2 + u) / 4) @ m))      # g = 1
     carried = -p.values["sigma_zz"] * 64.0 / np.array(above)          # box 8 x 8
     assert np.all(np.abs(carried[1:3] - 1) < 0.01), carried           # the floor's slab: no
     assert abs(carried[0] - 1) > 0.1, carried                         # floor rows (wall/gran)
-    assert abs(np.sum(p.values["nu"] * p.rings.volume) /
+    assert abs(np.sum(p.values["nu"] * p.cells.volume) /
                np.sum(4 / 3 * np.pi * a ** 3) - 1) < 1e-3   # at rest; a sliver below z = 0
 
 
@@ -229,10 +229,10 @@ def test_slabs_in_a_tilted_box_hold_every_particle_and_lammps_virial(capsys, til
     a = rows[:, cols.index("radius")]
     volume = np.sum(4 / 3 * np.pi * a ** 3) if dim == 3 else np.sum(np.pi * a ** 2)
     assert p.n_frames == 1
-    assert abs(np.sum(p.values["nu"] * p.rings.volume) / volume - 1) < 1e-10
+    assert abs(np.sum(p.values["nu"] * p.cells.volume) / volume - 1) < 1e-10
     cell = 512.0 if dim == 3 else 80.0                     # lx ly lz (2D: lx ly, h = 1)
-    assert abs(p.rings.volume.sum() - cell) < 1e-9
-    trace = sum(np.sum(p.values[f"sigma_{c}{c}"] * p.rings.volume) for c in "xyz"[:dim])
+    assert abs(p.cells.volume.sum() - cell) < 1e-9
+    trace = sum(np.sum(p.values[f"sigma_{c}{c}"] * p.cells.volume) for c in "xyz"[:dim])
     assert abs(trace / (-dim * pressure * cell) - 1) < PRINTED
 
 
@@ -513,7 +513,7 @@ def test_a_contact_map_needs_a_contact_dump(capsys, pour, tmp_path):
 
 
 def test_the_sectors_help_says_the_bounds_the_check_applies():
-    from granavg.engine import replicas
+    from granavg.engine.uncertainty import structure as replicas
     sub = next(a for a in _parser()._actions if a.dest == "command").choices["average"]
     text = next(a.help for a in sub._actions if a.dest == "sectors")
     assert f"from {replicas.MIN_REPLICAS} to {replicas.MAX_SECTORS}" in text

@@ -7,7 +7,7 @@ Usage::
 Each run is read once and its errors made several ways from the same accumulators: from
 time alone (blocking analysis), and from time and structure with the rings split into
 sectors (K chosen from the data, ``auto``, and K pinned to 4, 6, 8, 12, 24;
-:mod:`granavg.engine.replicas`). The realisations' spread is the truth the single-run
+:mod:`granavg.engine.uncertainty.structure`). The realisations' spread is the truth the single-run
 errors should predict. For every quantity, bulk ring (middle half of the rings) and run
 i, the leave-one-out score
 
@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from granavg.engine import replicas
+from granavg.engine.uncertainty import structure as replicas
 from granavg.pipeline.runs import run_averager
 
 QUANTITIES = ["nu", "coordination", "sigma_rr", "sigma_rphi", "v_phi", "omega", "F_rr",
@@ -64,7 +64,7 @@ def scores(x, e):
 
 def calibrate(runs, bins, t_min) -> pd.DataFrame:
     results = [one_run(r, bins, t_min) for r in runs]
-    n = results[0]["time"].rings.n
+    n = results[0]["time"].cells.n
     bulk = slice(n // 4, n - n // 4)
     rows = []
     for method in METHODS:

@@ -89,7 +89,7 @@ def score(runs, t_min=None) -> dict:
               for key, v in zip(("", "_err"), trend_per_rotation(ts, q, period, rel))
               for suffix in [suffix + key]}
     sb = summary["numbers"]["shear_band"]
-    ratio = dynamic_over_static(p20)[bulk(p20.rings.n)]
+    ratio = dynamic_over_static(p20)[bulk(p20.cells.n)]
     return {
         "runs": len(runs), "t_min_s": t_min,
         "C_bulk_start": first.C_bulk.mean(), "P_bulk_start_Pa": first.P_bulk_Pa.mean(),
@@ -120,7 +120,7 @@ def trend_per_rotation(parts, q, period, relative=False):
     spread between the runs, but never below the mean's error from each fit's own
     error (from the fluctuations about its line, by blocking: a lower bound); two runs'
     spread alone is too uncertain."""
-    from granavg.engine.timeseries import _fluctuation_error
+    from granavg.engine.stationarity import _fluctuation_error
 
     slopes, errs = [], []
     for p in parts:

@@ -131,7 +131,7 @@ def metrics(report_dir: Path) -> dict:
                  key=lambda f: int(f.stem[8:]))
     p = read_profiles(coarse)
     kn = s["run"]["scene"]["k_n"]
-    w = bulk_weights(p.rings.edges)
+    w = bulk_weights(p.cells.edges)
 
     def mean_sem(v, e):
         return float(np.sum(w * v)), float(np.sqrt(np.sum((w * e) ** 2)))

@@ -5,10 +5,15 @@ boundary force density (what walls exert on the packing; ``boundary_*``).
 Conventions as :mod:`granavg.analysis.continuum`: tension-positive stress, first index
 the force's, divergence on the second index, (div T)_i = d_j T_ij.
 
+Each kind of cells holds its own finite-volume form
+(:meth:`~granavg.engine.cells.base.Cells.residuals`, in its module of
+:mod:`granavg.engine.cells`):
+
 - rings, steady and axisymmetric (Eqs. 11-12 with the force densities), in r-form:
   radial d(r T_rr)/dr - T_phiphi + r f_r (= r dT_rr/dr + T_rr - T_phiphi + r f_r),
   tangential d(r^2 T_phir)/dr / r + T_rphi - T_phir + r f_phi (= r dT_phir/dr + T_rphi
   + T_phir + r f_phi);
+- a polar grid: the same with the phi derivatives between its sectors;
 - slabs across u (2D or 3D): dT_iu/du + f_i for every component i, times the cell width;
 - a grid or a 3D box grid: sum_j dT_ij/dx_j + f_i, times the mean cell width (interior
   cells, and along a periodic axis every cell);
@@ -70,115 +75,14 @@ def force_density(values, geometry, terms=FORCE_DENSITIES):
             for c in _axes(geometry)}
 
 
-def _faces(T, closed, periodic=False):
-    """Face values between neighbouring cells, (T_k + T_k+1) / 2, with the outer faces
-    0 where ``closed`` (nothing of the packing beyond: a wall, whose action is the
-    boundary force density, or empty space), the mean of the two end cells where
-    ``periodic``, and NaN otherwise; shape (n + 1,)."""
-    if periodic:
-        wrap = 0.5 * (T[0] + T[-1])
-        return np.concatenate([[wrap], 0.5 * (T[1:] + T[:-1]), [wrap]])
-    outer = 0.0 if closed else np.nan
-    return np.concatenate([[outer], 0.5 * (T[1:] + T[:-1]), [outer]])
-
-
-def _divergence(T, widths, closed, periodic):
-    """d T / d u along axis 0 of an array of cells in finite-volume form: the difference
-    of the face values over the cell width (:func:`_faces` at the ends)."""
-    faces = np.apply_along_axis(_faces, 0, T, closed, periodic)
-    shape = (-1,) + (1,) * (T.ndim - 1)
-    return np.diff(faces, axis=0) / widths.reshape(shape)
-
-
 def residuals(values, geometry, terms=FORCE_DENSITIES, dynamic=True, closed=False):
-    """The components of the balance residual per cell (see the module docstring),
-    a stress, in finite-volume form: the flux of T through each face from the mean of
-    the two cells beside it, and through the outer faces none where ``closed`` (else
-    the edge cells are NaN: their outer flux is unknown). Interior cells get the
-    central difference. Grids: interior cells only."""
-    T = tensor_total(values, geometry, dynamic)
-    f = force_density(values, geometry, terms)
-    if geometry.kind == "rings":
-        e, r = geometry.edges, geometry.centre
-        dr = np.diff(e)
-        flux_rr = np.diff(e * _faces(T["rr"], closed)) / dr            # d(r T_rr)/dr
-        flux_pr = np.diff(e * e * _faces(T["phir"], closed)) / dr / r  # d(r^2 T_phir)/dr / r
-        per_cell = dr / r                                # r (div T + f) -> per cell
-        return (per_cell * (flux_rr - T["phiphi"] + r * f["r"]),
-                per_cell * (flux_pr + T["rphi"] - T["phir"] + r * f["phi"]))
-    if geometry.kind in ("slabs", "slabs3d"):
-        k = geometry.axis
-        periods = getattr(geometry, "periods", None)
-        wrap = bool(periods and periods["xyz".index(k)] is not None)
-        return tuple(np.diff(_faces(T[c + k], closed, wrap)) + np.diff(geometry.edges) * f[c]
-                     for c in geometry.axes)
-    if geometry.kind == "boxes":
-        return _boxes(geometry, T, f, closed)
-    if geometry.kind == "shells":
-        return _shells(geometry, T, f, closed)
-    nx, ny = len(geometry.xedges) - 1, len(geometry.yedges) - 1
-    xc = 0.5 * (geometry.xedges[1:] + geometry.xedges[:-1])
-    yc = 0.5 * (geometry.yedges[1:] + geometry.yedges[:-1])
-    width = 0.5 * (np.mean(np.diff(geometry.xedges)) + np.mean(np.diff(geometry.yedges)))
-    inner = np.zeros((nx, ny), bool)
-    inner[1:-1, 1:-1] = True
-
-    def div(c):
-        tx, ty = T[c + "x"].reshape(nx, ny), T[c + "y"].reshape(nx, ny)
-        d = np.full((nx, ny), np.nan)
-        if nx > 2 and ny > 2:
-            d = np.gradient(tx, xc, axis=0) + np.gradient(ty, yc, axis=1)
-        return np.where(inner, d, np.nan).ravel()
-    return (width * (div("x") + f["x"]), width * (div("y") + f["y"]))
-
-
-def _boxes(geometry, T, f, closed):
-    """The residuals of a 3D box grid: interior cells (every cell along a periodic axis),
-    finite volumes with the outer faces closed or, else, the edge cells NaN."""
-    shape = geometry.shape
-    edges = (geometry.xedges, geometry.yedges, geometry.zedges)
-    periods = geometry.periods or (None,) * 3
-    width = np.mean([np.mean(np.diff(e)) for e in edges])
-    out = []
-    for c in "xyz":
-        div = np.zeros(shape)
-        for k, (j, e) in enumerate(zip("xyz", edges)):
-            d = _divergence(np.moveaxis(T[c + j].reshape(shape), k, 0), np.diff(e), closed,
-                            periods[k] is not None)
-            div += np.moveaxis(d, 0, k)
-        out.append(width * (div.ravel() + f[c]))
-    return tuple(out)
-
-
-def _shells(geometry, T, f, closed):
-    """The residuals of 3D cylindrical shells (axisymmetric; module docstring)."""
-    nr, nz = geometry.shape
-    e, ze = geometry.edges, geometry.zedges
-    r = geometry.centre_r[:, None]
-    dr = np.diff(e)[:, None]
-    periods = geometry.periods or (None,) * 3
-    wrap = periods[2] is not None
-    width = 0.5 * (np.mean(np.diff(e)) + np.mean(np.diff(ze)))
-
-    def grid(name):
-        return T[name].reshape(nr, nz)
-
-    def radial(name, power):
-        """(1/r^power) d(r^power T)/dr by the faces' fluxes."""
-        faces = np.apply_along_axis(_faces, 0, grid(name), closed)
-        return np.diff(e[:, None] ** power * faces, axis=0) / dr / r ** power
-
-    def axial(name):
-        if nz == 1 and not wrap:
-            return np.zeros((nr, nz))                     # one layer: uniform in z
-        d = _divergence(grid(name).T, np.diff(ze), closed, wrap)
-        return d.T
-
-    res_r = radial("rr", 1) + axial("rz") - grid("phiphi") / r
-    res_phi = radial("phir", 2) + axial("phiz") + (grid("rphi") - grid("phir")) / r
-    res_z = radial("zr", 1) + axial("zz")
-    return tuple(width * (res.ravel() + f[c]) for res, c in
-                 ((res_r, "r"), (res_phi, "phi"), (res_z, "z")))
+    """The components of the balance residual per cell (the module docstring; each
+    geometry's finite-volume form, :meth:`~granavg.engine.cells.base.Cells.residuals`),
+    a stress: the flux of T through each face from the mean of the two cells beside it,
+    and through the outer faces none where ``closed`` (else the edge cells are NaN:
+    their outer flux is unknown)."""
+    return geometry.residuals(tensor_total(values, geometry, dynamic),
+                              force_density(values, geometry, terms), closed)
 
 
 def stress_scale(values, geometry) -> float:
@@ -199,7 +103,7 @@ def balance(profiles, terms=FORCE_DENSITIES, dynamic=True, closed=False) -> dict
         ``scale``; ``residual`` and ``residual_err`` (D, n_cells) relative to it;
         ``terms`` (the force densities present and used).
     """
-    geo = profiles.rings
+    geo = profiles.cells
     flux = ((profiles.meta or {}).get("unit_system") or {}).get("momentum_flux")
     if flux and dynamic:
         raise UserError(f"the dynamic stress is in {flux}, not the stress unit of these "

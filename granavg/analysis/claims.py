@@ -6,7 +6,7 @@ value, and each of the paper's claims with a verdict and the numbers that decide
 Arrays for the figures are in ``series`` (not written to JSON).
 
 Errors of derived numbers (fits, exponents, maxima, layer means) come from replicates of
-the profiles (:mod:`granavg.engine.uncertainty`): the number is recomputed on every replicate,
+the profiles (:mod:`granavg.engine.uncertainty.blocking`): the number is recomputed on every replicate,
 delete-one-block jackknife profiles of one run or the profiles of each realisation of an
 ensemble, so the correlation of neighbouring rings is carried along. The fits' own
 errors, which treat rings as independent, are not used.
@@ -32,7 +32,7 @@ from granavg.analysis import shear_band as sb_fit
 from granavg.analysis.balance import FORCE_DENSITIES, residuals
 from granavg.errors import UserError
 from granavg.engine.quantities import TENSOR
-from granavg.engine.timeseries import ensemble_stationarity, window_mean
+from granavg.engine.stationarity import ensemble_stationarity, window_mean
 
 log = logging.getLogger(__name__)
 
@@ -110,13 +110,13 @@ def replicate_views(p20, p60):
     if "structure" in (r20.kind, r60.kind) and (r20.kind, r20.parts) != (r60.kind, r60.parts):
         log.warning("the two profiles do not split their rings into the same sectors: "
                     "derived numbers get errors from time alone; average both with the "
-                    "same --sectors")
+                    "same number of sectors")
         r20, r60 = r20.in_time(), r60.in_time()
     if r20.kind != r60.kind or r20.n != r60.n or r20.n < 2:
         return [], None
 
     def view(p, rep, i):
-        return SimpleNamespace(rings=p.rings, sem=p.sem, meta=p.meta,
+        return SimpleNamespace(cells=p.cells, sem=p.sem, meta=p.meta,
                                values={k: v[i] for k, v in rep.values.items()})
     return [(view(p20, r20, i), view(p60, r60, i)) for i in range(r20.n)], r20
 
@@ -154,7 +154,7 @@ class Estimator:
 
     def _in_time(self):
         """(views, replicates) of the time blocks alone."""
-        return replicate_views(*(SimpleNamespace(rings=p.rings, sem=p.sem, meta=p.meta,
+        return replicate_views(*(SimpleNamespace(cells=p.cells, sem=p.sem, meta=p.meta,
                                                  replicates=p.replicates.in_time())
                                  for p in (self.p20, self.p60)))
 
@@ -162,7 +162,7 @@ class Estimator:
         """``fn(coarse, fine) -> dict of float``; returns the dict with ``<key>_err`` added
         (NaN without replicates)."""
         seen = set()
-        reading = [SimpleNamespace(rings=p.rings, sem=p.sem, meta=p.meta,
+        reading = [SimpleNamespace(cells=p.cells, sem=p.sem, meta=p.meta,
                                    values=_Reads(p.values, seen)) for p in (self.p20, self.p60)]
         value = {k: float(v) for k, v in fn(*reading).items()}
         views, replicates = self.views, self.replicates
@@ -227,8 +227,8 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         is judged on the collapse of all of them with ``p20``.
     """
     for p in (p20, p60):
-        if p.rings.n < 4:
-            raise UserError(f"{p.rings.n} ring(s): the analysis needs at least 4 rings")
+        if p.cells.n < 4:
+            raise UserError(f"{p.cells.n} ring(s): the analysis needs at least 4 rings")
         missing = [q for q in ("nu", "rho", "v_phi", "omega", "F_rr", "sigma_rr", "dsigma_rr",
                                "eps_rr") if q not in p.values]
         if missing:
@@ -253,7 +253,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         f"nu_bulk - nu between 1 and 3 mean diameters from the wall (the first layer, where "
         f"excluded volume alone lowers nu, left out): inner {d['dilation_inner']:.4f} +- "
         f"{d['dilation_inner_err']:.4f}, outer {d['dilation_outer']:.4f} +- "
-        f"{d['dilation_outer_err']:.4f} ({p60.rings.n} rings)"))
+        f"{d['dilation_outer_err']:.4f} ({p60.cells.n} rings)"))
     claims.append(_claim(
         "layering at the walls, none in the bulk",
         _both(verdict(d["layering_excess"], d["layering_excess_err"], 0.0),
@@ -269,7 +269,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
     claims.append(_claim(
         "anisotropy |dev F|/tr F below 20%",
         verdict(fab["anisotropy_max"], fab["anisotropy_max_err"], ANISOTROPY_LIMIT, above=False),
-        f"largest over {p20.rings.n} rings: {fab['anisotropy_max']:.3f} +- "
+        f"largest over {p20.cells.n} rings: {fab['anisotropy_max']:.3f} +- "
         f"{fab['anisotropy_max_err']:.3f} with |dev F| = (F_1 - F_2)/2, half the eigenvalue "
         f"difference (the paper does not define its norm; as Frobenius norm "
         f"{fab['anisotropy_max'] * np.sqrt(2):.3f}, as full difference "
@@ -306,7 +306,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
     st = num["stiffness"]
     for p in (p20, p60):
         B, G = c.stiffness(tensor(p, "sigma"), tensor(p, "eps"), geo.k_n)
-        series[f"stiffness_{p.rings.n}"] = (c.trace(tensor(p, "F")), B, G)
+        series[f"stiffness_{p.cells.n}"] = (c.trace(tensor(p, "F")), B, G)
     series["bulk_fit"] = (st["bulk_slope_per_m"], st["bulk_intercept_per_m"])
     dev = st["identity_deviation"]
     claims.append(_claim(
@@ -330,7 +330,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
 
     # Fig. 6: orientations, not co-linear in the band
     for p in (p20, p60):
-        series[f"orientation_{p.rings.n}"] = {
+        series[f"orientation_{p.cells.n}"] = {
             q: np.degrees(c.orientation(tensor(p, q))) for q in ("F", "sigma", "eps")}
     num["orientation"] = est(lambda a, b: _orientation_numbers(b, band_end))
     o = num["orientation"]
@@ -341,14 +341,14 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         "fabric, stress and strain not co-linear",
         "reproduced" if significant else ("not reproduced" if colinear else "inconclusive"),
         "mean angle between major axes over the band (" + str(max(band_end, 2)) +
-        f" of {p60.rings.n} rings): " + ", ".join(
+        f" of {p60.cells.n} rings): " + ", ".join(
             f"{k.replace('band_mean_angle_', '')} {o[k]:.1f} +- {o[k + '_err']:.1f} deg"
             for k in pairs) + f" (reproduced if one exceeds {COLINEAR_DEG:g} deg and "
         f"{Z:g} errors)"))
 
     # Fig. 7: equations of motion, static alone and the total sigma - dsigma
     for p in (p20, p60):
-        series[f"eom_{p.rings.n}"] = _eom(p)
+        series[f"eom_{p.cells.n}"] = _eom(p)
     num["equations_of_motion"] = est(lambda a, b: _eom_numbers(a), balance=True)
     eo = num["equations_of_motion"]
     claims.append(_claim(
@@ -357,7 +357,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
                 above=False),
         f"median |residual of div(sigma - dsigma)| / mean |sigma_rr| in the bulk = "
         f"{eo['bulk_median_residual']:.3f} +- {eo['bulk_median_residual_err']:.3f} "
-        f"({p20.rings.n} rings; reproduced below {EOM_LIMIT}). Each ring's net force over "
+        f"({p20.cells.n} rings; reproduced below {EOM_LIMIT}). Each ring's net force over "
         f"its face's with the body and boundary force densities, walls closed: median "
         f"{eo['balance_bulk_median_residual']:.2g} +- "
         f"{eo['balance_bulk_median_residual_err']:.1g} in the bulk, at most "
@@ -379,10 +379,10 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
 
     # Figs. 8-9: deformation rate, spin, eigen-rotation
     for p in (p20, p60):
-        D, W = c.deformation_rate_and_spin(p.rings.centre, p.values["v_phi"])
-        Df, Wf = (c.deformation_rate_and_spin_fit(p.rings.centre, band, geo.R_i)
-                  if band is not None else (np.full(p.rings.n, np.nan),) * 2)
-        series[f"rates_{p.rings.n}"] = (D, W, Df, Wf, p.values["omega"],
+        D, W = c.deformation_rate_and_spin(p.cells.centre, p.values["v_phi"])
+        Df, Wf = (c.deformation_rate_and_spin_fit(p.cells.centre, band, geo.R_i)
+                  if band is not None else (np.full(p.cells.n, np.nan),) * 2)
+        series[f"rates_{p.cells.n}"] = (D, W, Df, Wf, p.values["omega"],
                                         c.eigen_rotation(p.values["omega"], W))
     num["eigen_rotation"] = est(lambda a, b: _layers(b, geo))
     er = num["eigen_rotation"]
@@ -396,7 +396,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
     claims.append(_claim(
         "eigen-rotation alternates over the two innermost layers", rot,
         f"omega* = {l1:.3g} +- {e1:.2g}, {l2:.3g} +- {e2:.2g} 1/s (layers of d_mean = "
-        f"{geo.d_mean * 1e3:.2f} mm, {p60.rings.n} rings; reproduced if both differ from 0 "
+        f"{geo.d_mean * 1e3:.2f} mm, {p60.cells.n} rings; reproduced if both differ from 0 "
         f"by {Z:g} errors and have opposite signs)"))
 
     errors = {"kind": est.replicates.kind if est.replicates else None,
@@ -404,7 +404,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
               "parts": est.replicates.parts if est.replicates else None,
               "profiles": (p20.meta or {}).get("errors", {}).get("method"),
               "sectors": (p20.meta or {}).get("errors", {}).get("sectors"),
-              "lower_bound_rings": {str(p.rings.n): sorted(
+              "lower_bound_rings": {str(p.cells.n): sorted(
                   {k for ks in (p.meta or {}).get("errors", {}).get("lower_bound", {}).values()
                    for k in ks}) for p in (p20, p60)}}
     if not est.views:
@@ -437,11 +437,11 @@ def _shear_band(p20, p60, geo, est):
     """The band's numbers (statistical errors from the replicates, systematic from the
     estimator's variants), its fit (None where it cannot be fitted: NaN numbers, a
     warning), the index ending the band region and its claims."""
-    r, v, sem = p60.rings.centre, p60.values["v_phi"], p60.sem["v_phi"]
+    r, v, sem = p60.cells.centre, p60.values["v_phi"], p60.sem["v_phi"]
     noise, end = sb_fit.noise_level(v, sem), sb_fit.decay_end(v, sem)
     num = est(lambda a, b: {"decades": _decades(b, noise)})
     num.update({"estimator": ESTIMATOR_TEXT, "decay_range_end_m": float(r[max(end, 1) - 1]),
-                "noise_m_per_s": noise, "ring_count": p60.rings.n,
+                "noise_m_per_s": noise, "ring_count": p60.cells.n,
                 "paper_v0_over_omega_Ri": PAPER["v0_over_omega_Ri"], "paper_s_m": PAPER["s_m"]})
     try:
         band = sb_fit.fit_band(r, v, sem, geo.R_i, geo.d_mean, geo.Omega)
@@ -454,7 +454,7 @@ def _shear_band(p20, p60, geo, est):
         num.update({"rings_fitted": 0, "variants": {}})
     if band is not None:
         num.update(est(lambda a, b: _band_numbers(b, geo, band)))
-        sens = sb_fit.sensitivity(*((p.rings.centre, p.values["v_phi"], p.sem["v_phi"])
+        sens = sb_fit.sensitivity(*((p.cells.centre, p.values["v_phi"], p.sem["v_phi"])
                                     for p in (p60, p20)), geo.R_i, geo.d_mean, geo.Omega, band)
         shift = sens.pop("largest shift")
         num.update({
@@ -479,7 +479,7 @@ def _shear_band(p20, p60, geo, est):
             verdict(abs(num[key] - paper), total, tol * paper, above=False),
             f"{num[key] * scale:.3g} +- {num[f'{key}_err'] * scale:.2g} (statistical) +- "
             f"{num[f'{key}_sys'] * scale:.2g} (estimator){unit}, {num['rings_fitted']} of "
-            f"{p60.rings.n} rings; reproduced if it lies within the tolerance by {Z:g} "
+            f"{p60.cells.n} rings; reproduced if it lies within the tolerance by {Z:g} "
             "combined errors", kind="comparison"))
     return num, band, end, claims
 
@@ -492,7 +492,7 @@ def _decades(p, noise):
 
 def _band_numbers(p, geo, band):
     """v0/(Omega R_i) and s of ``band``'s fit on profile ``p``."""
-    fit = sb_fit.refit(band, p.rings.centre, p.values["v_phi"], geo.R_i, geo.Omega)
+    fit = sb_fit.refit(band, p.cells.centre, p.values["v_phi"], geo.R_i, geo.Omega)
     return {"v0_over_omega_Ri": fit.v0 / (geo.Omega * geo.R_i), "s_m": fit.s,
             "s_over_d_mean": fit.s / geo.d_mean}
 
@@ -514,7 +514,7 @@ def _density_numbers(a, b, geo):
     (1 to 3 mean diameters from each wall, where excluded volume no longer sets nu)."""
     nu = a.values["nu"]
     nu_bulk = float(np.nanmean(nu[bulk(len(nu))]))
-    r, nu60 = b.rings.centre, b.values["nu"]
+    r, nu60 = b.cells.centre, b.values["nu"]
     d = geo.d_mean
     inner = _window(r, geo.R_i + d, geo.R_i + 3 * d)
     outer = _window(r, geo.R_o - 3 * d, geo.R_o - d)
@@ -538,15 +538,15 @@ def _fabric_numbers(p):
 
 
 def _exponents(p, comp):
-    b = bulk(p.rings.n)
-    return {f"sigma_{comp}": c.power_law(p.rings.centre[b], p.values[f"sigma_{comp}"][b])[0]}
+    b = bulk(p.cells.n)
+    return {f"sigma_{comp}": c.power_law(p.cells.centre[b], p.values[f"sigma_{comp}"][b])[0]}
 
 
 def _stiffness_numbers(a, b, geo):
     trF, bulk_mod, shear_mod = [], [], []
     for p in (a, b):
         B, G = c.stiffness(tensor(p, "sigma"), tensor(p, "eps"), geo.k_n)
-        bb = bulk(p.rings.n)
+        bb = bulk(p.cells.n)
         trF.append(c.trace(tensor(p, "F"))[bb])
         bulk_mod.append(B[bb])
         shear_mod.append(G[bb])
@@ -575,7 +575,7 @@ def master_curve(profiles, geo) -> dict:
     pts = []
     for p in profiles:
         B, G = c.stiffness(tensor(p, "sigma"), tensor(p, "eps"), geo.k_n)
-        b = bulk(p.rings.n)
+        b = bulk(p.cells.n)
         pts.append((c.trace(tensor(p, "F"))[b], B[b], G[b], p))
     x = np.concatenate([t for t, _, _, _ in pts])
     y = np.concatenate([B for _, B, _, _ in pts])
@@ -586,7 +586,7 @@ def master_curve(profiles, geo) -> dict:
         offsets.append(float(np.nanmean(B / (a * trF + b0) - 1)))
         reps = p.replicates
         if reps is not None and reps.n >= 2:
-            bb = bulk(p.rings.n)
+            bb = bulk(p.cells.n)
             vals = []
             for i in range(reps.n):
                 v = {k: reps.values[k][i] for k in reps.values}
@@ -626,9 +626,9 @@ def _orientation_numbers(p, n_band):
 def _eom(p):
     """(static residuals, total residuals, stress scale) of one profile (Fig. 7)."""
     sigma = tensor(p, "sigma")
-    st = c.equations_of_motion(p.rings.centre, sigma)
-    tot = c.equations_of_motion(p.rings.centre, c.momentum_flux_total(sigma, tensor(p, "dsigma")))
-    scale = float(np.nanmean(np.abs(p.values["sigma_rr"][bulk(p.rings.n)])))
+    st = c.equations_of_motion(p.cells.centre, sigma)
+    tot = c.equations_of_motion(p.cells.centre, c.momentum_flux_total(sigma, tensor(p, "dsigma")))
+    scale = float(np.nanmean(np.abs(p.values["sigma_rr"][bulk(p.cells.n)])))
     return st, tot, scale
 
 
@@ -637,10 +637,10 @@ def _eom_numbers(p):
     balance of forces with the body and boundary force densities, the walls closed
     (:mod:`granavg.analysis.balance`), relative to the bulk's mean |sigma_rr|."""
     st, tot, scale = _eom(p)
-    b = bulk(p.rings.n)
+    b = bulk(p.cells.n)
     terms = [t for t in FORCE_DENSITIES if f"{t}_r" in p.values]
-    full = np.abs(np.array(residuals(p.values, p.rings, terms, closed=True))) / scale
-    bare = np.abs(np.array(residuals(p.values, p.rings, (), closed=True))) / scale
+    full = np.abs(np.array(residuals(p.values, p.cells, terms, closed=True))) / scale
+    bare = np.abs(np.array(residuals(p.values, p.cells, (), closed=True))) / scale
     return {"stress_scale_Pa": scale,
             "bulk_median_residual": float(np.nanmedian(np.abs(np.concatenate(
                 [tot[0][b], tot[1][b]])))) / scale,
@@ -655,9 +655,9 @@ def _eom_numbers(p):
 
 
 def _layers(p, geo):
-    W = c.deformation_rate_and_spin(p.rings.centre, p.values["v_phi"])[1]
+    W = c.deformation_rate_and_spin(p.cells.centre, p.values["v_phi"])[1]
     ws = c.eigen_rotation(p.values["omega"], W)
-    layer = np.floor((p.rings.centre - geo.R_i) / geo.d_mean).astype(int)
+    layer = np.floor((p.cells.centre - geo.R_i) / geo.d_mean).astype(int)
     means = {}
     for k in (0, 1):
         w = ws[(layer == k) & np.isfinite(ws)]
@@ -667,7 +667,7 @@ def _layers(p, geo):
 
 def _stationarity(p):
     """The window's steadiness judged per quantity: of the run, or of each realisation
-    and of the ensemble (:func:`~granavg.engine.timeseries.ensemble_stationarity`, with
+    and of the ensemble (:func:`~granavg.engine.stationarity.ensemble_stationarity`, with
     at least MIN_RUNS realisations)."""
     meta = p.meta or {}
     if not meta.get("runs"):

@@ -30,13 +30,8 @@ PANELS = [("volume fraction and density", ("nu",)), ("velocity", ("v_",)),
 
 def position(p):
     """(name, coordinate per cell) of a 1D profile (rings, slabs, shells of one layer);
-    None for grids, boxes and shells of several layers (:func:`slice_panels`)."""
-    kind = p.rings.kind
-    if kind in ("grid", "boxes") or (kind == "shells" and p.rings.shape[1] > 1):
-        return None
-    coords = p.rings.coordinates()
-    name = p.rings.axis if kind in ("slabs", "slabs3d") else "r"
-    return name, coords[name]
+    None for cells that form a plane or a volume (:func:`slice_panels`)."""
+    return p.cells.position()
 
 
 #: The fields a slice shows, when present: volume fraction, speed and pressure.
@@ -45,7 +40,7 @@ SLICED = ("nu", "speed", "pressure")
 
 def _field(p, name):
     """A field of the slices: a value, the speed |v| or the pressure -tr sigma / D."""
-    axes = p.rings.axes
+    axes = p.cells.axes
     if name == "speed":
         if not all(f"v_{i}" in p.values for i in axes):
             return None
@@ -57,30 +52,11 @@ def _field(p, name):
     return p.values.get(name)
 
 
-def slices(p):
-    """The planes through a grid of cells to draw: (title, horizontal axis name and
-    edges, vertical axis name and edges, a function of a per-cell array giving the
-    plane's values, shape (n_vertical, n_horizontal)). 2D grid: the whole grid; boxes:
-    the middle z layer and the middle y plane; shells of several layers: the r-z plane."""
-    g = p.rings
-    if g.kind == "grid":
-        nx, ny = len(g.xedges) - 1, len(g.yedges) - 1
-        return [("x-y", ("x", g.xedges), ("y", g.yedges), lambda a: a.reshape(nx, ny).T)]
-    if g.kind == "boxes":
-        nx, ny, nz = g.shape
-        return [(f"x-y, layer {nz // 2 + 1} of {nz} in z", ("x", g.xedges), ("y", g.yedges),
-                 lambda a: a.reshape(nx, ny, nz)[:, :, nz // 2].T),
-                (f"x-z, row {ny // 2 + 1} of {ny} in y", ("x", g.xedges), ("z", g.zedges),
-                 lambda a: a.reshape(nx, ny, nz)[:, ny // 2, :].T)]
-    if g.kind == "shells":
-        nr, nz = g.shape
-        return [("r-z", ("r", g.edges), ("z", g.zedges), lambda a: a.reshape(nr, nz).T)]
-    return []
-
-
 def slice_panels(p, ax=None):
-    """Maps of :data:`SLICED` over the planes of :func:`slices`, one row per plane."""
-    planes = slices(p)
+    """Maps of :data:`SLICED` over the planes the cells draw (their ``planes()``: a 2D
+    grid or a polar grid whole, the middle z layer and y plane of boxes, the r-z plane of
+    shells), one row per plane."""
+    planes = p.cells.planes()
     fields = [f for f in SLICED if _field(p, f) is not None]
     if ax is None:
         _, ax = plt.subplots(len(planes), len(fields), squeeze=False,
@@ -93,8 +69,8 @@ def slice_panels(p, ax=None):
             a = ax[row, col]
             mesh = a.pcolormesh(he, ve, cut(np.asarray(_field(p, name), float)),
                                 cmap="viridis", shading="flat")
-            unit = units.get({"speed": f"v_{p.rings.axes[0]}",
-                              "pressure": f"sigma_{p.rings.axes[0] * 2}"}.get(name, name), "")
+            unit = units.get({"speed": f"v_{p.cells.axes[0]}",
+                              "pressure": f"sigma_{p.cells.axes[0] * 2}"}.get(name, name), "")
             a.figure.colorbar(mesh, ax=a, label=f"{name} ({unit})" if unit else name)
             a.set(xlabel=hx, ylabel=vx, title=f"{name}: {title}")
             a.set_aspect("equal")
@@ -130,8 +106,8 @@ def balance_panel(p, result, ax=None):
     if ax is None:
         _, ax = plt.subplots(figsize=(4.8, 3.2), constrained_layout=True)
     where = position(p)
-    x = where[1] if where else np.arange(p.rings.n)
-    for k, comp in enumerate(p.rings.axes):
+    x = where[1] if where else np.arange(p.cells.n)
+    for k, comp in enumerate(p.cells.axes):
         ax.errorbar(x, result["residual"][k], yerr=result["residual_err"][k], ls="none",
                     marker="os^"[k], ms=4, color=OKABE_ITO[k], label=f"{comp} component")
     ax.axhspan(-0.1, 0.1, color="0.9", zorder=0)
@@ -151,10 +127,10 @@ def analyze_fields(profiles, names, closed=False) -> dict:
     out = {"kind": "fields", "closed": bool(closed), "profiles": []}
     for p, name in zip(profiles, names):
         full, bare = balance(p, closed=closed), balance(p, terms=(), closed=closed)
-        occupied = np.asarray(p.values.get("nu", np.ones(p.rings.n))) > 0
+        occupied = np.asarray(p.values.get("nu", np.ones(p.cells.n))) > 0
         res = np.abs(full["residual"])[:, occupied]
         out["profiles"].append({
-            "profile": str(name), "geometry": p.rings.describe(), "n_cells": p.rings.n,
+            "profile": str(name), "geometry": p.cells.describe(), "n_cells": p.cells.n,
             "units": p.meta.get("units"), "n_frames": p.n_frames,
             "boundary": p.meta.get("boundary", "not averaged"),
             "balance": {"terms": full["terms"], "stress_scale": full["scale"],
@@ -185,7 +161,7 @@ def write_field_report(summary, profiles, out) -> Path:
         plt.close(ax.figure)
         b = s["balance"]
         rows.append(f"<h2>{html.escape(s['profile'])}</h2><p>{s['n_cells']} "
-                    f"{html.escape(p.rings.kind)}, {s['n_frames']} frames, units "
+                    f"{html.escape(p.cells.kind)}, {s['n_frames']} frames, units "
                     f"{html.escape(str(s['units']))}. Balance of forces (force densities: "
                     f"{html.escape(', '.join(b['terms']) or 'none')}; outer faces "
                     f"{'closed' if summary['closed'] else 'open: edge cells not judged'}; "

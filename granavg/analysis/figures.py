@@ -32,9 +32,9 @@ def _axes(axes, n, size=(4.2, 3.2)):
 
 
 def _points(ax, p, y, k, label, closed):
-    ax.plot(p.rings.centre, y, ls="none", marker=MARKERS[k % len(MARKERS)], ms=4 if closed else 5,
+    ax.plot(p.cells.centre, y, ls="none", marker=MARKERS[k % len(MARKERS)], ms=4 if closed else 5,
             color=OKABE_ITO[k % len(OKABE_ITO)], mfc=OKABE_ITO[k % len(OKABE_ITO)] if closed else "none",
-            label=f"{label} ({p.rings.n} rings)")
+            label=f"{label} ({p.cells.n} rings)")
 
 
 def _both(ax, p20, p60, fn, k, label):
@@ -49,7 +49,7 @@ def fig2(p20, p60, summary, axes=None):
     R_i, Omega = run["R_i"], run["Omega"]
     _both(ax[0], p20, p60, lambda p: p.values["nu"], 0, "nu")
     ax[0].set(xlabel="r (m)", ylabel="volume fraction nu (-)", title="density")
-    _both(ax[1], p20, p60, lambda p: p.values["v_phi"] / (Omega * p.rings.centre), 1, "v_phi/(Omega r)")
+    _both(ax[1], p20, p60, lambda p: p.values["v_phi"] / (Omega * p.cells.centre), 1, "v_phi/(Omega r)")
     sb = summary["numbers"]["shear_band"]
     if np.isfinite(sb["s_m"]):
         r = np.linspace(R_i, sb["decay_range_end_m"], 100)
@@ -81,7 +81,7 @@ def fig4(p20, p60, summary, axes=None):
     ex = summary["numbers"]["stress_exponents"]
     for k, comp in enumerate(TENSOR):
         _both(ax[0], p20, p60, lambda p, c=comp: p.values[f"sigma_{c}"], k, f"sigma_{comp}")
-        r = p20.rings.centre
+        r = p20.cells.centre
         y0 = p20.values[f"sigma_{comp}"]
         mid = len(r) // 2
         ax[0].plot(r, y0[mid] * (r / r[mid]) ** ex[f"sigma_{comp}"], color=OKABE_ITO[k], lw=1)
@@ -101,10 +101,10 @@ def fig5(p20, p60, summary, axes=None):
     a density series, the bulk rings of every run on the same axes."""
     ax = _axes(axes, 2)
     for k, p in enumerate((p20, p60)):
-        trF, B, G = summary["series"][f"stiffness_{p.rings.n}"]
+        trF, B, G = summary["series"][f"stiffness_{p.cells.n}"]
         for a, y in ((ax[0], B), (ax[1], G)):
             a.plot(trF, y, ls="none", marker=MARKERS[k], color=OKABE_ITO[k],
-                   mfc=OKABE_ITO[k] if k == 0 else "none", label=f"{p.rings.n} rings")
+                   mfc=OKABE_ITO[k] if k == 0 else "none", label=f"{p.cells.n} rings")
     for k, (label, trF, B, G) in enumerate(summary["series"].get("density_series", [])):
         for a, y in ((ax[0], B), (ax[1], G)):
             a.plot(trF, y, ls="none", marker=MARKERS[(k + 2) % len(MARKERS)],
@@ -127,10 +127,10 @@ def fig6(p20, p60, summary, axes=None):
     ax = _axes(axes, 1, size=(5.0, 3.4))
     for p in (p20, p60):
         closed = p is p20
-        for k, (name, deg) in enumerate(summary["series"][f"orientation_{p.rings.n}"].items()):
-            ax[0].plot(p.rings.centre, deg, marker=MARKERS[k], color=OKABE_ITO[k],
+        for k, (name, deg) in enumerate(summary["series"][f"orientation_{p.cells.n}"].items()):
+            ax[0].plot(p.cells.centre, deg, marker=MARKERS[k], color=OKABE_ITO[k],
                        mfc=OKABE_ITO[k] if closed else "none", ls="-" if closed else "none",
-                       lw=0.8, ms=4, label=f"phi_{name} ({p.rings.n} rings)")
+                       lw=0.8, ms=4, label=f"phi_{name} ({p.cells.n} rings)")
     ax[0].set(xlabel="r (m)", ylabel="orientation of the major axis (deg)",
               title="tensor orientations")
     ax[0].legend(fontsize=7)
@@ -143,14 +143,14 @@ def fig7(p20, p60, summary, axes=None):
     (Fig. 7)."""
     ax = _axes(axes, 2)
     for k, p in enumerate((p20, p60)):
-        st, tot, scale = summary["series"][f"eom_{p.rings.n}"]
+        st, tot, scale = summary["series"][f"eom_{p.cells.n}"]
         for j, title in enumerate(("radial, Eq. 11", "tangential, Eq. 12")):
-            ax[j].plot(p.rings.centre, st[j] / scale, marker=MARKERS[k], ls="none",
+            ax[j].plot(p.cells.centre, st[j] / scale, marker=MARKERS[k], ls="none",
                        color=OKABE_ITO[0], mfc=OKABE_ITO[0] if k == 0 else "none",
-                       label=f"static ({p.rings.n} rings)")
-            ax[j].plot(p.rings.centre, tot[j] / scale, marker=MARKERS[k + 2], ls="none",
+                       label=f"static ({p.cells.n} rings)")
+            ax[j].plot(p.cells.centre, tot[j] / scale, marker=MARKERS[k + 2], ls="none",
                        color=OKABE_ITO[1], mfc=OKABE_ITO[1] if k == 0 else "none",
-                       label=f"total, sigma - dsigma ({p.rings.n} rings)")
+                       label=f"total, sigma - dsigma ({p.cells.n} rings)")
             ax[j].set(xlabel="r (m)", ylabel=f"residual / {scale:.3g} Pa (-)", title=title)
     for a in ax:
         a.axhline(0, color="k", lw=0.5)
@@ -162,12 +162,12 @@ def fig8(p20, p60, summary, axes=None):
     """-D_rphi and -W_rphi against r, with the fit's Eq. 15 and the particles' -omega."""
     ax = _axes(axes, 2)
     for k, p in enumerate((p20, p60)):
-        D, W, Df, Wf, omega, _ = summary["series"][f"rates_{p.rings.n}"]
-        r = p.rings.centre
+        D, W, Df, Wf, omega, _ = summary["series"][f"rates_{p.cells.n}"]
+        r = p.cells.centre
         ax[0].plot(r, -D, ls="none", marker=MARKERS[k], color=OKABE_ITO[0],
-                   mfc=OKABE_ITO[0] if k == 0 else "none", label=f"-D ({p.rings.n} rings)")
+                   mfc=OKABE_ITO[0] if k == 0 else "none", label=f"-D ({p.cells.n} rings)")
         ax[1].plot(r, -W, ls="none", marker=MARKERS[k], color=OKABE_ITO[1],
-                   mfc=OKABE_ITO[1] if k == 0 else "none", label=f"-W ({p.rings.n} rings)")
+                   mfc=OKABE_ITO[1] if k == 0 else "none", label=f"-W ({p.cells.n} rings)")
         if k == 1:
             ax[0].plot(r, -Df, color="k", ls=":", label="-D of the fit (Eq. 15)")
             ax[1].plot(r, -Wf, color="k", ls=":", label="-W of the fit")
@@ -187,11 +187,11 @@ def fig9(p20, p60, summary, axes=None):
     R_i = summary["run"]["scene"]["R_i"]
     sb = summary["numbers"]["shear_band"]
     for k, p in enumerate((p20, p60)):
-        ws = summary["series"][f"rates_{p.rings.n}"][5]
-        near = p.rings.centre <= max(sb["decay_range_end_m"], R_i + 0.03)
-        ax[0].plot(p.rings.centre[near], -ws[near], marker=MARKERS[k], color=OKABE_ITO[k],
+        ws = summary["series"][f"rates_{p.cells.n}"][5]
+        near = p.cells.centre <= max(sb["decay_range_end_m"], R_i + 0.03)
+        ax[0].plot(p.cells.centre[near], -ws[near], marker=MARKERS[k], color=OKABE_ITO[k],
                    mfc=OKABE_ITO[k] if k == 0 else "none", lw=0.8,
-                   label=f"-omega* ({p.rings.n} rings)")
+                   label=f"-omega* ({p.cells.n} rings)")
     ax[0].axhline(0, color="k", lw=0.5)
     ax[0].set(xlabel="r (m)", ylabel="-omega* = -(omega - W_rphi) (1/s)",
               title="eigen-rotation near the inner wall")

@@ -9,7 +9,7 @@ import math
 from pathlib import Path
 
 from granavg.analysis.claims import PAPER
-from granavg.engine.timeseries import DRIFT_Z
+from granavg.engine.stationarity import DRIFT_Z
 
 _NUMBERS = [  # (section, key, label, unit, paper key)
     ("shear_band", "v0_over_omega_Ri", "v0 / (Omega R_i)", "-", "v0_over_omega_Ri"),
@@ -111,7 +111,7 @@ def error_source(summary) -> str:
 
 
 def stationarity_table(summary, e) -> list:
-    """HTML rows judging the averaging window's steadiness (granavg.engine.timeseries):
+    """HTML rows judging the averaging window's steadiness (granavg.engine.stationarity):
     each run's, and an ensemble's from the spread between its realisations."""
     judged = {run: j for run, j in (summary.get("stationarity") or {}).items() if j}
     if not judged:

@@ -10,7 +10,7 @@ arrays: ``x y radius`` and, as the quantities need, ``vx vy omegaz id mass``) an
 ``contacts`` (dict of arrays ``id1 id2 wall fnx fny ftx fty nx ny overlap``, or None;
 body forces on the disks as atoms' ``bx by``):
 what the dump reader, a running LAMMPS or a dask worker produce alike. For spheres in 3D
-cells (:class:`~granavg.engine.cells3d.Boxes`, ...) the atoms add ``z vz omegax omegay``
+cells (:class:`~granavg.engine.cells.boxes.Boxes`, ...) the atoms add ``z vz omegax omegay``
 and the contacts ``fnz ftz nz``.
 """
 
@@ -22,17 +22,17 @@ import logging
 from granavg.engine.average import CellAverage
 from granavg.engine.profiles import Profiles
 from granavg.engine.quantities import groups_for, missing_columns
-from granavg.engine.units import SI, UnitSystem
+from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError
 
 log = logging.getLogger(__name__)
 
 
-def average(frames, geometry, *, progress: bool | None = False, **options) -> Profiles:
-    """Time-averaged profiles of ``frames`` over the cells of ``geometry`` (Eqs. 1-7):
+def average(frames, cells, *, progress: bool | None = False, **options) -> Profiles:
+    """Time-averaged profiles of ``frames`` over ``cells`` (Eqs. 1-7):
     :func:`averager`'s, run over every frame (``progress``: a progress bar; None: on
     a terminal)."""
-    return averager(frames, geometry, **options).run(progress)
+    return averager(frames, cells, **options).run(progress)
 
 
 def _with_columns(groups, requested: bool, frame, dim: int) -> tuple:
@@ -56,10 +56,10 @@ def _with_columns(groups, requested: bool, frame, dim: int) -> tuple:
                                                      for g, m in lacking.items()}
 
 
-def averager(frames, geometry, *, rho_p: float | None = None, quantities=None,
+def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
              t_min: float = 0.0, block_time: float | None = None, units: UnitSystem = SI,
              branch: str = "contact", sectors="auto") -> CellAverage:
-    """The averager of ``frames`` over the cells of ``geometry`` (Eqs. 1-7), its
+    """The averager of ``frames`` over ``cells`` (Eqs. 1-7), its
     quantities and blocks chosen from the first two frames (which it keeps); ``run()``
     it, or ``prepare()``, ``add()`` frames, ``merge()`` other averagers' ``state()``
     (disjoint frames: a dask worker's) and ``conclude()``.
@@ -68,9 +68,10 @@ def averager(frames, geometry, *, rho_p: float | None = None, quantities=None,
     ----------
     frames : iterable
         Frames as described in the module docstring, in increasing time.
-    geometry : Rings, Slabs, Grid, Slabs3D, Boxes or Shells
-        The cells (:mod:`granavg.engine.geometry`: disks of height h in 2D;
-        :mod:`granavg.engine.cells3d`: spheres in 3D).
+    cells : Cells
+        Rings, Slabs, Grid, PolarGrid, Slabs3D, Boxes, Shells or any registered kind.
+        The cells (:mod:`granavg.engine.cells`: disks of height h in 2D, spheres in
+        3D).
     rho_p : float, optional
         Material density (kg/m^3): masses rho_p V^p (pi h a^2, or 4/3 pi a^3). Not needed
         when the atoms carry a ``mass`` column (kg), nor for quantities without mass (nu,
@@ -83,7 +84,7 @@ def averager(frames, geometry, *, rho_p: float | None = None, quantities=None,
         Base block length (s) of the blocking analysis; default the spacing of the first
         two frames (one frame per block).
     units : UnitSystem
-        The units the frames are in (:mod:`granavg.engine.units`); only named in the
+        The units the frames are in (:mod:`granavg.engine.unit_system`); only named in the
         sidecar (``meta["units"]``, ``meta["unit_system"]``), nothing is converted. The
         parameters above are in the same units (the SI names are those of SI frames).
     branch : {"contact", "paper"}
@@ -92,8 +93,8 @@ def averager(frames, geometry, *, rho_p: float | None = None, quantities=None,
         surface (:data:`granavg.engine.kernels.BRANCHES`).
     sectors : "auto", int or None
         Spatial replicas for errors that count the frozen structure
-        (:mod:`granavg.engine.replicas`): each cell split into K sectors along the
-        geometry's symmetry direction (rings: phi; slabs with a ``span``: their length),
+        (:mod:`granavg.engine.uncertainty.structure`): each cell split into K sectors along the
+        cells' symmetry direction (rings: phi; slabs with a ``span``: their length),
         K chosen from the sectors' correlation (``auto``) or given; None for errors from
         time alone (grids always).
 
@@ -110,7 +111,7 @@ def averager(frames, geometry, *, rho_p: float | None = None, quantities=None,
     has_contacts = head[0].contacts is not None
     has_mass = "mass" in head[0].atoms
     groups = groups_for(quantities, has_contacts, "bx" in head[0].atoms)
-    groups, lacking = _with_columns(groups, quantities is not None, head[0], geometry.dim)
+    groups, lacking = _with_columns(groups, quantities is not None, head[0], cells.dim)
     if rho_p is not None and has_mass:
         log.info("the masses come from the atoms' mass column; the material density "
                  "given is not used")
@@ -124,11 +125,11 @@ def averager(frames, geometry, *, rho_p: float | None = None, quantities=None,
         block_time = head[1].time - head[0].time if len(head) == 2 else 1.0
         if not block_time > 0:
             raise UserError("frames must come in increasing time")
-    avg = CellAverage(itertools.chain(head, it), geometry, groups,
+    avg = CellAverage(itertools.chain(head, it), cells, groups,
                       rho_p if rho_p is not None else 0.0, t_min, block_time, branch=branch,
                       sectors=sectors)
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
-                "geometry": geometry.describe(),
+                "geometry": cells.describe(),
                 "frames": {"t_min_s": t_min, "block_time_s": block_time}}
     if lacking:
         avg.meta["left_out"] = {g: f"no {' '.join(c)} in the data" for g, c in lacking.items()}

@@ -1,10 +1,14 @@
-"""Ring averaging: frames -> accumulators -> profiles (Eqs. 1-7), SI units.
+"""Averaging over cells: frames -> accumulators -> profiles (Eqs. 1-7), in the frames'
+units.
 
 :class:`CellAverage` follows MDAnalysis' ``AnalysisBase``: ``run()`` calls ``prepare``,
 ``add`` for every frame and ``conclude``; the results are one :class:`Profiles`.
-Frames are in-memory arrays (:class:`~granavg.io.reader.Frame`-like: ``timestep``,
+Frames are in-memory arrays (:class:`~granavg.io.frames.Frame`-like: ``timestep``,
 ``time``, ``atoms``, ``contacts``) from any source: a dump reader
-(:mod:`granavg.pipeline.averaging`), a running LAMMPS (:mod:`granavg.pipeline.insitu`) or dask workers.
+(:mod:`granavg.pipeline.dumps`), a running LAMMPS (:mod:`granavg.pipeline.insitu`) or
+dask workers. A scene may add a frame observer (:class:`FrameObserver`) that records its
+own per-frame state, whose steadiness over the window is judged
+(:mod:`granavg.engine.stationarity`).
 """
 
 from __future__ import annotations
@@ -12,18 +16,19 @@ from __future__ import annotations
 import logging
 import numbers
 import sys
+from typing import Protocol
 
 import numpy as np
 
 from granavg.engine.accumulate import CellAccumulator
+from granavg.engine.cells.base import Cells
 from granavg.engine.kernels import (BRANCHES, cell_sums, contact_rows, particle_channels,
-                                   wall_points)
+                                   sector_sums, wall_points)
 from granavg.engine.profiles import Profiles, flags, standard_errors, values
 from granavg.engine.quantities import QUANTITIES
-from granavg.engine import replicas
-from granavg.engine.timeseries import DRIFT_Z, TimeSeries, stationarity
-from granavg.engine.uncertainty import Replicates
-from granavg.errors import ParameterError
+from granavg.engine.stationarity import DRIFT_Z, stationarity
+from granavg.engine.uncertainty import structure
+from granavg.errors import ParameterError, named
 
 log = logging.getLogger(__name__)
 
@@ -31,56 +36,71 @@ log = logging.getLogger(__name__)
 MAX_BLOCKS = 512
 
 
+class FrameObserver(Protocol):
+    """A scene's per-frame state (the Couette cell's: :mod:`granavg.sim.couette_state`):
+    ``add(frame)`` records a frame (every one, also those before t_min), ``rows`` holds
+    one dict per frame with ``step`` and ``t_s``, ``columns()`` gives them as columns, and
+    ``judged`` names the columns whose steadiness over the window is judged."""
+
+    rows: list
+    judged: tuple
+
+    def add(self, frame) -> None: ...
+
+    def columns(self) -> dict: ...
+
+
 class CellAverage:
-    """Average frames over rings, slabs or a grid (Eqs. 1-7).
+    """Average frames over any cells (Eqs. 1-7).
 
     Parameters
     ----------
-    frames : iterable of :class:`~granavg.io.reader.Frame`
-    rings : Rings, Slabs or Grid
-        The cells (:mod:`granavg.engine.geometry`); vectors and tensors come out in their
-        basis (r, phi for rings; x, y otherwise).
+    frames : iterable of :class:`~granavg.io.frames.Frame`
+    cells : Cells
+        The cells (:mod:`granavg.engine.cells`); vectors and tensors come out in their
+        basis (r, phi for rings; x, y[, z] for Cartesian cells).
     groups : sequence of str
-        Keys of :data:`granavg.engine.profiles.QUANTITIES`.
+        Keys of :data:`granavg.engine.quantities.QUANTITIES`.
     rho_p : float
-        Material density, kg/m^3.
+        Material density.
     t_min : float
-        Frames before t_min (s) are not averaged.
+        Frames before t_min are not averaged.
     block_time : float
-        Length (s) of the base time blocks of the blocking analysis.
-    series : TimeSeries, optional
+        Length of the base time blocks of the blocking analysis.
+    series : FrameObserver, optional
         Records the state of every frame (also those before t_min).
     branch : {"contact", "paper"}
         Where the branch vectors of Eqs. 5 and 7 end
         (:data:`granavg.engine.kernels.BRANCHES`).
     sectors : "auto", int or None
         Spatial replicas along the cells' symmetry direction
-        (:mod:`granavg.engine.replicas`): K chosen from the data (``auto``), K pinned, or
-        none (errors from time alone). Geometries without a symmetry direction have none.
+        (:mod:`granavg.engine.uncertainty.structure`): K chosen from the data (``auto``),
+        K pinned, or none (errors from time alone). Cells without a symmetry direction
+        have none.
     """
 
-    def __init__(self, frames, rings: Rings, groups, rho_p: float, t_min: float,
-                 block_time: float, series: TimeSeries | None = None,
+    def __init__(self, frames, cells: Cells, groups, rho_p: float, t_min: float,
+                 block_time: float, series: FrameObserver | None = None,
                  branch: str = "contact", sectors="auto"):
-        self.frames, self.rings, self.groups = frames, rings, list(groups)
+        self.frames, self.cells, self.groups = frames, cells, list(groups)
         if branch not in BRANCHES:
             raise ParameterError("branch", f"{{param}} {branch!r}: choose from "
                                  f"{', '.join(BRANCHES)}")
         sectors = None if sectors in ("off", 0) else sectors
         if sectors not in ("auto", None) and not (
                 isinstance(sectors, numbers.Integral) and
-                replicas.MIN_REPLICAS <= sectors <= replicas.MAX_SECTORS):
+                structure.MIN_REPLICAS <= sectors <= structure.MAX_SECTORS):
             raise ParameterError("sectors", f"{{param}} {sectors!r}: give auto, off or a "
-                                 f"number of sectors from {replicas.MIN_REPLICAS} to "
-                                 f"{replicas.MAX_SECTORS}")
+                                 f"number of sectors from {structure.MIN_REPLICAS} to "
+                                 f"{structure.MAX_SECTORS}")
         sectors = int(sectors) if isinstance(sectors, numbers.Integral) else sectors
-        if isinstance(sectors, int) and not rings.symmetry:
-            raise ParameterError("sectors", f"{{param}} {sectors}: {rings.kind} have no "
+        if isinstance(sectors, int) and not cells.symmetry:
+            raise ParameterError("sectors", f"{{param}} {sectors}: {cells.kind} have no "
                                  "direction to split into sectors (their errors come from "
                                  "time alone); leave it out")
         self.branch = branch
-        self.sectors = sectors if rings.symmetry else None
-        self.k_fine = (replicas.FINE_SECTORS if self.sectors == "auto"
+        self.sectors = sectors if cells.symmetry else None
+        self.k_fine = (structure.FINE_SECTORS if self.sectors == "auto"
                        else self.sectors or 0)
         self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
         self.channels = sorted({b for g in self.groups for b in QUANTITIES[g].blocks})
@@ -101,11 +121,11 @@ class CellAverage:
 
     def prepare(self):
         """Start with an empty accumulator (and time series)."""
-        n_channels = self.rings.layout.n
-        self.acc = CellAccumulator((self.rings.n, n_channels), self.t_min, self.block_time)
+        n_channels = self.cells.layout.n
+        self.acc = CellAccumulator((self.cells.n, n_channels), self.t_min, self.block_time)
         self.replica_acc = CellAccumulator(
-            (self.rings.n, self.k_fine, n_channels), self.t_min, self.block_time,
-            replicas.REPLICA_BLOCKS) if self.k_fine else None
+            (self.cells.n, self.k_fine, n_channels), self.t_min, self.block_time,
+            structure.REPLICA_BLOCKS) if self.k_fine else None
         if self.series is not None:
             self.series.rows = []
 
@@ -114,7 +134,7 @@ class CellAverage:
         if self.series is not None:
             self.series.add(frame)
         if frame.time >= self.t_min:
-            sums = frame_sums(frame, self.rings, self.rho_p, self.channels, self.branch,
+            sums = frame_sums(frame, self.cells, self.rho_p, self.channels, self.branch,
                               self.k_fine)
             if self.k_fine:
                 self.replica_acc.add(frame.timestep, frame.time, sums)
@@ -134,7 +154,7 @@ class CellAverage:
 
     def conclude(self) -> Profiles:
         """Profiles of the frames added so far."""
-        acc, V, layout = self.acc, self.rings.volume, self.rings.layout
+        acc, V, layout = self.acc, self.cells.volume, self.cells.layout
         if acc.n_frames == 0:
             raise ParameterError("t_min", f"no frame at t >= {self.t_min:g}, the start of "
                                  "the average ({param}); lower it")
@@ -173,15 +193,15 @@ class CellAverage:
             log.warning("the frames span a single block of the sectors' accumulator: errors "
                         "from time alone")
         elif len(counts) >= 2 and self.replica_acc is not None:
-            sem, replicates, info, time_part = replicas.structure_errors(
+            sem, replicates, info, time_part = structure.structure_errors(
                 *self.replica_acc.block_sums(), V, self.rho_p, self.groups, layout, sem,
-                replicates, sectors=self.sectors, periodic=self.rings.periodic,
-                across=self.rings.across)
+                replicates, sectors=self.sectors, periodic=self.cells.sectors_close,
+                across=self.cells.across)
             lower = {n: lb & time_part[n] for n, lb in lower.items()}
             meta["errors"].update(kind="time+structure", sectors={
-                "axis": self.rings.symmetry, **info}, method=(
+                "axis": self.cells.symmetry, **info}, method=(
                 f"two-way: the spread of {info['sectors']} sectors along "
-                f"{self.rings.symmetry} (frozen structure and local noise), plus the time "
+                f"{self.cells.symmetry} (frozen structure and local noise), plus the time "
                 "blocking of each cell, less their sector x time interaction (counted by "
                 "both); derived numbers from the same three sets of replicates"))
             if not info["resolved"]:
@@ -208,16 +228,16 @@ class CellAverage:
         series = None
         if self.series is not None and self.series.rows:
             series = self.series.columns()
-            meta["stationarity"] = stationarity(series, self.t_min)
+            meta["stationarity"] = stationarity(series, self.t_min, self.series.judged)
             warn_if_drifting(meta["stationarity"], self.t_min)
-        self.results = Profiles(self.rings, vals, sem, ring_flags, acc.n_frames, meta,
+        self.results = Profiles(self.cells, vals, sem, ring_flags, acc.n_frames, meta,
                                 replicates, series=series)
         return self.results
 
 
 def warn_if_drifting(judged: dict, t_min: float) -> list:
     """Log a warning naming each quantity that drifts over the window (of one run, or of
-    an ensemble judged by :func:`~granavg.engine.timeseries.ensemble_stationarity`), and
+    an ensemble judged by :func:`~granavg.engine.stationarity.ensemble_stationarity`), and
     an info line naming those one run cannot judge (``undetermined``); returns the
     drifting ones."""
     drifting = [q for q, r in judged.items() if r["drifts"]]
@@ -229,9 +249,10 @@ def warn_if_drifting(judged: dict, t_min: float) -> list:
         # One run's lower-bound errors cannot tell: in an ensemble steady in all six
         # quantities, 10 of the 24 (run, quantity) verdicts were "undetermined"
         # (docs/profiles.md). Not a warning, then; realisations decide.
-        log.info("%s t >= %g s: %s change by more than %g errors, but the errors are only "
-                 "lower bounds (fluctuations as slow as the window), which cannot tell a "
-                 "drift; several realisations (--seeds) judge it", whose, t_min,
+        log.info(named("%s t >= %g s: %s change by more than %g errors, but the errors are "
+                       "only lower bounds (fluctuations as slow as the window), which "
+                       "cannot tell a drift; several realisations ({seeds}) judge it"),
+                 whose, t_min,
                  ", ".join(unsure), DRIFT_Z)
     if drifting:
         starts = [judged[q]["steady_from_s"] for q in drifting]
@@ -254,13 +275,13 @@ CHUNK = 1 << 16
 
 def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
                sectors: int = 0) -> np.ndarray:
-    """Cell sums of one frame for any geometry (:mod:`granavg.engine.geometry`,
-    :mod:`granavg.engine.cells3d`), the particles taken :data:`CHUNK` at a time.
+    """Cell sums of one frame for any cells (:mod:`granavg.engine.cells`), the particles
+    taken :data:`CHUNK` at a time.
 
     Returns
     -------
     ndarray, shape (n_cells, n_channels), or (n_cells, sectors, n_channels) with
-    ``sectors`` > 0: the sums of each cell's sectors (:mod:`granavg.engine.replicas`),
+    ``sectors`` > 0: the sums of each cell's sectors (the cells' ``sector_shares``),
     which add up to the cell's.
     """
     a = frame.atoms
@@ -281,9 +302,8 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
                               branch=branch, rows=rows, first=lo, out=buffer)
         particle, cell, w = cells.weights(pos, r)
         if sectors:
-            sector, share = replicas.sector_shares(cells, pos, r, sectors)
-            sums += replicas.sector_sums(particle, cell, w, sector, share, sectors, q,
-                                         cells.n)
+            sector, share = cells.sector_shares(pos, r, sectors)
+            sums += sector_sums(particle, cell, w, sector, share, sectors, q, cells.n)
         else:
             sums += cell_sums(particle, cell, w, q, n)
     if "wall" in blocks and frame.contacts is not None:
@@ -293,8 +313,8 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
         E = cells.basis(at)
         inside = where >= 0
         if sectors:
-            where = where * sectors + replicas.sector_shares(   # radius 0: its centre's
-                cells, at, np.zeros(len(points)), sectors)[0][:, 0]
+            where = where * sectors + cells.sector_shares(      # radius 0: its centre's
+                at, np.zeros(len(points)), sectors)[0][:, 0]
         first = cells.layout.first("wall")
         for i in range(cells.dim):
             along = np.einsum("pj,pj->p", forces, E[:, i, :]) if cells.dim == 3 else \

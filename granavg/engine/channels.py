@@ -1,9 +1,12 @@
-"""The channels of the per-frame cell sums, for cells of any dimension and basis.
+"""The channels of the per-frame cell sums, for cells of any dimension and basis: the one
+place their layout is computed (the compiled kernels take their offsets from it).
 
 A frame adds to every cell k and channel c the sum ``S[k, c] = sum_p w_pk Q_pc``
-(:mod:`granavg.engine.kernels`). The channels come in blocks; vectors have one channel
-per axis of the cells' basis, tensors one per ordered pair of axes (first index the
-force or the deformation, second the branch vector), in the order of :class:`Layout`:
+(:mod:`granavg.engine.kernels`). The channels come in blocks (:data:`BLOCK`), each
+declared with its shape - a scalar, a vector (one channel per axis of the cells' basis),
+a tensor (one per ordered pair of axes, first index the force or the deformation, second
+the branch vector) or ``axial`` (the spin: a scalar about z in 2D, a vector in 3D) - and
+the dump columns it reads. In the order of :data:`BLOCKS`:
 
 =========  ==========================  ==========================================
 block      channels                    Q_p
@@ -23,7 +26,8 @@ body       body_<i>                    b^p (gravity, base-plate friction, ...)
 
 For disks V^p / a_p^2 = pi h, the factor of Eq. 7; a sphere's is 4/3 pi a_p. The 2D
 rings' layout, axes ``(r, phi)``, is the one granavg always had (``vol, mass, mom_r,
-mom_phi, spin, ncontact, fab_rr, ...``).
+mom_phi, spin, ncontact, fab_rr, ...``). A new block is one entry here, appended, plus
+the kernel code that fills it.
 """
 
 from __future__ import annotations
@@ -32,13 +36,76 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+_XYZ = ("x", "y", "z")
+
+
+@dataclass(frozen=True)
+class Block:
+    """One block of channels.
+
+    Attributes
+    ----------
+    name : str
+    shape : {"scalar", "vector", "tensor", "axial"}
+    atoms : tuple of str
+        The atom columns it reads besides positions and radii (``{v}`` stands for the
+        velocity components of the dimension, ``{w}`` the spin's, ``{b}`` the body
+        force's).
+    contacts : tuple of str
+        The contact columns it reads (``{n}`` the normal's components, ``{f}`` the
+        normal and tangential forces'); empty for blocks the contacts do not fill.
+    """
+
+    name: str
+    shape: str
+    atoms: tuple = ()
+    contacts: tuple = ()
+
+    def size(self, dim: int) -> int:
+        """Channels of the block in ``dim`` dimensions."""
+        return {"scalar": 1, "vector": dim, "tensor": dim * dim,
+                "axial": 1 if dim == 2 else dim}[self.shape]
+
+    def atom_columns(self, dim: int) -> list:
+        return _expand(self.atoms, dim)
+
+    def contact_columns(self, dim: int) -> list:
+        return _expand(self.contacts, dim)
+
+
+def _expand(names, dim) -> list:
+    """Column names with ``{v}``, ``{w}``, ``{b}``, ``{n}``, ``{f}`` spelled out for
+    ``dim`` axes."""
+    xyz = _XYZ[:dim]
+    groups = {"{v}": [f"v{x}" for x in xyz],
+              "{w}": ["omegaz"] if dim == 2 else [f"omega{x}" for x in xyz],
+              "{b}": [f"b{x}" for x in xyz], "{n}": [f"n{x}" for x in xyz],
+              "{f}": [f"fn{x}" for x in xyz] + [f"ft{x}" for x in xyz]}
+    out = []
+    for name in names:
+        out += groups.get(name, [name])
+    return out
+
+
+_PAIRS = ("id1", "id2", "wall")
+#: Every block, by name, in channel order.
+BLOCK = {b.name: b for b in (
+    Block("vol", "scalar"),
+    Block("mass", "scalar"),
+    Block("mom", "vector", ("{v}",)),
+    Block("spin", "axial", ("{w}",)),
+    Block("ncontact", "scalar", ("id",), _PAIRS),
+    Block("fab", "tensor", ("id",), (*_PAIRS, "{n}")),
+    Block("sig", "tensor", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
+    Block("kin", "tensor", ("{v}",)),
+    Block("def", "tensor", ("id",), (*_PAIRS, "{n}", "overlap")),
+    Block("wall", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
+    Block("body", "vector", ("{b}",)),
+)}
 #: The blocks in channel order.
-BLOCKS = ("vol", "mass", "mom", "spin", "ncontact", "fab", "sig", "kin", "def", "wall",
-          "body")
-#: Blocks that are vectors and tensors (the rest are scalars, but ``spin`` in 3D).
-VECTORS = ("mom", "wall", "body")
-TENSORS = ("fab", "sig", "kin", "def")
-#: Blocks the contacts fill.
+BLOCKS = tuple(BLOCK)
+#: Blocks that the particles' contacts fill in the contact pass (``wall`` is filled at
+#: the contact points instead).
 CONTACT_BLOCKS = ("ncontact", "fab", "sig", "def")
 
 
@@ -57,26 +124,29 @@ class Layout:
     axes : tuple of str
         The basis' axes: ``("r", "phi")`` (rings), ``("x", "y")``, ``("x", "y", "z")``
         or ``("r", "phi", "z")`` (cylindrical shells).
+    offsets : tuple of int
+        The first channel of each block, in :data:`BLOCKS` order: what the compiled
+        kernels index.
     """
 
     axes: tuple
     names: tuple = field(init=False)
     index: dict = field(init=False)
-    offsets: np.ndarray = field(init=False)
+    offsets: tuple = field(init=False)
 
     def __post_init__(self):
-        names, first = [], {}
-        for b in BLOCKS:
-            first[b] = len(names)
-            if b in VECTORS or (b == "spin" and self.dim == 3):
-                names += [f"{b}_{i}" for i in self.axes]
-            elif b in TENSORS:
-                names += [f"{b}_{c}" for c in pairs(self.axes)]
+        names, first = [], []
+        for b in BLOCK.values():
+            first.append(len(names))
+            if b.shape in ("vector", "axial") and b.size(self.dim) > 1:
+                names += [f"{b.name}_{i}" for i in self.axes]
+            elif b.shape == "tensor":
+                names += [f"{b.name}_{c}" for c in pairs(self.axes)]
             else:
-                names.append(b)
+                names.append(b.name)
         object.__setattr__(self, "names", tuple(names))
         object.__setattr__(self, "index", {n: k for k, n in enumerate(names)})
-        object.__setattr__(self, "offsets", np.array([first[b] for b in BLOCKS], np.int64))
+        object.__setattr__(self, "offsets", tuple(first))
 
     @property
     def dim(self) -> int:
@@ -89,15 +159,18 @@ class Layout:
 
     def first(self, block: str) -> int:
         """Column of the block's first channel."""
-        return int(self.offsets[BLOCKS.index(block)])
+        return self.offsets[BLOCKS.index(block)]
 
     def block(self, S, block: str):
         """The block's columns of sums ``S`` (last axis the channels)."""
         k = self.first(block)
-        size = {**{b: self.dim for b in VECTORS}, **{b: self.dim**2 for b in TENSORS},
-                "spin": self.dim if self.dim == 3 else 1}.get(block, 1)
-        return S[..., k:k + size]
+        return S[..., k:k + BLOCK[block].size(self.dim)]
 
     def spin_names(self) -> tuple:
         """Profile names of the spin: ``omega`` (2D, about z), ``omega_<i>`` (3D)."""
         return ("omega",) if self.dim == 2 else tuple(f"omega_{i}" for i in self.axes)
+
+
+def stacked(S: np.ndarray, layout: Layout, blocks) -> np.ndarray:
+    """The columns of several blocks of sums ``S`` side by side."""
+    return np.concatenate([layout.block(S, b) for b in blocks], axis=-1)

@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 
 from granavg.engine.profiles import Profiles, columns_of
-from granavg.engine.uncertainty import Replicates
+from granavg.engine.uncertainty.blocking import Replicates
 from granavg.errors import UserError
 
 
@@ -34,7 +34,7 @@ def combine_runs(profiles: list, names: list) -> Profiles:
 
     first = profiles[0]
     for p, name in zip(profiles[1:], names[1:]):
-        if p.rings.describe() != first.rings.describe():
+        if p.cells.describe() != first.cells.describe():
             raise UserError(f"{name}: its rings differ from {names[0]}'s; an ensemble needs "
                             "runs of the same scene averaged over the same rings")
         if set(p.values) != set(first.values):
@@ -48,10 +48,10 @@ def combine_runs(profiles: list, names: list) -> Profiles:
     sem = {k: np.fmax(v, _within_run_error([p.sem[k] for p in profiles], stacked[k]))
            for k, v in reps.profile_errors().items()}
     n_runs = np.sum(np.isfinite(stacked["nu"]) & (stacked["nu"] > 0), axis=0) \
-        if "nu" in stacked else np.full(first.rings.n, len(profiles))
+        if "nu" in stacked else np.full(first.cells.n, len(profiles))
     flags = np.array([";".join(sorted({f for p in profiles for f in str(p.flags[k]).split(";")
                                        if f and f not in ("sem_lower_bound", "few_replicas")}))
-                      for k in range(first.rings.n)], dtype=object)
+                      for k in range(first.cells.n)], dtype=object)
     meta = dict(first.meta)
     meta["runs"] = [{"run": name, "frames": p.meta.get("frames"), "seed":
                      (p.meta.get("run_manifest") or {}).get("scene", {}).get("seed"),
@@ -66,7 +66,7 @@ def combine_runs(profiles: list, names: list) -> Profiles:
                       "lower_bound": {}}
     meta["frames"] = {**first.meta.get("frames", {}),
                       "n": int(sum(p.n_frames for p in profiles))}
-    return Profiles(first.rings, values, sem, flags, int(sum(p.n_frames for p in profiles)),
+    return Profiles(first.cells, values, sem, flags, int(sum(p.n_frames for p in profiles)),
                     meta, reps, n_runs, columns_of(pd.concat(series, ignore_index=True))
                     if series else None)
 

@@ -43,8 +43,10 @@ from granavg.errors import UserError
 #: ``paper`` is Eq. 5 as printed, l_p = a_p n, which reaches past the contact point by
 #: delta / 2 and makes sigma too large by about delta / d.
 BRANCHES = {"contact": 0.5, "paper": 0.0}
-#: Positions of the blocks in the kernels' offset arrays (Layout.offsets).
-VOL, MASS, MOM, SPIN, NC, FAB, SIG, KIN, DEF, WALL, BODY = range(len(BLOCKS))
+#: Positions of the blocks in the kernels' offsets (Layout.offsets, in BLOCKS order).
+VOL, MASS, MOM, SPIN, NC, FAB, SIG, KIN, DEF, WALL, BODY = (
+    BLOCKS.index(b) for b in ("vol", "mass", "mom", "spin", "ncontact", "fab", "sig", "kin",
+                              "def", "wall", "body"))
 
 
 _last_rows = (None, None)               # (the arrays looked up, their rows), replaced whole
@@ -132,7 +134,8 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
                     _stack(atoms, ["vx", "vy", "vz"][:D]) if moving else zero,
                     _stack(atoms, spin_cols) if "spin" in want else zero[:, :len(spin_cols)],
                     _stack(atoms, ["bx", "by", "bz"][:D]) if body else zero,
-                    E, moving, "kin" in want, "spin" in want, body, (0,) * D)
+                    E, moving, "kin" in want, "spin" in want, body, (0,) * D,
+                    layout.offsets)
     if want & set(CONTACT_BLOCKS):
         if branch not in BRANCHES:
             raise UserError(f"branch {branch!r}: choose from {', '.join(BRANCHES)}")
@@ -162,7 +165,8 @@ def _contact_channels(q, layout, atoms, contacts, E, vol, dfac, want, shorten, r
     n = np.column_stack([col["n" + x] for x in "xyz"[:D]])
     keep = np.array([b in want for b in CONTACT_BLOCKS])
     _accumulate_contacts(i1, i2, f, n, col["overlap"], E, np.asarray(atoms["radius"], float),
-                         vol, np.asarray(dfac, float), shorten, keep, q, first, (0,) * D)
+                         vol, np.asarray(dfac, float), shorten, keep, q, first, (0,) * D,
+                         layout.offsets)
 
 
 def wall_points(atoms, contacts, dim=2, branch="contact", rows=None):
@@ -204,28 +208,12 @@ def _project(x, c, E, p, s, dims):
     return project3
 
 
-@njit(cache=True, nogil=True, inline="always")
-def offsets(dims):
-    """The first column of each block (:data:`granavg.engine.channels.BLOCKS`) for
-    D = len(dims) axes; compile-time constants where dims is (tests: equal to
-    :class:`~granavg.engine.channels.Layout`'s)."""
-    D = len(dims)
-    spin = 2 + D
-    nc = spin + (1 if D == 2 else D)
-    fab = nc + 1
-    sig = fab + D * D
-    kin = sig + D * D
-    deform = kin + D * D
-    wall = deform + D * D
-    return (0, 1, 2, spin, nc, fab, sig, kin, deform, wall, wall + D)
-
-
 @njit(cache=True, nogil=True)
-def _fill_particles(q, vol, mass, v, w, b, E, moving, kinetic, spin, body, dims):
+def _fill_particles(q, vol, mass, v, w, b, E, moving, kinetic, spin, body, dims, off):
     """The particles' own channels in one pass: volume, mass, momentum, the kinetic
-    tensor m v (x) v, spin and body force, in the basis E (rows e_i); D = len(dims)."""
+    tensor m v (x) v, spin and body force, in the basis E (rows e_i); D = len(dims);
+    ``off`` the blocks' first channels (:attr:`~granavg.engine.channels.Layout.offsets`)."""
     D = len(dims)
-    off = offsets(dims)
     for p in range(q.shape[0]):
         q[p, off[VOL]], q[p, off[MASS]] = vol[p], mass[p]
         if moving:
@@ -251,15 +239,15 @@ def _fill_particles(q, vol, mass, v, w, b, E, moving, kinetic, spin, body, dims)
 
 
 @njit(cache=True, nogil=True)
-def _accumulate_contacts(i1, i2, f, n, overlap, E, a, vol, dfac, shorten, keep, q, lo, dims):
+def _accumulate_contacts(i1, i2, f, n, overlap, E, a, vol, dfac, shorten, keep, q, lo, dims,
+                         off):
     """Add to each particle's channels the sums over its contacts (side 2 sees -f and -n;
     i2 < 0: wall contact), the ``keep``-ed ones of: V^p x count, V^p sum n (x) n,
     sum f (x) l with l = (a - shorten overlap) n, (V^p / a^2) sum Delta (x) l with
     Delta = -overlap n; tensors in the particle's basis E (rows e_i); D = len(dims).
     Only the rows lo .. lo + len(q) of the frame's particles are this call's (q, E, a,
-    vol, dfac hold those rows)."""
+    vol, dfac hold those rows); ``off`` the blocks' first channels."""
     D = len(dims)
-    off = offsets(dims)
     count, fabric, stress, deform = keep[0], keep[1], keep[2], keep[3]
     hi = lo + q.shape[0]
     for c in range(i1.shape[0]):
@@ -354,3 +342,26 @@ def _scatter(particle, ring, w, q, out):
         p, k, wt = particle[t], ring[t], w[t]
         for c in range(q.shape[1]):
             out[k, c] += wt * q[p, c]
+
+
+@njit(cache=True, nogil=True)
+def _scatter_sectors(particle, cell, w, sector, share, k, q, out):
+    for t in range(particle.shape[0]):
+        p = particle[t]
+        for j in range(3):
+            f = share[p, j]
+            if f > 0.0:
+                row = cell[t] * k + sector[p, j]
+                wt = w[t] * f
+                for c in range(q.shape[1]):
+                    out[row, c] += wt * q[p, c]
+
+
+def sector_sums(particle, cell, w, sector, share, k, q, n_cells):
+    """S[cell * k + s, c] = sum_p w_p,cell share_p,s q[p, c]: the cells' sums split over
+    their sectors (:meth:`~granavg.engine.cells.base.Cells.sector_shares`), shape
+    (n_cells * k, n_channels); the sectors of a cell add up to its sums (the shares of a
+    particle sum to 1)."""
+    out = np.zeros((n_cells * int(k), q.shape[1]))
+    _scatter_sectors(particle, cell, w, sector, share, int(k), np.ascontiguousarray(q), out)
+    return out

@@ -3,7 +3,7 @@
 Values come from the sums averaged over all frames (:mod:`granavg.engine.accumulate`):
 ratios such as v = <nu v>/<nu> and eps = <sum Delta l> <F>^-1 are taken of the averages,
 not averaged per frame. The standard error of every value is the spread of the same
-value computed per time block, by blocking analysis (:mod:`granavg.engine.uncertainty`): blocks
+value computed per time block, by blocking analysis (:mod:`granavg.engine.uncertainty.blocking`): blocks
 are merged until they are long against the correlation time, and where that is not
 reached the error is flagged as a lower bound.
 
@@ -24,13 +24,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from granavg.engine.channels import Layout, pairs
-from granavg.engine.geometry import Rings
-from granavg.engine.quantities import columns
-from granavg.engine.uncertainty import Replicates, blocking_errors, jackknife_sums
+from granavg.engine.channels import CONTACT_BLOCKS, Layout, stacked
+from granavg.engine.quantities import QUANTITIES
+from granavg.engine.uncertainty.blocking import Replicates, blocking_errors, jackknife_sums
 
 if TYPE_CHECKING:
     import pandas as pd
+
+    from granavg.engine.cells.base import Cells
 
 
 @dataclass
@@ -40,8 +41,8 @@ class Profiles:
 
     Attributes
     ----------
-    rings : Rings, Slabs or Grid
-        The cells (:mod:`granavg.engine.geometry`).
+    cells : Cells
+        The cells (:mod:`granavg.engine.cells`).
     values, sem : dict of name -> ndarray, shape (n_rings,)
         Values and standard errors (blocking analysis for one run, between-run for an
         ensemble).
@@ -56,12 +57,12 @@ class Profiles:
     n_runs : ndarray, optional
         Realisations with a finite value per ring (ensembles only), shape (n_rings,).
     series : dict of name -> ndarray, shape (n_frames_read,), optional
-        The state of every frame read (:mod:`granavg.engine.timeseries`), as columns;
+        The state of every frame read (:mod:`granavg.engine.stationarity`), as columns;
         written as ``<path>.timeseries.csv``; ``meta["stationarity"]`` judges the
         averaging window. :attr:`timeseries` gives it as a DataFrame.
     """
 
-    rings: Rings
+    cells: Cells
     values: dict
     sem: dict
     flags: np.ndarray
@@ -87,8 +88,8 @@ class Profiles:
     def to_columns(self) -> dict:
         """One row per cell, as columns: its coordinates (r_lo, r_hi, r for rings), V,
         n_frames, [n_runs,] each value and ``<name>_sem``, flags."""
-        cols = {**self.rings.coordinates(), "V": self.rings.volume,
-                "n_frames": np.full(self.rings.n, self.n_frames)}
+        cols = {**self.cells.coordinates(), "V": self.cells.volume,
+                "n_frames": np.full(self.cells.n, self.n_frames)}
         if self.n_runs is not None:
             cols["n_runs"] = self.n_runs
         for name, v in self.values.items():
@@ -109,7 +110,8 @@ def columns_of(table) -> dict:
 
 
 def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups, layout: Layout) -> dict:
-    """Profile values from mean cell sums.
+    """Profile values from mean cell sums: each quantity's own
+    (:attr:`~granavg.engine.quantities.Quantity.value`).
 
     Parameters
     ----------
@@ -118,7 +120,7 @@ def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups, layout: Layout) -
     V : ndarray, shape (n_cells,)
         Cell volumes.
     rho_p : float
-        Material density.
+        Material density (the masses are in the sums already).
     groups : iterable of str
         Keys of :data:`granavg.engine.quantities.QUANTITIES`.
     layout : Layout
@@ -130,70 +132,30 @@ def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups, layout: Layout) -
         Named in the cells' basis (:func:`granavg.engine.quantities.columns`); NaN where
         a value is undefined (no particle in the cell; singular fabric).
     """
-    vol, mass = S[:, layout.index["vol"]], S[:, layout.index["mass"]]
+    out = {}
     with np.errstate(invalid="ignore", divide="ignore"):
-        inv_vol = np.where(vol > 0, 1.0 / vol, np.nan)
-        out = {}
         for g in groups:
-            names = columns(g, layout.axes)
-            if g == "nu":
-                out["nu"] = vol / V
-            elif g == "rho":
-                out["rho"] = mass / V
-            elif g == "coordination":
-                out["coordination"] = S[:, layout.index["ncontact"]] * inv_vol
-            elif g in ("v", "omega"):
-                block = layout.block(S, "mom" if g == "v" else "spin")
-                out.update({n: block[:, k] * inv_vol for k, n in enumerate(names)})
-            elif g in ("F", "sigma", "dsigma", "boundary", "body"):
-                block = layout.block(S, {"F": "fab", "sigma": "sig", "dsigma": "kin",
-                                         "boundary": "wall", "body": "body"}[g])
-                out.update({n: block[:, k] / V for k, n in enumerate(names)})
-            elif g == "dsigma_fluct":
-                mom, kin, D = layout.block(S, "mom"), layout.block(S, "kin"), layout.dim
-                for k, n in enumerate(names):
-                    a, b = mom[:, k // D], mom[:, k % D]
-                    mean_flow = mass * a * b * inv_vol * inv_vol        # rho v v
-                    out[n] = (kin[:, k] - mean_flow) / V
-            elif g == "eps":
-                out.update(_eps(S, layout))
+            out.update(QUANTITIES[g].value(S, V, layout))
     return out
 
 
-def _eps(S, layout):
-    """eps = ((V^p/a^2) sum Delta (x) l) . (sum V^p n (x) n)^-1 per cell (Eq. 7)."""
-    D = layout.dim
-    fab = layout.block(S, "fab").reshape(-1, D, D)
-    dfm = layout.block(S, "def").reshape(-1, D, D)
-    det = np.linalg.det(fab)
-    scale = np.einsum("kij,kij->k", fab, fab)
-    ok = np.abs(det) > 1e-12 * scale ** (D / 2)
-    eps = np.full(dfm.shape, np.nan)
-    if np.any(ok):
-        eps[ok] = dfm[ok] @ np.linalg.inv(fab[ok])
-    return {f"eps_{c}": eps.reshape(-1, D * D)[:, k] for k, c in enumerate(pairs(layout.axes))}
-
-
 def flags(S: np.ndarray, groups, layout: Layout) -> np.ndarray:
-    """Per-cell flags (';'-joined): ``empty`` (no particle), ``no_contacts``,
-    ``singular_fabric`` (eps undefined); :class:`~granavg.engine.average.CellAverage` adds
-    ``one_block`` when the frames span a single time block (no standard errors)."""
+    """Per-cell flags (';'-joined): ``empty`` (no particle), ``no_contacts``, and each
+    quantity's own (``singular_fabric``: eps undefined);
+    :class:`~granavg.engine.average.CellAverage` adds ``one_block`` when the frames span a
+    single time block (no standard errors)."""
     out = [[] for _ in range(S.shape[0])]
-    D = layout.dim
     vol = S[:, layout.index["vol"]]
-    contact = {"coordination", "F", "sigma", "eps"} & set(groups)
-    fab = layout.block(S, "fab").reshape(-1, D, D)
-    contact_sums = np.concatenate([layout.block(S, b) for b in ("ncontact", "fab", "sig",
-                                                                "def")], axis=-1)
+    contact = any(QUANTITIES[g].contacts and g != "boundary" for g in groups)
+    contact_sums = stacked(S, layout, CONTACT_BLOCKS)
+    own = [(QUANTITIES[g].flag_name, QUANTITIES[g].flag(S, layout)) for g in groups
+           if QUANTITIES[g].flag is not None]
     for k in range(S.shape[0]):
         if not vol[k] > 0:
             out[k].append("empty")
         if contact and vol[k] > 0 and not np.any(contact_sums[k] != 0):
             out[k].append("no_contacts")
-        if "eps" in groups:
-            det, scale = np.linalg.det(fab[k]), np.sum(fab[k] ** 2)
-            if not abs(det) > 1e-12 * scale ** (D / 2):
-                out[k].append("singular_fabric")
+        out[k] += [name for name, flagged in own if flagged[k]]
     return np.array([";".join(f) for f in out], dtype=object)
 
 
@@ -215,7 +177,7 @@ def block_values(mean_sums, V, rho_p, groups, layout: Layout) -> dict:
 
 
 def standard_errors(counts, sums, V, rho_p, groups, layout: Layout):
-    """Standard errors of every value by blocking analysis (:mod:`granavg.engine.uncertainty`).
+    """Standard errors of every value by blocking analysis (:mod:`granavg.engine.uncertainty.blocking`).
 
     Parameters
     ----------

@@ -1,57 +1,215 @@
-"""What can be averaged: the quantity groups, the channels each needs and the dump
-columns each channel reads (Eqs. 2-7). A catalogue without numerics, so that a caller can
-decide what to read or simulate (e.g. whether contacts are needed) without the engine.
+"""What can be averaged: each quantity one :class:`Quantity` of :data:`QUANTITIES`,
+declaring the channel blocks it needs (and through them the dump columns, and whether the
+contacts are needed), its profile columns in any basis and how its values come from the
+time-averaged cell sums (Eqs. 2-7). Its errors come from the same function applied to
+the sums of time blocks and sectors (:mod:`granavg.engine.profiles`,
+:mod:`granavg.engine.uncertainty.structure`). numpy only, no compiled code: a caller
+can decide what to read or simulate (e.g. whether contacts are needed) without the
+engine's kernels.
 
 Profile columns are named in the cells' basis (:func:`columns`): ``v_r, v_phi`` and
 tensors ``rr, rphi, phir, phiphi`` (first index the force or the deformation, second the
 branch vector) for rings; ``x, y`` and ``xx, xy, yx, yy`` for 2D slabs and grids; three
 axes in 3D (``x, y, z``, or ``r, phi, z`` for cylindrical shells).
+
+A new quantity is one entry of :data:`QUANTITIES`, plus a block of
+:mod:`granavg.engine.channels` and its kernel code only if it needs new per-particle or
+per-contact sums (docs/extending.md).
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from dataclasses import dataclass
+from typing import Callable
 
-from granavg.engine.channels import pairs
+import numpy as np
+
+from granavg.engine.channels import BLOCK, pairs
 from granavg.errors import ParameterError
 
 #: Tensor components of the 2D rings (the paper's), in channel order.
 TENSOR = pairs(("r", "phi"))
 
 
-class Quantity(NamedTuple):
-    """A quantity group: the channel blocks it needs (:mod:`granavg.engine.channels`)
-    and whether it needs the contacts."""
+@dataclass(frozen=True)
+class Quantity:
+    """One quantity.
+
+    Attributes
+    ----------
+    name : str
+        Its name in ``quantities`` and the prefix of its profile columns.
+    blocks : tuple of str
+        The channel blocks its values need (:data:`granavg.engine.channels.BLOCK`).
+    shape : {"scalar", "vector", "tensor", "axial"}
+        How its columns are named in a basis (:func:`columns`).
+    value : callable
+        ``value(S, V, layout) -> dict of column -> ndarray (n_cells,)`` from the mean
+        cell sums ``S`` (n_cells, n_channels) and the cell volumes ``V``.
+    needs_mass : bool
+        Its values need the particles' masses (a mass column or a material density).
+    balanced : callable, optional
+        ``balanced(axes, across) -> set of column names`` the balance of forces fixes in
+        a whole cell (their errors come from time alone; :data:`BALANCED`).
+    flag : callable, optional
+        ``flag(S, layout) -> ndarray of bool (n_cells,)``: cells where its value is
+        undefined, flagged with :attr:`flag_name`.
+    flag_name : str
+    help : str
+        What it is, in words (the command line's help).
+    """
+
+    name: str
     blocks: tuple
-    contacts: bool
+    shape: str
+    value: Callable
+    needs_mass: bool = False
+    balanced: Callable | None = None
+    flag: Callable | None = None
+    flag_name: str = ""
+    help: str = ""
 
+    @property
+    def contacts(self) -> bool:
+        """Whether it needs the contacts."""
+        return any(BLOCK[b].contacts for b in self.blocks)
 
-QUANTITIES = {
-    "nu": Quantity(("vol",), False),
-    "rho": Quantity(("vol", "mass"), False),
-    "v": Quantity(("vol", "mom"), False),
-    "omega": Quantity(("vol", "spin"), False),
-    "coordination": Quantity(("vol", "ncontact"), True),
-    "F": Quantity(("fab",), True),
-    "sigma": Quantity(("sig",), True),
-    "dsigma": Quantity(("kin",), False),
-    "dsigma_fluct": Quantity(("vol", "mass", "mom", "kin"), False),
-    "eps": Quantity(("fab", "def"), True),
-    "boundary": Quantity(("wall",), True),
-    "body": Quantity(("body",), False),
-}
+    def columns(self, axes) -> list:
+        return columns(self.name, axes)
 
 
 def columns(group: str, axes) -> list:
-    """Profile columns of a quantity group in a basis with these axes (``v_r, v_phi``
-    for rings, ``v_x, v_y, v_z`` for 3D boxes, ...)."""
-    if group in ("nu", "rho", "coordination"):
+    """Profile columns of a quantity in a basis with these axes (``v_r, v_phi`` for
+    rings, ``v_x, v_y, v_z`` for 3D boxes, ...)."""
+    shape = QUANTITIES[group].shape
+    if shape == "scalar" or (shape == "axial" and len(axes) == 2):
         return [group]
-    if group == "omega":
-        return ["omega"] if len(axes) == 2 else [f"omega_{i}" for i in axes]
-    if group in ("v", "boundary", "body"):
+    if shape in ("vector", "axial"):
         return [f"{group}_{i}" for i in axes]
     return [f"{group}_{c}" for c in pairs(axes)]
+
+
+def _inverse_volume(S, layout):
+    vol = S[:, layout.index["vol"]]
+    return np.where(vol > 0, 1.0 / vol, np.nan)
+
+
+def _per_volume_of_particles(block):
+    """Columns of a block over the particles' volume in the cell (v = <V^p v>/<V^p>)."""
+    def value(S, V, layout, name):
+        inv_vol = _inverse_volume(S, layout)
+        part = layout.block(S, block)
+        return {n: part[:, k] * inv_vol for k, n in enumerate(columns(name, layout.axes))}
+    return value
+
+
+def _per_cell_volume(block):
+    """Columns of a block over the cell's volume (F, sigma, force densities)."""
+    def value(S, V, layout, name):
+        part = layout.block(S, block)
+        return {n: part[:, k] / V for k, n in enumerate(columns(name, layout.axes))}
+    return value
+
+
+def _ratio(block, name):
+    def value(S, V, layout, _name):
+        return {name: S[:, layout.index[block]] / V}
+    return value
+
+
+def _coordination(S, V, layout, name):
+    return {name: S[:, layout.index["ncontact"]] * _inverse_volume(S, layout)}
+
+
+def _fluctuation(S, V, layout, name):
+    """(sum m v v - rho v v) / V: the kinetic stress about the cell's mean flow."""
+    inv_vol = _inverse_volume(S, layout)
+    mass = S[:, layout.index["mass"]]
+    mom, kin, D = layout.block(S, "mom"), layout.block(S, "kin"), layout.dim
+    out = {}
+    for k, n in enumerate(columns(name, layout.axes)):
+        a, b = mom[:, k // D], mom[:, k % D]
+        mean_flow = mass * a * b * inv_vol * inv_vol        # rho v v
+        out[n] = (kin[:, k] - mean_flow) / V
+    return out
+
+
+def _singular(S, layout):
+    """Cells whose fabric cannot be inverted (eps undefined)."""
+    D = layout.dim
+    fab = layout.block(S, "fab").reshape(-1, D, D)
+    det = np.linalg.det(fab)
+    scale = np.einsum("kij,kij->k", fab, fab)
+    return ~(np.abs(det) > 1e-12 * scale ** (D / 2))
+
+
+def _eps(S, V, layout, name):
+    """eps = ((V^p/a^2) sum Delta (x) l) . (sum V^p n (x) n)^-1 per cell (Eq. 7)."""
+    D = layout.dim
+    fab = layout.block(S, "fab").reshape(-1, D, D)
+    dfm = layout.block(S, "def").reshape(-1, D, D)
+    ok = ~_singular(S, layout)
+    eps = np.full(dfm.shape, np.nan)
+    if np.any(ok):
+        eps[ok] = dfm[ok] @ np.linalg.inv(fab[ok])
+    return {f"{name}_{c}": eps.reshape(-1, D * D)[:, k]
+            for k, c in enumerate(pairs(layout.axes))}
+
+
+def _flagged_cells(S, layout):
+    """The per-cell flag of the singular fabric, for each cell (a python loop over cells,
+    as the flags are joined per cell)."""
+    D = layout.dim
+    fab = layout.block(S, "fab").reshape(-1, D, D)
+    out = np.zeros(len(fab), bool)
+    for k in range(len(fab)):
+        det, scale = np.linalg.det(fab[k]), np.sum(fab[k] ** 2)
+        out[k] = not abs(det) > 1e-12 * scale ** (D / 2)
+    return out
+
+
+def _across_components(axes, across):
+    """The stress components with an index across the cells (rr, rphi, phir for rings):
+    the tractions on the cells' own faces, fixed by the balance of forces in a cell."""
+    return {f"sigma_{i}{j}" for i in axes for j in axes if across in (i, j)}
+
+
+def _all_components(axes, across):
+    return set(columns("boundary", axes))
+
+
+def _values(fn, name):
+    return lambda S, V, layout: fn(S, V, layout, name)
+
+
+#: Every quantity, by name.
+QUANTITIES = {q.name: q for q in (
+    Quantity("nu", ("vol",), "scalar", _values(_ratio("vol", "nu"), "nu"),
+             help="volume fraction, Eq. 2"),
+    Quantity("rho", ("vol", "mass"), "scalar", _values(_ratio("mass", "rho"), "rho"),
+             needs_mass=True, help="density"),
+    Quantity("v", ("vol", "mom"), "vector", _values(_per_volume_of_particles("mom"), "v"),
+             help="velocity, Eq. 3"),
+    Quantity("omega", ("vol", "spin"), "axial",
+             _values(_per_volume_of_particles("spin"), "omega"), help="spin"),
+    Quantity("coordination", ("vol", "ncontact"), "scalar",
+             _values(_coordination, "coordination"), help="contacts per particle"),
+    Quantity("F", ("fab",), "tensor", _values(_per_cell_volume("fab"), "F"),
+             help="fabric, Eq. 4"),
+    Quantity("sigma", ("sig",), "tensor", _values(_per_cell_volume("sig"), "sigma"),
+             balanced=_across_components, help="static stress, Eq. 5"),
+    Quantity("dsigma", ("kin",), "tensor", _values(_per_cell_volume("kin"), "dsigma"),
+             needs_mass=True, help="dynamic stress, Eq. 6"),
+    Quantity("dsigma_fluct", ("vol", "mass", "mom", "kin"), "tensor",
+             _values(_fluctuation, "dsigma_fluct"), needs_mass=True,
+             help="kinetic stress about the mean flow"),
+    Quantity("eps", ("fab", "def"), "tensor", _values(_eps, "eps"), flag=_flagged_cells,
+             flag_name="singular_fabric", help="elastic strain, Eq. 7"),
+    Quantity("boundary", ("wall",), "vector", _values(_per_cell_volume("wall"), "boundary"),
+             balanced=_all_components, help="force density of the walls"),
+    Quantity("body", ("body",), "vector", _values(_per_cell_volume("body"), "body"),
+             help="body force density: gravity, base-plate friction, a force column"),
+)}
 
 
 #: What the balance of forces fixes in a whole cell: the tractions on the cell's own
@@ -66,37 +224,30 @@ def columns(group: str, axes) -> list:
 #: noise as its error. These get errors from time alone, lower bounds: a packing's
 #: frozen pressure and torque are global, the same in every sector, and only
 #: realisations sample them.
-BALANCED = ("sigma", "boundary")
+BALANCED = tuple(q for q, spec in QUANTITIES.items() if spec.balanced is not None)
 
 
 def balanced_names(groups, axes, across: str) -> set:
-    """Profile names that the balance of forces fixes in a whole cell (:data:`BALANCED`):
-    every boundary component and the stress components with an index ``across`` (the
-    direction across the cells, one of ``axes``)."""
-    out = {f"sigma_{i}{j}" for i in axes for j in axes if across in (i, j)} \
-        if "sigma" in groups else set()
-    return out | (set(columns("boundary", axes)) if "boundary" in groups else set())
+    """Profile names that the balance of forces fixes in a whole cell (:data:`BALANCED`),
+    ``across`` the direction across the cells (one of ``axes``)."""
+    out = set()
+    for g in groups:
+        if QUANTITIES[g].balanced is not None:
+            out |= QUANTITIES[g].balanced(axes, across)
+    return out
 
 
 def atom_columns(block: str, dim: int) -> list:
     """The atom-dump columns a channel block reads (positions and radii for every block:
     the cells' weights)."""
-    xyz = ["x", "y", "z"][:dim]
-    v = ["vx", "vy", "vz"][:dim]
-    return {"mom": v, "kin": v, "spin": ["omegaz"] if dim == 2 else
-            ["omegax", "omegay", "omegaz"], "body": ["bx", "by", "bz"][:dim],
-            **{b: ["id"] for b in ("ncontact", "fab", "sig", "def", "wall")}
-            }.get(block, []) if block != "vol" else [*xyz, "radius"]
+    if block == "vol":
+        return [*["x", "y", "z"][:dim], "radius"]
+    return BLOCK[block].atom_columns(dim)
 
 
 def contact_columns(block: str, dim: int) -> list:
     """The contact columns a channel block reads."""
-    n = ["nx", "ny", "nz"][:dim]
-    f = [*["fnx", "fny", "fnz"][:dim], *["ftx", "fty", "ftz"][:dim]]
-    return {"ncontact": ["id1", "id2", "wall"], "fab": ["id1", "id2", "wall", *n],
-            "sig": ["id1", "id2", "wall", *f, *n, "overlap"],
-            "def": ["id1", "id2", "wall", *n, "overlap"],
-            "wall": ["id1", "id2", "wall", *f, *n, "overlap"]}.get(block, [])
+    return BLOCK[block].contact_columns(dim)
 
 
 def needed_columns(groups, dim: int = 2):
@@ -145,10 +296,16 @@ def groups_for(quantities, have_contacts: bool, have_body: bool = False) -> list
                              f"choose from {', '.join(QUANTITIES)}")
     lacking = [q for q in quantities if QUANTITIES[q].contacts and not have_contacts]
     if lacking:
-        raise ParameterError("contacts", f"{lacking[0]} needs the contact dump, and none was "
-                             "found; give the contacts ({param}) or run the simulation "
-                             "with contacts")
+        raise ParameterError("quantities", f"{lacking[0]} needs the contact dump, and none "
+                             "was found; give the contacts ({contacts}) or run the "
+                             "simulation with contacts")
     if "body" in quantities and not have_body:
         raise ParameterError("quantities", "body needs body forces: none acts in this scene "
                              "or was given (gravity, base-plate friction, a force column)")
     return list(quantities)
+
+
+def catalogue() -> str:
+    """The quantities in words, for help texts: ``nu (volume fraction, Eq. 2), ...``."""
+    return ", ".join(f"{q.name} ({q.help})" if q.help else q.name
+                     for q in QUANTITIES.values())

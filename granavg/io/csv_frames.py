@@ -18,7 +18,7 @@ import pandas as pd
 from granavg.errors import UserError
 from granavg.io.formats import Format
 from granavg.io.frames import Columns, Frame, check_atoms, check_contacts
-from granavg.io.units import choose_units
+from granavg.io.dump_units import choose_units
 
 ATOMS = ("step", "time", "x", "y", "radius")
 OPTIONAL = ("id", "vx", "vy", "omegaz", "mass")

@@ -7,11 +7,11 @@ as NetCDF) and a VTK unstructured grid for ParaView.
   edges and volumes, the flags, and in the attributes the geometry, the unit system and
   how the errors were made (JSON text). :func:`write_netcdf` writes it (NetCDF 3 by
   scipy, which granavg already needs; xarray and ParaView read it).
-- :func:`write_vtk` (grids, boxes and shells): the cells as quadrilaterals (2D grid) or
-  hexahedra, cylindrical shells revolved into :data:`SECTORS` sectors so that they show
-  as the cylinder they are; every value and error as cell data, vectors and tensors also
-  as Cartesian 3- and 9-component arrays (``v``, ``sigma``, ...) for glyphs and tensor
-  views.
+- :func:`write_vtk` (cells that fill a grid in space: their ``mesh()``): 2D grids and
+  polar grids as quadrilaterals, boxes as hexahedra, cylindrical shells revolved into
+  sectors so that they show as the cylinder they are; every value and error as cell
+  data, vectors and tensors also as Cartesian 3- and 9-component arrays (``v``,
+  ``sigma``, ...) for glyphs and tensor views.
 
 Nothing is converted: the units are the profiles' (the sidecar's ``columns``).
 """
@@ -24,30 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from granavg.engine.channels import pairs
-from granavg.engine.units import SI, UnitSystem
-from granavg.errors import UserError
-
-#: Sectors of a revolved cylindrical shell in the VTK file.
-SECTORS = 48
-
-
-def grid_shape(geometry) -> tuple:
-    """(dimension names, shape, edges per dimension) of the cells as an array; the cell
-    index k is the C-order flat index."""
-    kind = geometry.kind
-    if kind == "rings":
-        return ("r",), (geometry.n,), (geometry.edges,)
-    if kind in ("slabs", "slabs3d"):
-        return (geometry.axis,), (geometry.n,), (geometry.edges,)
-    if kind == "grid":
-        e = (geometry.xedges, geometry.yedges)
-        return ("x", "y"), tuple(len(x) - 1 for x in e), e
-    if kind == "boxes":
-        return ("x", "y", "z"), geometry.shape, (geometry.xedges, geometry.yedges,
-                                                 geometry.zedges)
-    if kind == "shells":
-        return ("r", "z"), geometry.shape, (geometry.edges, geometry.zedges)
-    raise UserError(f"cells of kind {kind!r} have no grid")
+from granavg.engine.unit_system import SI, UnitSystem
 
 
 def _units(profiles) -> UnitSystem:
@@ -59,7 +36,7 @@ def to_dataset(profiles):
     """The profiles as an :class:`xarray.Dataset` (module docstring)."""
     import xarray as xr
 
-    dims, shape, edges = grid_shape(profiles.rings)
+    dims, shape, edges = profiles.cells.grid()
     units = _units(profiles)
     coords = {}
     for d, e in zip(dims, edges):
@@ -67,7 +44,7 @@ def to_dataset(profiles):
                                                  "long_name": f"cell centre, {d}"})
         coords[f"{d}_edges"] = (f"{d}_edge", np.asarray(e, float),
                                 {"units": units.length, "long_name": f"cell edges, {d}"})
-    data = {"V": (dims, profiles.rings.volume.reshape(shape),
+    data = {"V": (dims, profiles.cells.volume.reshape(shape),
                   {"units": units.volume, "long_name": "cell volume"})}
     for name, value in profiles.values.items():
         for key, arr in ((name, value), (f"{name}_sem", profiles.sem[name])):
@@ -78,7 +55,7 @@ def to_dataset(profiles):
     meta = profiles.meta or {}
     attrs = {"title": "granavg profiles", "units": str(meta.get("units", units.label)),
              "n_frames": int(profiles.n_frames),
-             "geometry": json.dumps(profiles.rings.describe()),
+             "geometry": json.dumps(profiles.cells.describe()),
              "unit_system": json.dumps(units.describe()),
              "errors": json.dumps(meta.get("errors", {}), default=str),
              "granavg_version": str(meta.get("granavg_version", ""))}
@@ -93,26 +70,10 @@ def write_netcdf(profiles, path) -> Path:
     return path
 
 
-def _hexahedra(xe, ye, ze):
-    """Corner points and hexahedra (VTK order) of the boxes of a rectilinear grid, the
-    cells in C order of (x, y, z)."""
-    X, Y, Z = np.meshgrid(xe, ye, ze, indexing="ij")
-    points = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
-    ny, nz = len(ye), len(ze)
-    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(len(xe) - 1), np.arange(ny - 1),
-                                              np.arange(nz - 1), indexing="ij"))
-
-    def at(di, dj, dk):
-        return ((i + di) * ny + (j + dj)) * nz + (k + dk)
-    cells = np.column_stack([at(0, 0, 0), at(1, 0, 0), at(1, 1, 0), at(0, 1, 0),
-                             at(0, 0, 1), at(1, 0, 1), at(1, 1, 1), at(0, 1, 1)])
-    return points, cells
-
-
 def _cartesian(profiles, axes, angle=None):
     """Vectors and tensors of the profiles in Cartesian components: {name: (n, 3) or
     (n, 9)}; cylindrical (r, phi, z) ones rotated by the cells' angle."""
-    n = profiles.rings.n
+    n = profiles.cells.n
     out = {}
     R = None
     if axes[:2] == ("r", "phi"):
@@ -140,15 +101,9 @@ def _cartesian(profiles, axes, angle=None):
     return out
 
 
-#: Cells that VTK output draws.
-VTK_KINDS = ("boxes", "grid", "shells")
-
-
-def vtk_cells(geometry) -> None:
+def vtk_cells(cells) -> None:
     """Refuse, before any work, cells that VTK output cannot draw (one line)."""
-    if geometry.kind not in VTK_KINDS:
-        raise UserError(f"--vtk: {geometry.kind} are not a grid; VTK output is for grids, "
-                        "boxes and cylindrical shells (tables and NetCDF hold every kind)")
+    cells.mesh()
 
 
 def write_vtk(profiles, path) -> Path:
@@ -156,29 +111,8 @@ def write_vtk(profiles, path) -> Path:
     (module docstring), to ``path``; grids, boxes and cylindrical shells."""
     import meshio
 
-    g = profiles.rings
-    kind = g.kind
-    index = np.arange(g.n)
-    if kind == "boxes":
-        points, hexes = _hexahedra(g.xedges, g.yedges, g.zedges)
-        cells, per_cell, angle = [("hexahedron", hexes)], index, None
-    elif kind == "grid":
-        points, hexes = _hexahedra(g.xedges, g.yedges, np.array([0.0, 1.0]))
-        points = points[points[:, 2] == 0.0]
-        quads = hexes[:, :4] // 2                      # the z = 0 corners, renumbered
-        cells, per_cell, angle = [("quad", quads)], index, None
-    elif kind == "shells":
-        nr, nz = g.shape
-        phi = np.linspace(0.0, 2 * np.pi, SECTORS + 1)
-        R, P, Z = np.meshgrid(g.edges, phi, g.zedges, indexing="ij")
-        points = np.column_stack([g.center[0] + (R * np.cos(P)).ravel(),
-                                  g.center[1] + (R * np.sin(P)).ravel(), Z.ravel()])
-        _, hexes = _hexahedra(g.edges, phi, g.zedges)   # (ring, sector, layer) in C order
-        i, j, k = np.unravel_index(np.arange(len(hexes)), (nr, SECTORS, nz))
-        cells, per_cell = [("hexahedron", hexes)], i * nz + k
-        angle = 0.5 * (phi[j] + phi[j + 1])
-    else:
-        vtk_cells(g)
+    g = profiles.cells
+    points, cells, per_cell, angle = g.mesh()
     data = {"V": g.volume[per_cell]}
     for name, value in profiles.values.items():
         data[name] = np.asarray(value, float)[per_cell]
@@ -188,7 +122,7 @@ def write_vtk(profiles, path) -> Path:
         data.update({k: v[per_cell] for k, v in cart.items()})
     else:
         from types import SimpleNamespace
-        expanded = SimpleNamespace(rings=SimpleNamespace(n=len(per_cell)),
+        expanded = SimpleNamespace(cells=SimpleNamespace(n=len(per_cell)),
                                    values={k: np.asarray(v)[per_cell]
                                            for k, v in profiles.values.items()})
         data.update(_cartesian(expanded, g.axes, angle))

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from granavg.errors import UserError
+from granavg.errors import ParameterError, UserError, literal
 
 
 @dataclass(frozen=True)
@@ -62,12 +62,14 @@ def choose(atoms, fmt: str | None = None) -> Format:
     known = available()
     if fmt is not None:
         if fmt not in known:
-            raise UserError(f"--format {fmt}: unknown; choose from {', '.join(sorted(known))}")
+            raise ParameterError("fmt", f"{{param}} {literal(fmt)}: unknown; choose from "
+                                 f"{', '.join(sorted(known))}")
         return known[fmt]
     claiming = [f for f in known.values() if f.claims(Path(atoms))]
     if not claiming:
-        raise UserError(f"{atoms}: not a format granavg reads ({', '.join(sorted(known))}); "
-                        "give --format NAME, or a LAMMPS dump")
+        raise ParameterError("fmt", f"{literal(atoms)}: not a format granavg reads "
+                             f"({', '.join(sorted(known))}); name the format ({{param}} "
+                             "NAME), or give a LAMMPS dump")
     return claiming[0]
 
 

@@ -3,7 +3,7 @@ them, and the pairing of a per-atom with a per-contact frame source by time step
 
 A *frame source* is any iterable of :class:`Frame` (in increasing time) with an attribute
 ``dropped`` (dict of counts of rows left out, for the sidecar) and ``units``
-(:class:`~granavg.engine.units.UnitSystem`); :mod:`granavg.io.formats` lists the formats
+(:class:`~granavg.engine.unit_system.UnitSystem`); :mod:`granavg.io.formats` lists the formats
 that make them from files.
 """
 
@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granavg.engine.units import SI, UnitSystem
-from granavg.errors import UserError
+from granavg.engine.unit_system import SI, UnitSystem
+from granavg.errors import ParameterError, UserError, literal
 
 log = logging.getLogger(__name__)
 
@@ -210,9 +210,9 @@ class PairedDumps:
         if frame.time is not None:
             return frame.time
         if self.dt is None:
-            raise UserError(f"{self.atoms.path}: frames have no ITEM: TIME and no time step "
-                            "is known; give the time step (--dt, or the run directory whose "
-                            "manifest has it)")
+            raise ParameterError("dt", f"{literal(self.atoms.path)}: frames have no ITEM: "
+                                 "TIME and no time step is known; give the time step "
+                                 "({param}, or the run directory whose manifest has it)")
         return frame.timestep * self.dt
 
     def unknown_ids(self, fc, rows, known):

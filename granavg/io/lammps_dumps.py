@@ -29,7 +29,7 @@ of contacts into the frames the engine averages (in the dumps' own units):
   and counted; a force between particles that are apart by more than rounding is refused;
 - atoms of ``wall_types`` are left out of the packing; their contacts with particles are
   kept as wall contacts (forces and normal as seen by the particle);
-- the units are the dump's (``ITEM: UNITS`` or ``units=``; :mod:`granavg.io.units`);
+- the units are the dump's (``ITEM: UNITS`` or ``units=``; :mod:`granavg.io.dump_units`);
 - a path with a ``*`` is a series of files (``dump.*.txt``; :mod:`granavg.io.reader`).
 """
 
@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 from isal import igzip
 
-from granavg.errors import UserError
+from granavg.errors import ParameterError, UserError, literal, named
 from granavg.engine.kernels import lookup
 from granavg.io.box import Box
 from granavg.io.contacts import contact_columns
@@ -50,7 +50,7 @@ from granavg.io.formats import Format
 from granavg.io.frames import (CONSISTENCY, Columns, Frame, PairedDumps, check_atoms,
                                check_contacts, check_integers)
 from granavg.io.reader import DumpReader, series
-from granavg.io.units import choose_units
+from granavg.io.dump_units import choose_units
 
 log = logging.getLogger(__name__)
 
@@ -111,8 +111,9 @@ def resolve_atoms(path, explicit: dict, dim: int) -> dict:
     names, _ = dump_header(path)
     unknown = [k for k in explicit if k not in ATOM_ALIASES]
     if unknown:
-        raise UserError(f"--atom-columns {unknown[0]}=...: granavg has no atom column "
-                        f"{unknown[0]!r}; name one of {' '.join(ATOM_ALIASES)}")
+        raise ParameterError("atom_map", f"{{param}} {literal(unknown[0])}=...: granavg has "
+                             f"no atom column {literal(repr(unknown[0]))}; name one of "
+                             f"{' '.join(ATOM_ALIASES)}")
     out = {}
     for ours, aliases in ATOM_ALIASES.items():
         if ours in explicit:
@@ -128,8 +129,9 @@ def resolve_atoms(path, explicit: dict, dim: int) -> dict:
             out[ours] = found[0]
     for need in ("x", "y", *(("z",) if dim == 3 else ()), "radius"):
         if need not in out:
-            raise UserError(f"{path}: no column for {need} (columns: {' '.join(names)}); "
-                            f"dump it, or name it with --atom-columns {need}=COLUMN")
+            raise ParameterError("atom_map", f"{literal(path)}: no column for {need} "
+                                 f"(columns: {literal(' '.join(names))}); dump it, or name "
+                                 f"it with {{param}} {need}=COLUMN")
     return out
 
 
@@ -146,8 +148,9 @@ def resolve_contacts(path, explicit: dict, dim: int) -> dict:
     if unknown:
         hint = " (a 2D dump: no z components)" if dim == 2 and unknown[0].endswith("z") \
             and unknown[0][:-1] + "x" in known else ""
-        raise UserError(f"--contact-columns {unknown[0]}=...: granavg has no contact column "
-                        f"{unknown[0]!r}{hint}; name one of {' '.join(known)}")
+        raise ParameterError("contact_map", f"{{param}} {literal(unknown[0])}=...: granavg "
+                             f"has no contact column {literal(repr(unknown[0]))}{hint}; name "
+                             f"one of {' '.join(known)}")
     out = {k: v for k, v in explicit.items()}
     for ours in known:
         if ours not in out and ours in names:
@@ -164,8 +167,9 @@ def resolve_contacts(path, explicit: dict, dim: int) -> dict:
                    "ftx=c_pl[5],fty=c_pl[6]") if dim == 2 else (
                    "id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
                    "force=c_pl[5],ftx=c_pl[6],fty=c_pl[7],ftz=c_pl[8]")
-        raise UserError(f"{path}: no column for {missing[0]}; map the pair/local and "
-                        f"property/local columns with --contact-columns, e.g. {example}")
+        raise ParameterError("contact_map", f"{literal(path)}: no column for {missing[0]}; "
+                             "map the pair/local and property/local columns with {param}, "
+                             f"e.g. {literal(example)}")
     return out
 
 
@@ -184,10 +188,11 @@ def dimension(path, explicit_map, dim=None) -> tuple:
     names, _ = dump_header(path)
     zcol = explicit_map.get("z") or next((a for a in ATOM_ALIASES["z"] if a in names), None)
     if dim not in (None, 2, 3):
-        raise UserError(f"--dim {dim}: give 2 or 3")
+        raise ParameterError("dim", f"{{param}} {dim}: give 2 or 3")
     if dim == 3 and zcol is None:
-        raise UserError(f"{path}: --dim 3 needs a z column (columns: {' '.join(names)}); "
-                        "dump z, or name it with --atom-columns z=COLUMN")
+        raise ParameterError("dim", f"{literal(path)}: {{param}} 3 needs a z column "
+                             f"(columns: {literal(' '.join(names))}); dump z, or name it "
+                             "with {atom_map} z=COLUMN")
     if dim == 3 or (dim is not None and zcol is None):
         return dim, "given"
     if zcol is None:
@@ -198,9 +203,9 @@ def dimension(path, explicit_map, dim=None) -> tuple:
     z = frame.column(zcol)
     if dim == 2:
         if np.ptp(z) > 0:
-            log.warning("%s: --dim 2, but the atoms' z differ (by up to %g in the first frame "
-                        "with atoms): they are averaged as disks in the x-y plane",
-                        path, np.ptp(z))
+            log.warning(named("%s: {dim} 2, but the atoms' z differ (by up to %g in the "
+                              "first frame with atoms): they are averaged as disks in the "
+                              "x-y plane"), path, np.ptp(z))
         return 2, "given"
     if np.ptp(z) > 0:
         return 3, "z differs"
@@ -232,7 +237,7 @@ class LammpsDumps(PairedDumps):
     Attributes
     ----------
     units : UnitSystem
-        The dumps' units (:func:`granavg.io.units.choose_units`).
+        The dumps' units (:func:`granavg.io.dump_units.choose_units`).
     dim : int
     amap, cmap : dict
         The column maps used (our name -> the dump's column), for the sidecar.
@@ -253,7 +258,8 @@ class LammpsDumps(PairedDumps):
             if contacts else None
         self.wall_types = np.asarray(list(wall_types), dtype=float)
         if len(self.wall_types) and "type" not in self.amap:
-            raise UserError(f"{atoms}: --wall-types needs the atoms' type column")
+            raise ParameterError("wall_types", f"{literal(atoms)}: {{param}} needs the atoms' "
+                                 "type column")
         if self.cmap is not None and "id" not in self.amap:
             raise UserError(f"{atoms}: contacts need the atoms' id column")
         super().__init__(DumpReader(atoms, sorted(set(self.amap.values())), steps=steps),

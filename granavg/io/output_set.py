@@ -17,7 +17,7 @@ import errno
 import os
 from pathlib import Path
 
-from granavg.errors import UserError
+from granavg.errors import ParameterError, literal
 from granavg.signals import deferred
 
 #: errno values of a write that failed for want of room.
@@ -78,8 +78,9 @@ class OutputSet:
                 d.mkdir()
             except OSError as exc:
                 self._discard()
-                raise UserError(f"{d}: cannot create the directory ({exc.strerror}); "
-                                "choose another --out") from None
+                raise ParameterError("out", f"{literal(d)}: cannot create the directory "
+                                     f"({literal(exc.strerror)}); choose another {{param}}"
+                                     ) from None
             self.created.append(d)
         return self
 
@@ -107,9 +108,10 @@ class OutputSet:
         self._discard()
         if isinstance(exc, OSError) and exc.errno in NO_ROOM:
             name = self.final(self.writing) if self.writing is not None else self.main
-            raise UserError(f"{name}: {os.strerror(exc.errno).lower()} while writing it "
-                            "(the disk is full or a file-size limit was reached); nothing "
-                            "written - free some space or choose another --out") from None
+            raise ParameterError("out", f"{literal(name)}: {os.strerror(exc.errno).lower()} "
+                                 "while writing it (the disk is full or a file-size limit "
+                                 "was reached); nothing written - free some space or choose "
+                                 "another {param}") from None
         return False
 
     def _discard(self):

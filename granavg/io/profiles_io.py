@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 
 from granavg.engine.profiles import Profiles, columns_of
-from granavg.engine.geometry import from_description
-from granavg.engine.uncertainty import Replicates
-from granavg.engine.units import SI, UnitSystem
-from granavg.errors import UserError
+from granavg.engine.cells import restore
+from granavg.engine.uncertainty.blocking import Replicates
+from granavg.engine.unit_system import SI, UnitSystem
+from granavg.errors import ParameterError, UserError
 from granavg.io.output_set import OutputSet
 
 #: Suffix of the replicate profiles written beside a profiles table.
@@ -51,7 +51,7 @@ def read_profiles(path) -> Profiles:
         raise UserError(f"{side}: not a text file; average again with 'granavg "
                         "average'") from None
     try:
-        rings = from_description(meta.get("geometry") or meta["rings"])
+        rings = restore(meta.get("geometry") or meta["rings"])
     except (KeyError, TypeError, ValueError, AttributeError):
         raise UserError(f"{side}: no ring geometry (rings.edges_m, rings.h_m); average "
                         "again with 'granavg average'") from None
@@ -106,7 +106,8 @@ def write_profile_files(profiles: Profiles, outputs: OutputSet, parquet: bool = 
         try:
             import pyarrow  # noqa: F401  (pandas' Parquet engine)
         except ImportError:
-            raise UserError("--parquet needs pyarrow: pip install 'granavg[parquet]'") from None
+            raise ParameterError("parquet", "{param} needs pyarrow: pip install "
+                                 "'granavg[parquet]'") from None
         profiles.to_frame().to_parquet(outputs.temp(""), index=False)
     else:
         write_csv(outputs.temp(""), table, "%.10g")

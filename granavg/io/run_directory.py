@@ -13,7 +13,7 @@ import re
 from pathlib import Path
 
 from granavg.io.dumpfile import open_text, tolerant_lines
-from granavg.errors import UserError
+from granavg.errors import ParameterError, UserError, literal
 
 MANIFEST = "manifest.json"
 
@@ -23,10 +23,12 @@ def claim_new(out: Path) -> Path:
     out = Path(out)
     if (out / MANIFEST).exists():
         status = read_manifest(out).get("status", "unknown")
-        raise UserError(f"{out} already holds a run (status: {status}); choose a new --out, "
-                        "or add --resume to continue it")
+        raise ParameterError("out", f"{literal(out)} already holds a run (status: "
+                             f"{literal(status)}); choose a new {{param}}, or add {{resume}} "
+                             "to continue it")
     if out.exists() and any(out.iterdir()):
-        raise UserError(f"{out} is not empty; choose a new or empty --out directory")
+        raise ParameterError("out", f"{literal(out)} is not empty; choose a new or empty "
+                             "{param} directory")
     out.mkdir(parents=True, exist_ok=True)
     return out
 

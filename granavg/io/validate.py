@@ -11,7 +11,7 @@ import math
 import tempfile
 from pathlib import Path
 
-from granavg.errors import UserError
+from granavg.errors import ParameterError, UserError, literal, named
 
 log = logging.getLogger(__name__)
 
@@ -25,8 +25,6 @@ MANIFEST_KEYS = [
     ("derived", "dt_s", "pos"), ("derived", "t_end_s", "pos"),
     ("derived", "dump_interval_s", "pos"),
 ]
-#: Largest ring count accepted (a 60-ring profile is the paper's finest).
-MAX_BINS = 100_000
 
 
 def check_manifest(m, path) -> dict:
@@ -51,8 +49,8 @@ def check_manifest(m, path) -> dict:
                         f"{m['scene']['R_o']}; fix the manifest")
     status = m.get("status")
     if status not in (None, "complete"):
-        log.warning("%s: the run's status is %r, not complete: its dumps may end early "
-                    "(resume it with granavg simulate --resume)", path, status)
+        log.warning(named("%s: the run's status is %r, not complete: its dumps may end "
+                          "early (resume it: granavg simulate {resume})"), path, status)
     return m
 
 
@@ -67,29 +65,17 @@ def _is_kind(value, kind) -> bool:
 
 
 def positive(name, value):
-    """A finite number > 0, or a one-line refusal naming the option."""
+    """A finite number > 0, or a one-line refusal naming the parameter ``name``."""
     if value is not None and not (math.isfinite(value) and value > 0):
-        raise UserError(f"{name} {float(value):g}: must be a finite number > 0")
+        raise ParameterError(name, f"{{param}} {float(value):g}: must be a finite number > 0")
     return value
 
 
 def finite(name, value):
+    """A finite number, or a one-line refusal naming the parameter ``name``."""
     if value is not None and not math.isfinite(value):
-        raise UserError(f"{name} {float(value):g}: must be a finite number")
+        raise ParameterError(name, f"{{param}} {float(value):g}: must be a finite number")
     return value
-
-
-def ring_options(bins, edges):
-    """--bins within 1..MAX_BINS; --edges finite, at least two, increasing."""
-    if bins is not None and not 1 <= bins <= MAX_BINS:
-        raise UserError(f"--bins {bins}: give between 1 and {MAX_BINS} rings")
-    if edges is not None:
-        if len(edges) < 2 or not all(math.isfinite(e) for e in edges):
-            raise UserError(f"--edges {' '.join(map(str, edges))}: give at least two finite "
-                            "ring edges in m")
-        if any(b <= a for a, b in zip(edges, edges[1:])) or edges[0] < 0:
-            raise UserError(f"--edges {' '.join(map(str, edges))}: edges must be >= 0 and "
-                            "increasing")
 
 
 def free_output(path: Path, suffixes=("",)) -> Path:
@@ -99,27 +85,28 @@ def free_output(path: Path, suffixes=("",)) -> Path:
     for suffix in suffixes:
         target = path.with_name(path.name + suffix)
         if target.exists() or target.is_symlink():
-            raise UserError(f"{target} exists; choose another --out (results are never "
-                            "overwritten)")
+            raise ParameterError("out", f"{target} exists; choose another {{param}} (results "
+                                 "are never overwritten)")
     parent = path.parent
     probe = parent
     while not probe.exists():
         probe = probe.parent
     if not probe.is_dir():
-        raise UserError(f"--out {path}: {probe} is a file, not a directory; choose another "
-                        "--out")
+        raise ParameterError("out", f"{{param}} {path}: {probe} is a file, not a directory; "
+                             "choose another {param}")
     try:
         with tempfile.TemporaryFile(dir=probe):
             pass
     except OSError as exc:
-        raise UserError(f"--out {path}: cannot write in {probe} ({exc.strerror}); choose "
-                        "another --out") from None
+        raise ParameterError("out", f"{{param}} {path}: cannot write in {probe} "
+                             f"({exc.strerror}); choose another {{param}}") from None
     return path
 
 
 def existing_file(name, path):
     """A path that is an existing regular file (not a directory), or a pattern with a
-    ``*`` that matches some (a file series, :func:`granavg.io.reader.series`)."""
+    ``*`` that matches some (a file series, :func:`granavg.io.reader.series`); refusals
+    name the parameter ``name``."""
     if path is None:
         return None
     p = Path(path)
@@ -128,12 +115,13 @@ def existing_file(name, path):
         try:
             series(p)
         except UserError as exc:
-            raise UserError(f"{name} {exc}") from None
+            raise ParameterError(name, f"{{param}} {literal(str(exc))}") from None
         return p
     if not p.exists():
-        raise UserError(f"{name} {p}: no such file")
+        raise ParameterError(name, f"{{param}} {literal(str(p))}: no such file")
     if not p.is_file():
-        raise UserError(f"{name} {p}: is a directory, not a dump file")
+        raise ParameterError(name, f"{{param}} {literal(str(p))}: is a directory, not a dump "
+                             "file")
     return p
 
 

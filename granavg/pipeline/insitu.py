@@ -64,7 +64,7 @@ class InSituAverage:
                                block_time=opts.get("block_time_s"),
                                branch=opts.get("branch", "contact")) for n in opts["bins"]]
         self.body = WithBodyForces((), specs[0].body_forces if "body" in self.groups else [],
-                                   manifest["scene"]["h"], manifest["scene"]["rho_p"])
+                                   specs[0].geometry, manifest["scene"]["rho_p"])
         self.averages = {n: spec.averager(series=k == 0)  # one time series serves all
                          for k, (n, spec) in enumerate(zip(opts["bins"], specs))}
         for avg in self.averages.values():

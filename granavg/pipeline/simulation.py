@@ -7,7 +7,8 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-from granavg.errors import UserError
+from granavg.errors import ParameterError
+from granavg.extras import require
 from granavg.pipeline.insitu import InSituAverage
 
 log = logging.getLogger(__name__)
@@ -27,22 +28,27 @@ def simulate_command(*, preset="demo", overrides=(), out, np=1, omp=1, resume=Fa
                      quantities=None, seeds=None, workers=2, scheduler=None,
                      progress=None) -> str:
     """The ``simulate`` command: one run, a resumed run, or ``seeds`` realisations."""
+    require("lammps", what="granavg simulate")
+    if seeds is not None or scheduler:
+        require("dask", "seeds" if seeds is not None else "scheduler")
     from granavg.sim.scene import preset as scene_preset
     from granavg.sim.simulate import resume as resume_run
 
     if np < 1 or omp < 1:
-        raise UserError("--np and --omp must be >= 1")
+        raise ParameterError("np", "{param} and {omp} must be >= 1")
     if resume:
         if overrides or start or engine != "lammps" or average or quantities:
-            raise UserError("--resume continues the run as it was set up; drop --set, "
-                            "--start, --engine, --average and --quantities")
+            raise ParameterError("resume", "{param} continues the run as it was set up; drop "
+                                 "{overrides}, {start}, {engine}, {average} and "
+                                 "{quantities}")
         return str(resume_run(out, np_ranks=np, omp_threads=omp, progress=progress))
     scene = scene_preset(preset).with_overrides(overrides)
     if seeds is not None:
         from granavg.sim.realisations import simulate_ensemble
         if np != 1 or omp != 1 or start or engine != "lammps" or average:
-            raise UserError("--seeds runs each realisation as one single-threaded LAMMPS "
-                            "task; drop --np, --omp, --start, --engine and --average")
+            raise ParameterError("seeds", "{param} runs each realisation as one "
+                                 "single-threaded LAMMPS task; drop {np}, {omp}, {start}, "
+                                 "{engine} and {average}")
         runs = simulate_ensemble(scene, out, seeds, workers=workers, scheduler=scheduler,
                                  preset=preset, quantities=quantities)
         return ", ".join(str(r) for r in runs)

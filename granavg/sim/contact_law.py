@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-from granavg.errors import UserError
+from granavg.errors import ParameterError, literal
 
 
 @dataclass(frozen=True)
@@ -61,8 +61,8 @@ class ContactLaw:
     def __post_init__(self):
         for name, value in asdict(self).items():
             if not math.isfinite(value):
-                raise UserError(f"contact law: {name} = {value}: must be a finite number; "
-                                "fix the --set value")
+                raise ParameterError("overrides", f"contact law: {name} = {value}: must be a "
+                                     "finite number; fix the {param} value")
         checks = [
             (self.k_n > 0, "k_n must be > 0 N/m"),
             (0 < self.e_n <= 1, "e_n must be in (0, 1]"),
@@ -73,7 +73,8 @@ class ContactLaw:
         ]
         for ok, msg in checks:
             if not ok:
-                raise UserError(f"contact law: {msg} (got {asdict(self)}); fix the --set value")
+                raise ParameterError("overrides", f"contact law: {msg} (got "
+                                     f"{literal(asdict(self))}); fix the {{param}} value")
 
 
 def disk_mass(diameter, rho_p, height):

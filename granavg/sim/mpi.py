@@ -29,7 +29,7 @@ def run_mpi_python(out, derived: Derived, np_ranks, progress, module):
     in-situ sink's rank entry, e.g. :mod:`granavg.pipeline.mpi_rank`, gathers each frame
     to rank 0)."""
     cmd = [executable("mpirun"), "-np", str(np_ranks), sys.executable, "-m", module,
-           str(out), "--no-progress" if progress is False else "--progress"]
+           str(out), "quiet" if progress is False else "bar"]
     log.info("running %s", shlex.join(cmd))
     proc = subprocess.run(cmd, env=lammps_env(), stdout=subprocess.DEVNULL,
                           stderr=subprocess.PIPE, text=True)

@@ -21,7 +21,7 @@ from pathlib import Path
 
 
 from granavg.dask_cluster import refusal_safe
-from granavg.errors import UserError
+from granavg.errors import ParameterError, UserError
 from granavg.io.run_directory import claim_new
 from granavg.sim import packings, trade
 from granavg.sim.scene import Scene
@@ -35,7 +35,7 @@ ENSEMBLE = "ensemble.json"
 def seeds_for(scene: Scene, k: int) -> list:
     """The seeds of ``k`` realisations of ``scene``."""
     if k < 1:
-        raise UserError(f"--seeds {k}: need at least one realisation")
+        raise ParameterError("seeds", f"{{param}} {k}: need at least one realisation")
     return [scene.seed + SEED_STRIDE * i for i in range(k)]
 
 
@@ -81,7 +81,7 @@ def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
         if scene.packing:
             packings.check(scene.packing, s)
     if scheduler is None and workers < 1:
-        raise UserError(f"--workers {workers}: need at least one")
+        raise ParameterError("workers", f"{{param}} {workers}: need at least one")
     out = claim_new(Path(out))
     forecast = trade.expectation(scene.derive(), prepared=bool(scene.packing))
     if "wall_time_s" in forecast:

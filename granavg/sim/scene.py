@@ -16,7 +16,7 @@ from dataclasses import dataclass, fields
 
 from granavg.sim.contact_law import (ContactLaw, LammpsCoefficients, disk_mass, effective_mass,
                                      max_stable_timestep, restitution, to_lammps)
-from granavg.errors import UserError
+from granavg.errors import ParameterError, UserError, literal
 
 #: Highest area fraction accepted: random close packing of bidisperse disks is about
 #: 0.84 (O'Hern et al. 2003); above it disks cannot fit without large overlaps.
@@ -104,9 +104,11 @@ class Scene:
             key, sep, text = pair.partition("=")
             key = key.strip()
             if not sep:
-                raise UserError(f"--set {pair!r}: expected key=value, e.g. --set k_n=100")
+                raise ParameterError("overrides", f"{{param}} {literal(repr(pair))}: expected "
+                                     "key=value, e.g. {param} k_n=100")
             if key not in known:
-                raise UserError(f"--set {key}: unknown key; known keys: {', '.join(known)}")
+                raise ParameterError("overrides", f"{{param}} {literal(key)}: unknown key; "
+                                     f"known keys: {', '.join(known)}")
             changes[key] = _parse(key, text.strip(), known[key])
         return Scene.from_dict({**self.to_dict(), **changes})
 
@@ -263,7 +265,8 @@ def _check_geometry(s: Scene) -> None:
     ]
     for ok, msg in problems:
         if not ok:
-            raise UserError(f"scene: {msg}; fix the --set value")
+            raise ParameterError("overrides", f"scene: {literal(msg)}; fix the {{param}} "
+                                 "value")
     nu = area_fraction(s)
     if nu > MAX_AREA_FRACTION:
         raise UserError(
@@ -284,7 +287,8 @@ def _parse(key, text, typ):
             return int(text)
         return float(text)
     except ValueError:
-        raise UserError(f"--set {key}={text}: expected a {getattr(typ, '__name__', typ)}") from None
+        raise ParameterError("overrides", f"{{param}} {literal(key)}={literal(text)}: expected "
+                             f"a {getattr(typ, '__name__', typ)}") from None
 
 
 PAPER_HOOKE = Scene()
@@ -325,7 +329,7 @@ first tenth of a rotation (6.3 s) is left out; the friction's coefficient is ren
 every 10 steps (``base_every``: 0.86 of the CPU time, the same state; docs/benchmarks.md).
 Jammed, quasi-static and steady; its band
 (s about 8 mm by the stated estimator) is still narrower than the paper's 12.7 mm. The
-precision comes from realisations (``--seeds 4``: the four shipped packings)."""
+precision comes from realisations (four seeds: the four shipped packings)."""
 
 FAST = dataclasses.replace(PAPER_ROLLING, law=dataclasses.replace(PAPER_ROLLING.law, k_n=2.5),
                            t_end=60.0, dump_dt=0.5, restart_dt=15.0)

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from granavg import __version__
 from granavg.engine.quantities import QUANTITIES, groups_for
-from granavg.errors import LammpsError, UserError
+from granavg.errors import LammpsError, ParameterError, UserError, literal
 from granavg.sim.lammps_session import lammps_version
 from granavg.sim.run_layout import ATOMS, CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext
 from granavg.sim.embedded import run_embedded
@@ -157,8 +157,8 @@ def scene_for(scene: Scene, quantities) -> Scene:
     groups_for(quantities, have_contacts=True)        # unknown names are refused
     needs = [q for q in quantities if QUANTITIES[q].contacts]
     if needs and not scene.contacts:
-        raise UserError(f"--quantities {needs[0]} needs contact forces, but the scene has "
-                        "contacts=0; drop the quantity or the setting")
+        raise ParameterError("quantities", f"{{param}} {needs[0]} needs contact forces, but "
+                             "the scene has contacts=0; drop the quantity or the setting")
     if not needs and scene.contacts:
         log.info("no requested quantity needs contact forces: LAMMPS computes and writes "
                  "no contact output")
@@ -170,17 +170,19 @@ def _check_average(derived: Derived, average, engine, t_min):
     scene = derived.scene
     bins = sorted({int(n) for n in average}) if average else []
     if any(n < 1 for n in bins):
-        raise UserError(f"--average {bins}: ring counts must be >= 1")
+        raise ParameterError("average", f"{{param}} {literal(bins)}: ring counts must be "
+                             ">= 1")
     t0 = derived.t_discard if t_min is None else t_min
     if bins and t0 >= derived.n_shear * derived.dt:
-        raise UserError(f"in-situ averages would start at t_min = {t0:g} s, after the end "
-                        f"of shear (t_end = {scene.t_end:g} s); give --t-min below t_end")
+        raise ParameterError("t_min", f"in-situ averages would start at t_min = {t0:g} s, "
+                             f"after the end of shear (t_end = {scene.t_end:g} s); give "
+                             "{param} below t_end")
     if not scene.dumps and not bins:
-        raise UserError("dumps=0 writes no dump files: add --average N so the run keeps "
-                        "its profiles")
+        raise ParameterError("average", "dumps=0 writes no dump files: add {param} N so the "
+                             "run keeps its profiles")
     if bins and engine != "lammps":
-        raise UserError("--average runs inside LAMMPS; the reference engine writes dumps "
-                        "(average them with 'granavg average')")
+        raise ParameterError("average", "{param} runs inside LAMMPS; the reference engine "
+                             "writes dumps (average them with 'granavg average')")
     return bins
 
 
@@ -207,12 +209,12 @@ def _check_start(start, engine, np_ranks, omp_threads, shipped=False):
     if start is not None:
         start = Path(start).resolve()
         if not start.is_file():
-            raise UserError(f"--start {start}: no such file; give a prepared packing such "
-                            "as RUN/prepared.data")
+            raise ParameterError("start", f"{{param}} {literal(start)}: no such file; give a "
+                                 "prepared packing such as RUN/prepared.data")
     if engine == "reference" and ((start is None and not shipped) or np_ranks > 1
                                   or omp_threads > 1):
-        raise UserError("the reference engine shears a prepared packing in one process: "
-                        "give --start RUN/prepared.data and no --np/--omp")
+        raise ParameterError("start", "the reference engine shears a prepared packing in "
+                             "one process: give {param} RUN/prepared.data and no {np}/{omp}")
     return start
 
 
@@ -228,14 +230,15 @@ def resume(out, *, np_ranks: int | None = None, omp_threads: int | None = None,
     if manifest.get("status") == "complete":
         raise UserError(f"{out} is already complete; nothing to resume")
     if manifest["execution"].get("engine", "lammps") != "lammps":
-        raise UserError(f"{out} was run by the reference engine, which writes no restart "
-                        "files; run it again with a new --out")
+        raise ParameterError("out", f"{literal(out)} was run by the reference engine, which "
+                             "writes no restart files; run it again with a new {param}")
     scene = Scene.from_dict(manifest["scene"])
     derived = scene.derive()
     if manifest.get("average"):
         if not scene.dumps:
-            raise UserError(f"{out} averaged in situ without dumps; its averages cannot "
-                            "continue from a restart; run it again with a new --out")
+            raise ParameterError("out", f"{literal(out)} averaged in situ without dumps; its "
+                                 "averages cannot continue from a restart; run it again "
+                                 "with a new {param}")
         log.warning("in-situ averages do not survive an interruption: the resumed run "
                     "writes dumps only; average them with 'granavg average %s'", out)
         manifest["average"] = None
@@ -279,8 +282,9 @@ def _execute(out, derived, manifest, resume_from, progress, insitu=None):
                 run_mpi(out, derived, variables, ex["np"], ex["omp"], progress)
     except (Interrupted, KeyboardInterrupt):
         _finish(out, manifest, "interrupted")
-        raise UserError(f"run interrupted; results so far are in {out}; continue it with "
-                        f"'granavg simulate --out {out} --resume'") from None
+        raise ParameterError("resume", f"run interrupted; results so far are in "
+                             f"{literal(out)}; continue it with 'granavg simulate {{out}} "
+                             f"{literal(out)} {{param}}'") from None
     except LammpsError as exc:
         _finish(out, manifest, "failed")
         raise _explained(exc, out, derived) from None
@@ -295,7 +299,8 @@ def _usable_restart(out, derived):
     """The newest restart step at or before which both dumps are complete."""
     restarts = restart_files(out)
     if not restarts:
-        raise UserError(f"{out} has no restart file yet; start it again with a new --out")
+        raise ParameterError("out", f"{literal(out)} has no restart file yet; start it again "
+                             "with a new {param}")
     limit = math.inf
     for name in (ATOMS, CONTACTS, CONTACTS_RAW):
         path = out / name.format(ext=dump_ext(derived.scene))
@@ -305,8 +310,8 @@ def _usable_restart(out, derived):
                         else derived.n_dump_start)
     ok = [s for s in restarts if s <= limit]
     if not ok:
-        raise UserError(f"{out}: no restart file matches the dumps written; "
-                        "start it again with a new --out")
+        raise ParameterError("out", f"{literal(out)}: no restart file matches the dumps "
+                             "written; start it again with a new {param}")
     return max(ok), restarts[max(ok)]
 
 
@@ -385,18 +390,18 @@ def _new_manifest(d: Derived, preset, np_ranks, omp, start=None, engine="lammps"
             **({"deck/couette.lmp": "the LAMMPS deck run (variables in run.sh)",
                 "run.sh": "the exact LAMMPS command line with every variable",
                 "log.lammps": "LAMMPS log"} if lammps else {}),
-            **({"prepared.data": "the prepared packing at t = 0 (LAMMPS data file; "
-                "--start reuses it)"} if lammps and start is None else {}),
+            **({"prepared.data": "the prepared packing at t = 0 (LAMMPS data file; a run "
+                "can start from it again)"} if lammps and start is None else {}),
             **({packings.START: "the shipped sheared packing this run started from "
                 "(LAMMPS data file)"} if start is not None
                and Path(start).name == packings.START else {}),
-            **({SHEARED: "the packing at the end of shear (LAMMPS data file; --start "
-                "shears it further, tangential springs unloaded)"} if lammps else {}),
+            **({SHEARED: "the packing at the end of shear (LAMMPS data file; a run started "
+                "from it shears it further, tangential springs unloaded)"} if lammps else {}),
             **({ATOMS.format(ext=dump_ext(s)): "per-atom dump (docs/outputs.md)"}
                if s.dumps else {}),
             **({CONTACTS.format(ext=dump_ext(s)): "per-contact dump (docs/outputs.md)"}
                if s.contacts and s.dumps else {}),
-            **({"restart/restart.<step>.bin": "LAMMPS restart files for --resume"}
+            **({"restart/restart.<step>.bin": "LAMMPS restart files, to resume the run"}
                if lammps else {}),
         },
     }

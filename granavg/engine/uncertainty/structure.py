@@ -1,26 +1,17 @@
-"""Spatial replicas: a cell's sectors along its symmetry direction, for errors that count
-the frozen structure of one packing.
+"""Errors that count the frozen structure of one packing, from each cell's sectors.
 
 Time averaging cannot remove a packing's frozen density and contact structure, so the
 spread of time blocks misses it. Where the cells have a symmetry direction - the
 azimuth of rings about the Couette axis, the length of slabs - a cell's sectors along
 it are independent samples of the same frozen disorder, once they are farther apart
 than its correlation length. Each cell is split into ``K`` sectors, accumulated like a
-cell (the same channels); the sectors of a cell add up to the cell exactly.
+cell (the same channels); the sectors of a cell add up to the cell exactly (their
+shares: the geometries' ``sector_shares``, :mod:`granavg.engine.cells.sectors`).
 
-Weights: a disk's weight in a cell (exact, :mod:`granavg.engine.weights`) is split
-between the sector holding its centre and its two neighbours by the exact fraction of
-the disk's area beyond each sector boundary (a circular segment: the boundary is a ray
-from the axis for rings, a line across a slab). The shares of a disk sum to 1, so
-sector sums add up to the cell's sums exactly; the product of the cell weight and the
-sector share is exact except for disks cut by a cell edge *and* a sector boundary. A
-disk wider than a sector (or around the axis) goes whole to its centre's sector, as
-does a point (radius 0: a wall's contact point).
-
-The error of a cell's value (:func:`~granavg.engine.uncertainty.combine_errors`) is
-that of the two-way random model x[s, b] = mu + F_s + T_b + e_sb over sectors s and time blocks b: frozen
-structure F, a part common to all sectors T (the whole packing's fluctuations), and a
-local, time-varying part e. The variance of the mean is
+The error of a cell's value (:func:`~granavg.engine.uncertainty.blocking.combine_errors`)
+is that of the two-way random model x[s, b] = mu + F_s + T_b + e_sb over sectors s and
+time blocks b: frozen structure F, a part common to all sectors T (the whole packing's
+fluctuations), and a local, time-varying part e. The variance of the mean is
 
     Var = sigma_F^2 / K + sigma_T^2 / B + sigma_e^2 / (K B)
         = E_sectors + E_time - E_interaction,
@@ -29,7 +20,7 @@ with E_sectors the delete-one-sector jackknife variance (sectors' time means: F 
 E_time the time blocking variance of the cell (T and e) and E_interaction the two-way
 table's interaction mean square over K B (e alone), which both of the others count.
 Derived numbers take the same three terms from replicate profiles
-(:class:`~granavg.engine.uncertainty.Replicates` of kind ``structure``).
+(:class:`~granavg.engine.uncertainty.blocking.Replicates` of kind ``structure``).
 """
 
 from __future__ import annotations
@@ -38,13 +29,12 @@ import math
 import warnings
 
 import numpy as np
-from numba import njit
 
 from granavg.engine.profiles import block_values
 from granavg.engine.quantities import balanced_names
-from granavg.engine.uncertainty import (Replicates, combine_errors, interaction_variance,
-                                       jackknife_error, merge_levels)
-from granavg.engine.weights import below_fraction
+from granavg.engine.uncertainty.blocking import (Replicates, combine_errors,
+                                                 interaction_variance, jackknife_error,
+                                                 merge_levels)
 from granavg.errors import ParameterError
 
 #: Sectors accumulated per cell when K is chosen from the data; every candidate K
@@ -67,98 +57,6 @@ FROZEN_SHARE = 0.5
 MAX_CELLS = 96
 #: Time blocks the replica accumulator keeps at most (coarser blocks beyond).
 REPLICA_BLOCKS = 32
-
-
-@njit(cache=True, nogil=True)
-def _ring_shares(x, y, a, cx, cy, k, dim):
-    """Sector of each particle's centre and its neighbours, and the particle's share in
-    each (disks in 2D, spheres in 3D: the sector boundaries are planes through the
-    axis)."""
-    n = x.shape[0]
-    sector = np.empty((n, 3), np.int64)
-    share = np.zeros((n, 3))
-    width = 2.0 * math.pi / k
-    narrow2 = math.sin(0.5 * width) ** 2   # a disk wider than this (a / r) spans a sector
-    cos_b = np.cos(np.arange(k + 1) * width)             # the boundary rays
-    sin_b = np.sin(np.arange(k + 1) * width)
-    for p in range(n):
-        dx, dy = x[p] - cx, y[p] - cy
-        phi = math.atan2(dy, dx)
-        s = min(int((phi + 2.0 * math.pi if phi < 0.0 else phi) / width), k - 1)
-        sector[p, 0], sector[p, 1], sector[p, 2] = s, (s - 1) % k, (s + 1) % k
-        share[p, 0] = 1.0
-        r2, a2 = dx * dx + dy * dy, a[p] * a[p]
-        if a[p] <= 0.0 or r2 <= a2 or a2 >= narrow2 * r2:
-            continue
-        d_lo = dy * cos_b[s] - dx * sin_b[s]               # distances to the two rays
-        d_hi = dx * sin_b[s + 1] - dy * cos_b[s + 1]
-        if d_lo >= a[p] and d_hi >= a[p]:              # inside its sector (most disks)
-            continue
-        lo, hi = below_fraction(-d_lo, a[p], dim), below_fraction(-d_hi, a[p], dim)
-        share[p, 0], share[p, 1], share[p, 2] = 1.0 - lo - hi, lo, hi
-    return sector, share
-
-
-@njit(cache=True, nogil=True)
-def _segment_shares(u, a, lo, length, k, dim):
-    """As :func:`_ring_shares` for segments [lo + i L/K, lo + (i+1) L/K) of a line; the
-    first and last segments extend to infinity, so every disk's shares sum to 1."""
-    n = u.shape[0]
-    sector = np.empty((n, 3), np.int64)
-    share = np.zeros((n, 3))
-    width = length / k
-    for p in range(n):
-        s = min(max(int(math.floor((u[p] - lo) / width)), 0), k - 1)
-        sector[p, 0], sector[p, 1], sector[p, 2] = s, max(s - 1, 0), min(s + 1, k - 1)
-        if a[p] <= 0.0 or 2.0 * a[p] >= width:
-            share[p, 0] = 1.0
-            continue
-        below = below_fraction(lo + s * width - u[p], a[p], dim) if s > 0 else 0.0
-        above = below_fraction(u[p] - lo - (s + 1) * width, a[p], dim) if s < k - 1 else 0.0
-        share[p, 0], share[p, 1], share[p, 2] = 1.0 - below - above, below, above
-    return sector, share
-
-
-def sector_shares(geometry, pos, a, k):
-    """Each particle's sector (of ``k`` along the geometry's symmetry direction) and its
-    neighbours', with the particle's volume share in each (``pos``: the coordinate
-    arrays, x and y first).
-
-    Returns
-    -------
-    sector : ndarray of int, shape (P, 3)
-        Centre's sector, the one before, the one after.
-    share : ndarray, shape (P, 3)
-        Fractions of the disk's area in them; rows sum to 1.
-    """
-    x, y, a = (np.ascontiguousarray(v, float) for v in (pos[0], pos[1], a))
-    if geometry.symmetry == "phi":
-        return _ring_shares(x, y, a, *map(float, geometry.center), int(k), geometry.dim)
-    lo, hi = geometry.span
-    u = y if geometry.axis == "x" else x
-    return _segment_shares(u, a, float(lo), float(hi - lo), int(k), geometry.dim)
-
-
-@njit(cache=True, nogil=True)
-def _scatter_sectors(particle, cell, w, sector, share, k, q, out):
-    for t in range(particle.shape[0]):
-        p = particle[t]
-        for j in range(3):
-            f = share[p, j]
-            if f > 0.0:
-                row = cell[t] * k + sector[p, j]
-                wt = w[t] * f
-                for c in range(q.shape[1]):
-                    out[row, c] += wt * q[p, c]
-
-
-def sector_sums(particle, cell, w, sector, share, k, q, n_cells):
-    """S[cell * k + s, c] = sum_p w_p,cell share_p,s q[p, c]: the cells' sums split over
-    their sectors, shape (n_cells * k, n_channels); the sectors of a cell add up to its
-    sums (the shares of a disk sum to 1)."""
-    out = np.zeros((n_cells * int(k), q.shape[1]))
-    _scatter_sectors(particle, cell, w, sector, share, int(k), np.ascontiguousarray(q), out)
-    return out
 
 
 def merge_sectors(sums, k):

@@ -1,4 +1,4 @@
-"""LAMMPS' ``units`` styles as :class:`~granavg.engine.units.UnitSystem`s.
+"""LAMMPS' ``units`` styles as :class:`~granavg.engine.unit_system.UnitSystem`s.
 
 A dump keeps the units it was written in: granavg converts nothing, it names them. The
 style comes from the dump's ``ITEM: UNITS`` header (``dump_modify ... units yes``; LAMMPS
@@ -9,8 +9,8 @@ force/length^2 of the style (f l / V): for ``real`` and ``metal`` that is
 
 from __future__ import annotations
 
-from granavg.engine.units import UnitSystem
-from granavg.errors import UserError
+from granavg.engine.unit_system import UnitSystem
+from granavg.errors import ParameterError, UserError, literal
 
 #: style -> (length, time, mass, force, force/length^2), from LAMMPS' ``units`` page.
 _STYLES = {
@@ -31,15 +31,19 @@ MIXED = ("real", "metal", "electron")
 UNSTATED = UnitSystem(
     "unstated", "length", "time", "mass", "force", "force/length^2",
     "the dump does not say its units (no ITEM: UNITS; write it with 'dump_modify ID units "
-    "yes' or give --units STYLE): every value is in the units the dump was written in")
+    "yes', or name the units style when averaging): every value is in the units the dump "
+    "was written in")
 
 
-def lammps_units(style: str, where: str = "--units") -> UnitSystem:
-    """The unit system of LAMMPS ``units STYLE``; a one-line error for an unknown style."""
+def lammps_units(style: str, where: str | None = None) -> UnitSystem:
+    """The unit system of LAMMPS ``units STYLE``; a one-line error for an unknown style
+    (naming ``where`` it was read, file:line, or the ``units`` parameter)."""
     key = str(style).strip().lower()
     if key not in _STYLES:
-        raise UserError(f"{where}: unknown LAMMPS units style {style!r}; choose from "
-                        f"{', '.join(_STYLES)}")
+        what = f"unknown LAMMPS units style {style!r}; choose from {', '.join(_STYLES)}"
+        if where is None:
+            raise ParameterError("units", "{param}: " + literal(what))
+        raise UserError(f"{where}: {what}")
     length, time, mass, force, stress = _STYLES[key]
     note = _NOTES.get(key, f"LAMMPS 'units {key}'")
     flux = f"{mass} ({length}/{time})^2/{length}^3" if key in MIXED else None
@@ -51,13 +55,14 @@ def lammps_units(style: str, where: str = "--units") -> UnitSystem:
 
 
 def choose_units(header, option) -> UnitSystem:
-    """The units of a dump: its header's (``(style, "file:line")`` or None) and
-    ``--units`` (str or None) must agree; neither: :data:`UNSTATED`."""
+    """The units of a dump: its header's (``(style, "file:line")`` or None) and the
+    ``units`` parameter (str or None) must agree; neither: :data:`UNSTATED`."""
     if header is not None:
         style, where = header
         found = lammps_units(style, where)
         if option is not None and lammps_units(option).style != found.style:
-            raise UserError(f"{where}: the dump says 'units {style}' but --units is "
-                            f"{option}; drop --units (the dump's header is what LAMMPS ran)")
+            raise ParameterError("units", f"{literal(where)}: the dump says 'units "
+                                 f"{literal(style)}' but {{param}} is {literal(option)}; drop "
+                                 "{param} (the dump's header is what LAMMPS ran)")
         return found
     return lammps_units(option) if option is not None else UNSTATED

@@ -16,7 +16,7 @@ recomputed with one block of the coarsest usable level left out (delete-one jack
 for one run, or the profiles of each realisation for an ensemble
 (:class:`Replicates`). Time alone misses the frozen structure of one packing: where the
 cells have a symmetry direction their sectors are replicas of it
-(:mod:`granavg.engine.replicas`), and :func:`combine_errors` joins the sectors' spread
+(:mod:`granavg.engine.uncertainty.structure`), and :func:`combine_errors` joins the sectors' spread
 with the time blocking in a two-way analysis.
 
 Block values are ratios of block sums (v = <nu v>/<nu> per block), as the profiles are;
@@ -184,7 +184,7 @@ class Replicates:
     kind : {"jackknife", "runs", "structure"}
         ``jackknife``: one time block left out each (one run); ``runs``: one realisation
         each; ``structure``: one run's sectors and time blocks
-        (:mod:`granavg.engine.replicas`): delete-one-sector profiles, then the
+        (:mod:`granavg.engine.uncertainty.structure`): delete-one-sector profiles, then the
         delete-one-block ones, then the sector x block interaction replicates.
     values : dict of name -> ndarray, shape (n_replicates, n_rings)
     parts : dict, optional

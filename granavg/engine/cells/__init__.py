@@ -1,0 +1,69 @@
+"""Averaging cells, one geometry per module: each module of this package that defines
+``CELLS`` (a :class:`~granavg.engine.cells.base.Cells` subclass) is one, found here
+without being listed anywhere else (docs/extending.md).
+
+:func:`registry` lists them by kind; :func:`restore` rebuilds cells from a sidecar's
+description; :func:`from_options` chooses and builds the cells that options describe.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+
+from granavg.engine.cells.base import Cells, Space
+from granavg.errors import ParameterError, UserError
+
+_FOUND: dict = {}
+
+
+def registry() -> dict:
+    """Every kind of cells, by kind (modules of this package that define ``CELLS``)."""
+    if not _FOUND:
+        for info in pkgutil.iter_modules(__path__):
+            module = importlib.import_module(f"{__name__}.{info.name}")
+            cells = getattr(module, "CELLS", None)
+            if isinstance(cells, type) and issubclass(cells, Cells):
+                _FOUND[cells.kind] = cells
+    return dict(_FOUND)
+
+
+def restore(description: dict) -> Cells:
+    """The cells a sidecar describes (``describe()``'s dict; older sidecars: rings)."""
+    kind = description.get("kind", "rings")
+    known = registry()
+    if kind not in known:
+        raise UserError(f"unknown kind of cells {kind!r} (granavg knows "
+                        f"{', '.join(sorted(known))})")
+    return known[kind].restore(description)
+
+
+def from_options(space: Space, **options) -> Cells:
+    """The cells of ``space.dim`` that the options choose and describe: the kind whose
+    ``selector`` option is given, else the dimension's default; an option the chosen
+    cells do not take is refused in one line naming it."""
+    given = {k: v for k, v in options.items() if v is not None}
+    kinds = [c for c in registry().values() if c.dim == space.dim]
+    chosen = [c for c in kinds if c.selector and c.selector in given]
+    if len(chosen) > 1:
+        first, second = (c.selector for c in chosen[:2])
+        raise ParameterError(first, "{param} and {" + second + "} choose different "
+                             "cells; give one")
+    cls = chosen[0] if chosen else next(c for c in kinds if c.selector is None)
+    foreign = sorted(set(given) - cls.options)
+    if foreign:
+        raise ParameterError(foreign[0], _does_not_apply(foreign[0], cls, space.dim))
+    return cls.from_options(space, **given)
+
+
+def _does_not_apply(name, cls, dim) -> str:
+    """The refusal of an option the cells ``cls`` do not take: for which cells it is."""
+    takers = [c for c in registry().values() if name in c.options]
+    if takers and all(c.dim != dim for c in takers):
+        other = takers[0].dim
+        return ("{param} is for " + ("3D dumps (spheres); these are 2D (give {dim} 3 if the "
+                                     "dump is 3D)" if other == 3 else
+                                     "2D disks; the dump is 3D (spheres: volume 4/3 pi a^3)"))
+    same = [c.title for c in takers if c.dim == dim]
+    return ("{param} does not apply to " + cls.title
+            + (f" (it is for {' and '.join(same)})" if same else "") + "; leave it out")

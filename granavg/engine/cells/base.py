@@ -1,0 +1,492 @@
+"""What every kind of averaging cells declares (:class:`Cells`), what they share, and the
+space the data give them (:class:`Space`).
+
+A geometry is one class in one module of :mod:`granavg.engine.cells` (freud's ``Box`` in
+spirit): its cells' volumes, the exact volume weights of particles in them, the basis in
+which vectors and tensors are expressed, the cell of a point, the profile's coordinate
+columns, its description for the sidecar and back, the sectors of the errors' spatial
+replicas, the array its cells form in field files and the VTK mesh, the finite-volume
+balance of forces, and how it is built from options. Nothing outside the module switches
+on its kind.
+
+Lengths are in the frames' units (m for granavg's own runs). Positions are handed over as
+a tuple of coordinate arrays, ``(x, y)`` in 2D, ``(x, y, z)`` in 3D.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Callable, ClassVar
+
+import numpy as np
+
+from granavg.engine.channels import Layout
+from granavg.errors import ParameterError, UserError
+
+#: Equal cells when neither a count nor edges are given.
+DEFAULT_BINS = 20
+#: Most cells accepted (a 60-ring profile is the paper's finest).
+MAX_CELLS = 100_000
+
+
+@dataclass(frozen=True)
+class Space:
+    """What the data say about the space the cells are built in, asked only where an
+    option leaves a length to it.
+
+    Attributes
+    ----------
+    dim : int
+        2 (disks) or 3 (spheres).
+    box : callable
+        ``box()`` -> one (lo, hi) per axis: the bounds of the first frame's cell (of a
+        tilted box its own cell, not its bounding box).
+    periodic : callable
+        ``periodic()`` -> per axis, whether the box is periodic along it.
+    tilt : callable
+        ``tilt()`` -> (xy, xz, yz), zeros for an orthogonal box.
+    why_2d : str or None
+        Why the data were read as 2D, for the message that asks for the disks' height.
+    """
+
+    dim: int = 2
+    box: Callable = None
+    periodic: Callable = lambda: (False,) * 3
+    tilt: Callable = lambda: (0.0, 0.0, 0.0)
+    why_2d: str | None = None
+
+    @property
+    def tilted(self) -> bool:
+        return any(t != 0.0 for t in self.tilt())
+
+    def span(self, axis: str, given=None) -> tuple:
+        """The range along ``axis``: ``given``, else the box's."""
+        if given is not None:
+            return tuple(float(v) for v in given)
+        return tuple(float(v) for v in self.box()["xyz".index(axis)])
+
+    def period(self, axis: str, given=None):
+        """The periodic span along ``axis`` where the cells span a periodic box along it
+        (the range not given and the box periodic there), else None."""
+        if given is not None or not self.periodic()["xyz".index(axis)]:
+            return None
+        return self.span(axis)
+
+    def needs_ranges(self, what: str, **ranges) -> None:
+        """In a tilted box, refuse cells whose ranges would come from it."""
+        if not self.tilted:
+            return
+        missing = [name for name, value in ranges.items() if value is None]
+        if missing:
+            xy, xz, yz = self.tilt()
+            shown = f"xy {xy:g}, xz {xz:g}, yz {yz:g}" if self.dim == 3 else f"xy {xy:g}"
+            raise ParameterError(missing[0], f"the box is tilted ({shown}): give {{param}} "
+                                 f"for {what} (such cells are cells in space, not of the "
+                                 "tilted box, and take no images across its faces)")
+
+
+class Cells(ABC):
+    """The cells of one geometry. Subclasses are frozen dataclasses of their edges.
+
+    Class attributes
+    ----------------
+    kind : str
+        The name in the registry and the sidecar (``describe()["kind"]``).
+    title : str
+        The cells in words, in messages ("rings", "a box grid").
+    dim : int
+        2 or 3.
+    axes : tuple of str
+        The basis' axes, naming vector and tensor components (``("r", "phi")``, ...).
+    position_names : tuple of str
+        The atoms' coordinate columns the cells read.
+    selector : str or None
+        The option that chooses these cells among those of their dimension (``slabs``,
+        ``grid``, ...); None for the default of the dimension.
+    options : frozenset of str
+        The options :meth:`from_options` takes.
+
+    The error model's spatial replicas (:mod:`granavg.engine.uncertainty.structure`):
+    ``symmetry`` (the direction along which a cell splits into sectors, or None),
+    ``sectors_close`` (whether its sectors close on themselves), ``across`` (the
+    direction across the cells, or None) and :meth:`sector_shares`.
+    """
+
+    kind: ClassVar[str]
+    title: ClassVar[str]
+    dim: ClassVar[int]
+    axes: ClassVar[tuple]
+    position_names: ClassVar[tuple]
+    selector: ClassVar[str | None] = None
+    options: ClassVar[frozenset] = frozenset()
+    symmetry = None
+    sectors_close = False
+    across = None
+
+    # -- built from options, described and restored ------------------------------------
+    @classmethod
+    @abstractmethod
+    def from_options(cls, space: Space, **options) -> "Cells":
+        """The cells the options describe (those given; :attr:`options` names them),
+        lengths defaulting to the ``space``'s box."""
+
+    @classmethod
+    @abstractmethod
+    def restore(cls, d: dict) -> "Cells":
+        """The cells :meth:`describe` described (lengths in the sidecar's units)."""
+
+    @abstractmethod
+    def describe(self) -> dict:
+        """The cells for the sidecar: ``kind`` and what :meth:`restore` needs."""
+
+    # -- the cells ---------------------------------------------------------------------
+    @property
+    @abstractmethod
+    def n(self) -> int:
+        """Number of cells."""
+
+    @property
+    @abstractmethod
+    def volume(self) -> np.ndarray:
+        """Cell volumes, shape (n,)."""
+
+    @property
+    def layout(self) -> Layout:
+        """The channels of the cell sums in this basis."""
+        return layout_of(self.axes)
+
+    @abstractmethod
+    def particle_volume(self, a) -> np.ndarray:
+        """V^p of each particle of radius ``a``."""
+
+    @abstractmethod
+    def def_factor(self, a) -> np.ndarray:
+        """Eq. 7's V^p / a^2 of each particle."""
+
+    @abstractmethod
+    def weights(self, pos, a) -> tuple:
+        """(particle, cell, fraction of the particle's volume in it), exact."""
+
+    @abstractmethod
+    def cell_of(self, pos, slack: float = 0.0) -> np.ndarray:
+        """The cell holding each point, -1 outside; points less than ``slack`` beyond an
+        outer edge (a wall's contact points) go to the edge cell."""
+
+    @abstractmethod
+    def basis(self, pos) -> np.ndarray:
+        """Unit vectors e_i (rows) at each point, shape (P, D, D)."""
+
+    @abstractmethod
+    def coordinates(self) -> dict:
+        """The profile table's coordinate columns, name -> shape (n,)."""
+
+    def sector_shares(self, pos, a, k: int) -> tuple:
+        """Each particle's sector (of ``k`` along :attr:`symmetry`) and its neighbours',
+        and its volume share in each: (sector, share), shapes (P, 3); rows of share sum
+        to 1."""
+        raise UserError(f"{self.title} have no direction to split into sectors")
+
+    # -- as arrays of cells: field files, maps, the balance of forces --------------------
+    @abstractmethod
+    def grid(self) -> tuple:
+        """(dimension names, shape, edges per dimension) of the cells as an array, the
+        cell index k being the C-order flat index."""
+
+    def mesh(self):
+        """The cells as a VTK mesh: (points (M, 3), [(cell type, connectivity)], the
+        profile cell of each mesh cell, the angle of each mesh cell for cylindrical
+        components or None). Only cells that fill a grid in space have one."""
+        raise ParameterError("vtk", f"{{param}}: {self.kind} are not a grid; VTK output is "
+                             "for grids, polar grids, boxes and cylindrical shells (cells "
+                             "that fill a grid in space; tables and NetCDF hold every kind)")
+
+    @abstractmethod
+    def residuals(self, T: dict, f: dict, closed: bool) -> tuple:
+        """The balance of forces per cell and component, in finite-volume form: the net
+        force on the cell over the area of its face, one array (n,) per axis
+        (:mod:`granavg.analysis.balance`). ``T``: the stress components (``rr``,
+        ``rphi``, ... or ``xx``, ...), ``f``: the force density per axis; ``closed``:
+        no flux through the outer faces (else the edge cells are NaN)."""
+
+    def position(self):
+        """(name, coordinate per cell) where the cells form a line, else None."""
+        return None
+
+    def planes(self) -> list:
+        """The planes to draw as maps: (title, (horizontal name, edges), (vertical name,
+        edges), a function of a per-cell array giving the plane's values, shape
+        (n_vertical, n_horizontal))."""
+        return []
+
+
+class Disks:
+    """What the 2D cells share: disks of height ``h`` (volume pi h a^2, Eq. 7's factor
+    V^p / a^2 = pi h), positions ``(x, y)``."""
+
+    dim = 2
+    position_names = ("x", "y")
+
+    def particle_volume(self, a):
+        """V^p = pi h a^2 of each disk."""
+        return np.pi * self.h * a * a
+
+    def def_factor(self, a):
+        """Eq. 7's pi h = V^p / a^2, one per disk."""
+        return np.full(len(a), np.pi * self.h)
+
+
+class Spheres:
+    """What the 3D cells share: spheres (volume 4/3 pi a^3), positions ``(x, y, z)``."""
+
+    dim = 3
+    position_names = ("x", "y", "z")
+
+    def particle_volume(self, a):
+        """V^p = 4/3 pi a^3 of each sphere."""
+        return 4.0 / 3.0 * np.pi * a * a * a
+
+    def def_factor(self, a):
+        """Eq. 7's V^p / a^2 = 4/3 pi a of each sphere."""
+        return 4.0 / 3.0 * np.pi * a
+
+
+def disk_height(space: Space, h) -> float:
+    """The disks' height h of a 2D average: given (finite > 0), else a refusal saying why
+    the data were read as 2D."""
+    if h is None:
+        why = f" (read as 2D disks: {space.why_2d}; for spheres give {{dim}} 3)" \
+            if space.why_2d and space.why_2d != "given" else ""
+        raise ParameterError("thickness", "{param} H: give the disks' height, in the "
+                             "dump's length unit (2D disks have volume pi h a^2)" + why)
+    return positive("thickness", h)
+
+
+# -- shared pieces -------------------------------------------------------------------------
+
+_LAYOUTS = {}
+
+
+def layout_of(axes) -> Layout:
+    """One Layout per set of axes (they are immutable)."""
+    if axes not in _LAYOUTS:
+        _LAYOUTS[axes] = Layout(axes)
+    return _LAYOUTS[axes]
+
+
+def checked_edges(values, what) -> np.ndarray:
+    """Cell edges as a float array: finite, increasing, at least two."""
+    e = np.asarray(values, dtype=float)
+    if e.ndim != 1 or len(e) < 2 or not np.all(np.isfinite(e)) or not np.all(np.diff(e) > 0):
+        shown = " ".join(f"{v:g}" for v in np.ravel(e))
+        raise UserError(f"{what} must be finite and increasing, at least two (got {shown})")
+    return e
+
+
+def radii_edges(values, what) -> np.ndarray:
+    """:func:`checked_edges`, >= 0 (radii)."""
+    e = checked_edges(values, what)
+    if e[0] < 0:
+        raise UserError(f"{what} must be >= 0 and increasing (got "
+                        f"{' '.join(f'{v:g}' for v in e)})")
+    return e
+
+
+def cell_index(u, edges, slack=0.0):
+    """Index of the cell [e_k, e_k+1) holding each u; -1 outside. A point at most
+    ``slack`` beyond the first or last edge is clamped to that cell: a wall's contact
+    points lie on the wall, just beyond the cells of the packing."""
+    u = np.asarray(u, float)
+    k = np.searchsorted(edges, u, side="right") - 1
+    n = len(edges) - 1
+    k = np.where((u < edges[0]) & (u >= edges[0] - slack), 0, k)
+    k = np.where((u >= edges[-1]) & (u <= edges[-1] + slack), n - 1, k)
+    return np.where((k >= 0) & (k < n), k, -1)
+
+
+def cartesian_basis(n, dim):
+    """The Cartesian basis at n points, shape (n, dim, dim)."""
+    return np.broadcast_to(np.eye(dim), (n, dim, dim))
+
+
+def polar_basis(dx, dy):
+    """e_r and e_phi (rows) of the points at (dx, dy) from the axis, shape (P, 2, 2)."""
+    r = np.hypot(dx, dy)
+    E = np.empty((len(r), 2, 2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        E[:, 0, 0], E[:, 0, 1] = dx / r, dy / r
+    E[:, 1, 0], E[:, 1, 1] = -E[:, 0, 1], E[:, 0, 0]
+    return E
+
+
+def edge_coordinates(cuts: dict) -> dict:
+    """Each cell's lower and upper edge along each axis, then its centres: ``cuts`` maps
+    an axis name to (its edges, the cells' index along it, shape (n_cells,)); returns
+    ``{name_lo, name_hi, ..., name, ...}``, arrays of shape (n_cells,)."""
+    out = {}
+    for name, (e, m) in cuts.items():
+        out[f"{name}_lo"], out[f"{name}_hi"] = e[m], e[m + 1]
+    for name, (e, m) in cuts.items():
+        out[name] = 0.5 * (e[m] + e[m + 1])
+    return out
+
+
+def equal_edges(lo: float, hi: float, bins: int | None) -> np.ndarray:
+    """Edges of ``bins`` (default :data:`DEFAULT_BINS`) equal cells from lo to hi."""
+    return np.linspace(lo, hi, (DEFAULT_BINS if bins is None else bins) + 1)
+
+
+def cuts(bins, edges, lo_hi, *, radial=False) -> np.ndarray:
+    """Cell edges from the options: ``edges`` as given, else ``bins`` equal cells over
+    ``lo_hi`` (checked: a count within 1..:data:`MAX_CELLS`; edges finite, increasing,
+    and >= 0 for radii)."""
+    if bins is not None and not 1 <= bins <= MAX_CELLS:
+        raise ParameterError("bins", f"{{param}} {bins}: give between 1 and {MAX_CELLS} "
+                             "cells")
+    if edges is not None:
+        shown = " ".join(f"{float(v):g}" for v in edges)
+        if len(edges) < 2 or not all(np.isfinite(edges)):
+            raise ParameterError("edges", f"{{param}} {shown}: give at least two finite "
+                                 "edges")
+        if any(b <= a for a, b in zip(edges, edges[1:])) or (radial and edges[0] < 0):
+            raise ParameterError("edges", f"{{param}} {shown}: edges must be "
+                                 + (">= 0 and " if radial else "") + "increasing")
+        return np.asarray(edges, float)
+    return equal_edges(*lo_hi, bins)
+
+
+def counts(name, values, dim, what) -> tuple:
+    """A grid's counts per axis: ``dim`` of them, each >= 1, their product at most
+    :data:`MAX_CELLS`."""
+    shown = " ".join(map(str, values))
+    if len(values) != dim:
+        raise ParameterError(name, f"{{param}} {shown}: give {what}")
+    if min(values) < 1 or int(np.prod(values)) > MAX_CELLS:
+        raise ParameterError(name, f"{{param}} {shown}: give between 1 and {MAX_CELLS} "
+                             "cells")
+    return tuple(int(v) for v in values)
+
+
+def check_range(name, pair, nonnegative=False):
+    """A (lo, hi) option: finite, lo < hi (and lo >= 0 for radii); None passes."""
+    if pair is None:
+        return None
+    lo, hi = (float(v) for v in pair)
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        raise ParameterError(name, f"{{param}} {lo:g} {hi:g}: give finite numbers")
+    if not lo < hi:
+        raise ParameterError(name, f"{{param}} {lo:g} {hi:g}: the first must be below the "
+                             "second")
+    if nonnegative and lo < 0:
+        raise ParameterError(name, f"{{param}} {lo:g} {hi:g}: radii are >= 0")
+    return lo, hi
+
+
+def positive(name, value):
+    """A finite number > 0, or a one-line refusal naming the option."""
+    if value is not None and not (np.isfinite(value) and value > 0):
+        raise ParameterError(name, f"{{param}} {float(value):g}: must be a finite number > 0")
+    return value
+
+
+# -- periodic images ---------------------------------------------------------------------
+
+def with_images(pos, a, periods):
+    """The particles and, along each axis with a period (the cells spanning a periodic
+    box), the images of those that reach across its ends, so that their volume beyond
+    one end lands in the cells at the other.
+
+    Parameters
+    ----------
+    pos : tuple of D ndarray, shape (P,)
+    a : ndarray, shape (P,)
+    periods : tuple of D (lo, hi) or None
+        The periodic span along each axis.
+
+    Returns
+    -------
+    pos, a, index : the extended arrays and, for each entry, the particle it is of.
+    """
+    index = np.arange(len(a))
+    pos = [np.asarray(u, float) for u in pos]
+    for k, span in enumerate(periods):
+        if span is None:
+            continue
+        lo, hi = span
+        low, high = pos[k] - a < lo, pos[k] + a > hi
+        if not (low.any() or high.any()):
+            continue
+        extra = np.concatenate([np.flatnonzero(low), np.flatnonzero(high)])
+        shift = np.concatenate([np.full(low.sum(), hi - lo), np.full(high.sum(), lo - hi)])
+        pos = [np.concatenate([u, u[extra] + (shift if j == k else 0.0)])
+               for j, u in enumerate(pos)]
+        a = np.concatenate([a, a[extra]])
+        index = np.concatenate([index, index[extra]])
+    return tuple(pos), a, index
+
+
+class Imaged:
+    """Cells that may span a periodic box: ``periods``, per axis, the span over which the
+    packing is periodic (the cells then take the particles' images across its ends,
+    :func:`with_images`), or None."""
+
+    def _imaged(self, weigh, pos, a):
+        periods = getattr(self, "periods", None)
+        if not periods or all(p is None for p in periods):
+            return weigh(pos, a)
+        pos, a, index = with_images(pos, a, periods)
+        particle, cell, w = weigh(pos, a)
+        return index[particle], cell, w
+
+    def wraps(self, axis: str) -> bool:
+        """Whether the cells are periodic along ``axis`` (x, y or z)."""
+        periods = getattr(self, "periods", None)
+        k = "xyz".index(axis)
+        return bool(periods and k < len(periods) and periods[k] is not None)
+
+
+def spans_of(periods):
+    """The periods for the sidecar (lists, None where not periodic)."""
+    return None if periods is None else [None if p is None else list(p) for p in periods]
+
+
+def periods_of(periods):
+    """Periods as tuples of floats (None where not periodic), or None."""
+    return None if periods is None else tuple(None if p is None else
+                                              tuple(float(v) for v in p) for p in periods)
+
+
+def without_suffix(d: dict) -> dict:
+    """A description's keys without the ``_m`` suffix of older sidecars."""
+    return {k[:-2] if k.endswith("_m") else k: v for k, v in d.items()}
+
+
+# -- finite volumes (the balance of forces) ---------------------------------------------
+
+def faces(T, closed, periodic=False):
+    """Face values between neighbouring cells, (T_k + T_k+1) / 2, with the outer faces
+    0 where ``closed`` (nothing of the packing beyond: a wall, whose action is the
+    boundary force density, or empty space), the mean of the two end cells where
+    ``periodic``, and NaN otherwise; shape (n + 1,)."""
+    if periodic:
+        wrap = 0.5 * (T[0] + T[-1])
+        return np.concatenate([[wrap], 0.5 * (T[1:] + T[:-1]), [wrap]])
+    outer = 0.0 if closed else np.nan
+    return np.concatenate([[outer], 0.5 * (T[1:] + T[:-1]), [outer]])
+
+
+def radial_flux(T, edges, closed, power):
+    """(1/r^power) d(r^power T)/dr by the faces' fluxes, for cells in rings: ``T`` of
+    shape (n_r, m), ``edges`` the n_r + 1 radii; the outer faces as :func:`faces`."""
+    r = (0.5 * (edges[1:] + edges[:-1]))[:, None]
+    dr = np.diff(edges)[:, None]
+    values = np.apply_along_axis(faces, 0, T, closed)
+    return np.diff(edges[:, None] ** power * values, axis=0) / dr / r ** power
+
+
+def divergence(T, widths, closed, periodic):
+    """d T / d u along axis 0 of an array of cells in finite-volume form: the difference
+    of the face values over the cell width (:func:`faces` at the ends)."""
+    values = np.apply_along_axis(faces, 0, T, closed, periodic)
+    shape = (-1,) + (1,) * (T.ndim - 1)
+    return np.diff(values, axis=0) / widths.reshape(shape)

@@ -1,0 +1,93 @@
+"""Slabs across x, y or z: Cartesian slabs of spheres in 3D."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from granavg.engine.cells.base import (Cells, Imaged, Space, Spheres, cartesian_basis,
+                                      check_range, checked_edges, cuts, periods_of, positive,
+                                      spans_of)
+from granavg.engine.cells.slabs import AcrossAxis
+from granavg.engine.sphere_weights import layer_weights
+from granavg.errors import ParameterError, UserError
+
+
+@dataclass(frozen=True)
+class Slabs3D(Spheres, Imaged, AcrossAxis, Cells):
+    """Slabs [u_k, u_k+1) across ``axis`` (x, y or z) with cross-section ``area`` (the
+    slabs are taken to span the packing in the other two directions); volumes area x
+    (u_k+1 - u_k). Exact weights (spherical caps). Cartesian basis."""
+
+    edges: np.ndarray
+    axis: str = "z"
+    area: float = 1.0
+    periods: tuple | None = None
+
+    kind = "slabs3d"
+    title = "3D slabs"
+    axes = ("x", "y", "z")
+    selector = "slabs"
+    options = frozenset({"slabs", "bins", "edges", "range", "area"})
+
+    @classmethod
+    def from_options(cls, space: Space, *, slabs=None, bins=None, edges=None, range=None,
+                     area=None) -> "Slabs3D":
+        """Slabs across ``slabs``: ``bins`` over ``range`` (default the box) or
+        ``edges``, of cross-section ``area`` (default the box's). In a tilted box only
+        across an axis the tilt does not shift, where the cell's cross-section is
+        constant."""
+        if slabs not in ("x", "y", "z"):
+            raise ParameterError("slabs", f"{{param}} {slabs}: give x, y or z")
+        check_range("range", range)
+        if space.tilted:
+            xy, xz, yz = space.tilt()
+            shifting = {"x": (xy, xz), "y": (yz,), "z": ()}[slabs]
+            if any(t != 0.0 for t in shifting):
+                raise ParameterError("slabs", f"{{param}} {slabs}: the box is tilted (xy "
+                                     f"{xy:g}, xz {xz:g}, yz {yz:g}), and planes of "
+                                     f"constant {slabs} cut its cell in areas that change "
+                                     "along them; choose slabs across "
+                                     + ("y or z" if yz == 0 else "z") + ", or a grid "
+                                     "with {x_range} and {y_range}")
+        lo_hi = tuple(range) if range else space.span(slabs)
+        cells = cuts(bins, edges, lo_hi)
+        if area is None:
+            others = [space.span(a) for a in "xyz" if a != slabs]
+            area = (others[0][1] - others[0][0]) * (others[1][1] - others[1][0])
+        positive("area", area)
+        periods = tuple(space.period(a, range) if a == slabs else None for a in "xyz")
+        return cls(cells, slabs, float(area), periods if any(periods) else None)
+
+    @classmethod
+    def restore(cls, d: dict) -> "Slabs3D":
+        return cls(np.asarray(d["edges"], float), d["axis"], float(d["area"]),
+                   periods_of(d.get("periods")))
+
+    def __post_init__(self):
+        object.__setattr__(self, "edges", checked_edges(self.edges, "slab edges"))
+        if self.axis not in ("x", "y", "z"):
+            raise UserError(f"slabs across {self.axis!r}: give x, y or z")
+        if not (np.isfinite(self.area) and self.area > 0):
+            raise UserError(f"slab cross-section {self.area}: must be a finite number > 0 "
+                            "(length^2)")
+
+    @property
+    def volume(self) -> np.ndarray:
+        return self.area * np.diff(self.edges)
+
+    def weights(self, pos, a):
+        k = "xyz".index(self.axis)
+        return self._imaged(lambda p, r: layer_weights(p[k], r, self.edges), pos, a)
+
+    def basis(self, pos):
+        return cartesian_basis(len(pos[0]), 3)
+
+    def describe(self) -> dict:
+        return {"kind": self.kind, "edges": list(self.edges), "axis": self.axis,
+                "area": self.area, "periods": spans_of(self.periods)}
+
+
+
+CELLS = Slabs3D

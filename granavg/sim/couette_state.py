@@ -1,0 +1,179 @@
+"""The Couette cell's state frame by frame: the observer the scene supplies to the
+averaging (the engine knows no R_i, R_o or wall codes).
+
+The paper averages a *steady* flow (Eqs. 8-12 assume d/dt = 0). :func:`frame_state`
+reduces one frame to scalars that show a transient (SI units): coordination overall and
+per radial zone, rattler fraction, bulk static pressure, overlaps, kinetic energy, wall
+contacts, the torques on the two walls and the bulk hexatic order (over the contact
+network: one pass over the contacts, no triangulation). :class:`CouetteState` records
+them per frame for the averaging (:class:`~granavg.engine.average.CellAverage`'s
+``series``) and names the ones whose steadiness is judged
+(:func:`~granavg.engine.stationarity.stationarity`).
+
+Zones by disk centre, as fractions of the gap R_o - R_i: ``in`` [0, 0.2), ``bulk``
+[0.3, 0.8), ``out`` [0.85, 1]. A rattler has fewer than two contacts. Wall codes of
+granavg's contact format (:mod:`granavg.io.contacts`): 1 the inner (turning) wall, 2 the
+outer.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from granavg.engine.kernels import contact_rows, wall_points
+
+ZONES = {"in": (0.0, 0.2), "bulk": (0.3, 0.8), "out": (0.85, 1.0)}
+#: The quantities whose steadiness is judged (when present).
+JUDGED = ("C", "C_bulk", "P_bulk_Pa", "rattler_fraction", "nu_bulk", "psi6_bulk")
+#: The wall codes of the inner and the outer wall.
+INNER, OUTER = 1, 2
+
+
+def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
+    """Scalars describing one frame (SI units; NaN where the data lack a column).
+
+    Parameters
+    ----------
+    atoms : dict of ndarray, shape (P,)
+        ``x y radius`` and, where present, ``vx vy omegaz id`` of the packing's disks.
+    contacts : dict of ndarray or None
+        Contact-dump columns (``id1 id2 wall fnx fny ftx fty nx ny overlap``).
+    R_i, R_o, h, rho_p : float
+        Ring radii (m), disk height (m), material density (kg/m^3).
+    d_ref : float
+        Reference diameter for the overlaps (m), the small disks' d_s.
+
+    Returns
+    -------
+    dict
+        ``C``, ``C_in``, ``C_bulk``, ``C_out`` (contacts per disk), ``rattler_fraction``,
+        ``P_bulk_Pa`` (-tr sigma / 2 of the bulk zone), ``overlap_mean_over_d``,
+        ``overlap_max_over_d``, ``ke_J`` (translational + rotational), ``wall_contacts_in``,
+        ``wall_contacts_out``, ``torque_in_Nm``, ``torque_out_Nm``
+        (:func:`wall_torques`), ``nu_bulk``, ``psi6_bulk`` (mean |psi_6| over the
+        contact network's bonds, disks with at least 3 bonds) and ``psi6_bulk_ordered``
+        (share with |psi_6| > 0.8).
+    """
+    x, y, a = atoms["x"], atoms["y"], atoms["radius"]
+    r = np.hypot(x, y)
+    frac = (r - R_i) / (R_o - R_i)
+    zone = {k: (frac >= lo) & ((frac < hi) | (hi == 1.0)) for k, (lo, hi) in ZONES.items()}
+    zone_area = {k: np.pi * ((R_i + hi * (R_o - R_i)) ** 2 - (R_i + lo * (R_o - R_i)) ** 2)
+                 for k, (lo, hi) in ZONES.items()}
+    out = {"nu_bulk": float(np.sum(np.pi * a[zone["bulk"]] ** 2) / zone_area["bulk"])}
+    mass = rho_p * h * np.pi * a * a
+    if "vx" in atoms:
+        ke = 0.5 * mass * (atoms["vx"] ** 2 + atoms["vy"] ** 2)
+        if "omegaz" in atoms:
+            ke = ke + 0.25 * mass * a * a * atoms["omegaz"] ** 2       # I = m a^2 / 2
+        out["ke_J"] = float(np.sum(ke))
+    if contacts is None or "id" not in atoms:
+        return out
+    i1, i2 = contact_rows(atoms, contacts)
+    n = len(x)
+    fn = ((contacts["fnx"] + contacts["ftx"]) * contacts["nx"] +
+          (contacts["fny"] + contacts["fty"]) * contacts["ny"]) if "fnx" in contacts \
+        else np.zeros(len(i1))
+    count, trace, bonds, re6, im6 = _contact_state(i1, i2, np.asarray(fn, float),
+                                                   np.asarray(a, float), x, y, n)
+    out.update(_hexatic(bonds, re6, im6, zone["bulk"]))
+    out["C"] = float(count.mean()) if n else np.nan
+    for k, m in zone.items():
+        out[f"C_{k}"] = float(count[m].mean()) if m.any() else np.nan
+    out["rattler_fraction"] = float(np.mean(count < 2)) if n else np.nan
+    if "fnx" in contacts:
+        out["P_bulk_Pa"] = float(-0.5 * trace[zone["bulk"]].sum() / (zone_area["bulk"] * h))
+    if "overlap" in contacts:
+        ov = contacts["overlap"] / d_ref
+        out["overlap_mean_over_d"] = float(ov.mean()) if len(ov) else 0.0
+        out["overlap_max_over_d"] = float(ov.max()) if len(ov) else 0.0
+    out["wall_contacts_in"] = int(np.sum(contacts["wall"] == INNER))
+    out["wall_contacts_out"] = int(np.sum(contacts["wall"] == OUTER))
+    if "fnx" in contacts and "overlap" in contacts:
+        out.update(wall_torques(atoms, contacts, (i1, i2)))
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _contact_state(i1, i2, fn, a, x, y, n):
+    """One pass over the contacts: each disk's contact count, its sum a f.n (the trace of
+    its stress sum) and the sums cos 6 theta, sin 6 theta over its disk-disk bonds
+    (theta the bond's angle; the reverse bond has the same)."""
+    count, trace, bonds = np.zeros(n), np.zeros(n), np.zeros(n)
+    re6, im6 = np.zeros(n), np.zeros(n)
+    for c in range(i1.shape[0]):
+        p, q = i1[c], i2[c]
+        count[p] += 1.0
+        trace[p] += a[p] * fn[c]
+        if q < 0:
+            continue
+        count[q] += 1.0
+        trace[q] += a[q] * fn[c]
+        dx, dy = x[q] - x[p], y[q] - y[p]
+        r2 = dx * dx + dy * dy
+        if r2 > 0.0:
+            u, v = dx * dx / r2, dy * dy / r2            # cos^2, sin^2
+            cs = dx * dy / r2                              # cos sin
+            c6 = u * u * u - 15.0 * u * u * v + 15.0 * u * v * v - v * v * v
+            s6 = cs * (6.0 * u * u - 20.0 * u * v + 6.0 * v * v)
+            bonds[p] += 1.0
+            bonds[q] += 1.0
+            re6[p] += c6
+            im6[p] += s6
+            re6[q] += c6
+            im6[q] += s6
+    return count, trace, bonds, re6, im6
+
+
+def wall_torques(atoms, contacts, rows) -> dict:
+    """Torque about the centre (N m) that the packing exerts on each wall: minus the
+    wall contacts' forces on the disks, at their contact points x + (a - delta/2) n
+    (:func:`~granavg.engine.kernels.wall_points`). The shear cell's torque, which the
+    experiments measure (``torque_in_Nm`` on the turning inner ring, ``torque_out_Nm``
+    on the outer)."""
+    points, forces = wall_points(atoms, contacts, 2, "contact", rows)
+    code = np.asarray(contacts["wall"])
+    code = code[code != 0]
+    torque = -(points[:, 0] * forces[:, 1] - points[:, 1] * forces[:, 0])
+    return {name: float(np.sum(torque[code == c]))
+            for name, c in (("torque_in_Nm", INNER), ("torque_out_Nm", OUTER))}
+
+
+def _hexatic(bonds, re6, im6, bulk):
+    """Mean |psi_6| of the bulk disks with at least 3 bonds and the share above 0.8, over
+    the bonds of the contact network: psi_6 = <exp(6 i theta)> over a disk's disk-disk
+    contacts (the sums from :func:`_contact_state`). Disks with fewer bonds are left out:
+    one bond alone gives |psi_6| = 1, two often more than 0.8."""
+    keep = bulk & (bonds >= 3)
+    if keep.sum() < 3:
+        return {}
+    psi = np.hypot(re6[keep], im6[keep]) / bonds[keep]
+    return {"psi6_bulk": float(psi.mean()), "psi6_bulk_ordered": float(np.mean(psi > 0.8))}
+
+
+class CouetteState:
+    """Rows of :func:`frame_state`, one per frame, with its time step and time (s): a
+    frame observer of the averaging (``add``, ``rows``, ``columns``, ``judged``).
+
+    Parameters
+    ----------
+    R_i, R_o, h, rho_p, d_ref : float
+        The cell's ring radii, the disks' height, their material density and the
+        reference diameter of the overlaps (SI units).
+    """
+
+    judged = JUDGED
+
+    def __init__(self, R_i, R_o, h, rho_p, d_ref):
+        self.geometry = (R_i, R_o, h, rho_p, d_ref)
+        self.rows = []
+
+    def add(self, frame) -> None:
+        self.rows.append({"step": frame.timestep, "t_s": frame.time,
+                          **frame_state(frame.atoms, frame.contacts, *self.geometry)})
+
+    def columns(self) -> dict:
+        """The rows as columns, name -> ndarray (NaN where a frame lacks a quantity)."""
+        names = list(dict.fromkeys(k for row in self.rows for k in row))
+        return {k: np.array([row.get(k, np.nan) for row in self.rows]) for k in names}
