@@ -109,6 +109,10 @@ def _parser() -> argparse.ArgumentParser:
                        "a run, default 20; or over --r-range) or slabs (over --range)")
     rings.add_argument("--edges", type=_finite, nargs="+", metavar="R",
                        help="ring (or slab) edges in m, increasing")
+    rings.add_argument("--polar-grid", type=int, nargs=2, metavar=("NR", "NPHI"),
+                       help="a polar grid: NR equal rings (from R_i to R_o of a run, or "
+                       "over --r-range about --center) in NPHI equal sectors each: field "
+                       "maps over the annulus")
     plain = avg.add_argument_group("plain LAMMPS dumps (no run directory; every number in "
                                    "the dump's own units)")
     plain.add_argument("--format", help="input format of --atoms/--contacts (lammps, csv; "
@@ -262,9 +266,10 @@ def _average(args):
                   quantities=_names(args.quantities), branch=args.branch,
                   sectors=args.sectors)
     if args.run_dir:
-        options = dict(common, bins=args.bins, edges=args.edges)
+        options = dict(common, bins=args.bins, edges=args.edges, polar_grid=args.polar_grid)
     else:
         cells = dict(thickness=args.thickness, bins=args.bins, edges=args.edges,
+                     polar_grid=args.polar_grid,
                      center=args.center, r_range=args.r_range, slabs=args.slabs,
                      range=args.range, length=args.length, grid=args.grid,
                      x_range=args.x_range, y_range=args.y_range, z_range=args.z_range,
