@@ -96,6 +96,78 @@ def _parser() -> argparse.ArgumentParser:
     avg = sub.add_parser("average", help="profiles over rings, slabs or a grid (Eqs. 1-7) "
                          "of a granavg run or an ensemble (SI units), or of plain LAMMPS "
                          "dumps (in their own units)")
+    _frames_and_cells(avg)
+    avg.add_argument("--kernel", default="exact", help="how particles enter the fields: "
+                     "exact (default: each cell's exact average, the particles' volume "
+                     "fractions in it) or a smoothing kernel, lucy, gauss or heaviside: "
+                     "fields at the cells' centres, with their gradients (gradv, D, W, "
+                     "divsigma, divdsigma); docs/profiles.md")
+    avg.add_argument("--width", type=_finite, metavar="W", help="the smoothing kernel's "
+                     "width, in the dumps' length unit (m for runs): lucy's and "
+                     "heaviside's support radius, gauss's standard deviation")
+    _branch_and_errors(avg)
+    avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
+                     "--parquet); a JSON sidecar <out>.json is written beside it")
+    avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
+    avg.add_argument("--netcdf", action="store_true", help="also write <out>.nc: the "
+                     "profiles as a NetCDF (xarray) dataset on the cells' grid, with units "
+                     "and errors")
+    avg.add_argument("--vtk", action="store_true", help="also write <out>.vtu for ParaView "
+                     "(grids, boxes and cylindrical shells)")
+    avg.add_argument("--workers", type=int, help="average on a local dask cluster of this "
+                     "many processes (frames split in chunks; same result as serial): run "
+                     "directories, LAMMPS dump.* series and uncompressed dumps")
+    avg.add_argument("--scheduler", metavar="ADDRESS", help="average on this dask "
+                     "scheduler's workers (tcp://host:8786); they must see the run directory "
+                     "or the dumps")
+    avg.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+    scl = sub.add_parser("scales", help="a scale study: the same frames averaged with a "
+                         "smoothing kernel at several widths, the fields and their errors "
+                         "against the width, and where each stops depending on it")
+    _frames_and_cells(scl)
+    scl.add_argument("--kernel", default="lucy", help="the smoothing kernel: lucy "
+                     "(default), gauss or heaviside")
+    scl.add_argument("--widths", type=_finite, nargs="+", metavar="F",
+                     default=[0.25, 0.5, 1.0, 2.0, 4.0], help="the kernel's widths in mean "
+                     "particle diameters (default 0.25 0.5 1 2 4)")
+    scl.add_argument("--diameter", type=_finite, metavar="D", help="the mean diameter, in "
+                     "the dumps' length unit (default: the run's scene, or the mean over "
+                     "the first frame's particles)")
+    scl.add_argument("--fields", help="comma-separated columns of the profiles to draw "
+                     "(default: the density and up to three of velocity, spin and stress)")
+    _branch_and_errors(scl)
+    scl.add_argument("--out", required=True, help="the study's table (.csv), one row per "
+                     "width and cell, the exact weights' profile first; <out>.json says "
+                     "where each field stops depending on the width; <out>.png and .pdf "
+                     "the figure")
+    scl.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+
+    ana = sub.add_parser("analyze", help="figures 2-9, summary.json and report.html from "
+                         "two ring profiles of one run; for profiles of any other cells "
+                         "(slabs, grids, plain dumps) the fields and the balance of forces")
+    ana.add_argument("profiles", nargs="+", help="profiles of 'granavg average' (two ring "
+                     "profiles of a run, e.g. 20 and 60 rings, for the paper's analysis)")
+    ana.add_argument("--closed", action="store_true", help="the cells' outer faces are "
+                     "walls or empty space: edge cells' balance judged too (runs' rings are)")
+    ana.add_argument("--out", required=True, help="directory for the report (must be new)")
+    ana.add_argument("--density-series", nargs="+", metavar="PROFILES", default=[],
+                     help="coarse profiles of the same scene at other area fractions: "
+                     "Fig. 5's master curve is judged on their collapse")
+
+    demo = sub.add_parser("demo", help="simulate the demo scene, average over 20 and 60 "
+                          "rings, analyse and write the report")
+    demo.add_argument("--out", required=True, help="directory to create (must be new)")
+    demo.add_argument("--omp", type=int, default=2, help="OpenMP threads (default 2)")
+    demo.add_argument("--t-min", type=_finite, default=None,
+                      help="average frames with t >= T s (default: the scene's discarded "
+                      "start, 6.3 s)")
+    return p
+
+
+def _frames_and_cells(avg):
+    """The options that choose the frames and the cells (average, scales)."""
     avg.add_argument("run_dir", nargs="*", help="run directory of 'granavg simulate' "
                      "(manifest + dumps); several: independent realisations of one scene, "
                      "combined into ensemble profiles with between-run errors; none: plain "
@@ -166,6 +238,10 @@ def _parser() -> argparse.ArgumentParser:
                      "blocking analysis, s (default: one dump interval, at most 512 blocks)")
     avg.add_argument("--quantities", help="comma-separated subset of: " + CATALOGUE +
                      " (default: all the data allow)")
+
+
+def _branch_and_errors(avg):
+    """Branch vectors and the errors' sectors (average, scales)."""
     avg.add_argument("--branch", choices=["contact", "paper"], default="contact", help=(
         "branch vectors of Eqs. 5, 7 to the contact point (default: the stress carries the "
         "contact forces exactly) or, as printed, to the surface (too large by ~overlap/d)"))
@@ -173,42 +249,6 @@ def _parser() -> argparse.ArgumentParser:
         "spatial replicas for the errors: each ring (slab) split into K sectors along phi "
         "(its length) to count the packing's frozen structure; auto (default: K from the "
         "sectors' correlation), a number from 4 to 48, or off (errors from time alone)"))
-    avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
-                     "--parquet); a JSON sidecar <out>.json is written beside it")
-    avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
-    avg.add_argument("--netcdf", action="store_true", help="also write <out>.nc: the "
-                     "profiles as a NetCDF (xarray) dataset on the cells' grid, with units "
-                     "and errors")
-    avg.add_argument("--vtk", action="store_true", help="also write <out>.vtu for ParaView "
-                     "(grids, boxes and cylindrical shells)")
-    avg.add_argument("--workers", type=int, help="average on a local dask cluster of this "
-                     "many processes (frames split in chunks; same result as serial): run "
-                     "directories, LAMMPS dump.* series and uncompressed dumps")
-    avg.add_argument("--scheduler", metavar="ADDRESS", help="average on this dask "
-                     "scheduler's workers (tcp://host:8786); they must see the run directory "
-                     "or the dumps")
-    avg.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-
-    ana = sub.add_parser("analyze", help="figures 2-9, summary.json and report.html from "
-                         "two ring profiles of one run; for profiles of any other cells "
-                         "(slabs, grids, plain dumps) the fields and the balance of forces")
-    ana.add_argument("profiles", nargs="+", help="profiles of 'granavg average' (two ring "
-                     "profiles of a run, e.g. 20 and 60 rings, for the paper's analysis)")
-    ana.add_argument("--closed", action="store_true", help="the cells' outer faces are "
-                     "walls or empty space: edge cells' balance judged too (runs' rings are)")
-    ana.add_argument("--out", required=True, help="directory for the report (must be new)")
-    ana.add_argument("--density-series", nargs="+", metavar="PROFILES", default=[],
-                     help="coarse profiles of the same scene at other area fractions: "
-                     "Fig. 5's master curve is judged on their collapse")
-
-    demo = sub.add_parser("demo", help="simulate the demo scene, average over 20 and 60 "
-                          "rings, analyse and write the report")
-    demo.add_argument("--out", required=True, help="directory to create (must be new)")
-    demo.add_argument("--omp", type=int, default=2, help="OpenMP threads (default 2)")
-    demo.add_argument("--t-min", type=_finite, default=None,
-                      help="average frames with t >= T s (default: the scene's discarded "
-                      "start, 6.3 s)")
-    return p
 
 
 def _finite(text):
@@ -253,9 +293,10 @@ def _simulate(args) -> str:
         progress=_progress(args))
 
 
-def _average(args):
+def _averaging(args, **extra) -> dict:
+    """The options of the frames, cells and errors (average, scales) for the pipeline,
+    with ``extra``; plain dumps' options refused beside a run directory."""
     from granavg.io.lammps_dumps import parse_map
-    from granavg.pipeline.averaging import average_to_file
 
     given = [o for o in PLAIN_ONLY if getattr(args, o) not in (None, [], ())]
     if args.run_dir and given:
@@ -264,25 +305,39 @@ def _average(args):
                         "already says it (drop the option or the run directory)")
     common = dict(t_min=args.t_min, block_time=args.block_time,
                   quantities=_names(args.quantities), branch=args.branch,
-                  sectors=args.sectors)
+                  sectors=args.sectors, kernel=args.kernel, **extra)
     if args.run_dir:
-        options = dict(common, bins=args.bins, edges=args.edges, polar_grid=args.polar_grid)
-    else:
-        cells = dict(thickness=args.thickness, bins=args.bins, edges=args.edges,
-                     polar_grid=args.polar_grid,
-                     center=args.center, r_range=args.r_range, slabs=args.slabs,
-                     range=args.range, length=args.length, grid=args.grid,
-                     x_range=args.x_range, y_range=args.y_range, z_range=args.z_range,
-                     layers=args.layers, area=args.area)
-        options = dict(common, cells=cells, fmt=args.format, density=args.density,
-                       dt=args.dt, units=args.units, wall_types=args.wall_types, dim=args.dim,
-                       gravity=args.gravity,
-                       atom_map=parse_map(args.atom_columns),
-                       contact_map=parse_map(args.contact_columns))
+        return dict(common, bins=args.bins, edges=args.edges, polar_grid=args.polar_grid)
+    cells = dict(thickness=args.thickness, bins=args.bins, edges=args.edges,
+                 polar_grid=args.polar_grid,
+                 center=args.center, r_range=args.r_range, slabs=args.slabs,
+                 range=args.range, length=args.length, grid=args.grid,
+                 x_range=args.x_range, y_range=args.y_range, z_range=args.z_range,
+                 layers=args.layers, area=args.area)
+    return dict(common, cells=cells, fmt=args.format, density=args.density,
+                dt=args.dt, units=args.units, wall_types=args.wall_types, dim=args.dim,
+                gravity=args.gravity,
+                atom_map=parse_map(args.atom_columns),
+                contact_map=parse_map(args.contact_columns))
+
+
+def _average(args):
+    from granavg.pipeline.averaging import average_to_file
+
+    options = _averaging(args, width=args.width)
     return average_to_file(args.run_dir, args.out, parquet=args.parquet, netcdf=args.netcdf,
                            vtk=args.vtk, workers=args.workers,
                            scheduler=args.scheduler, atoms=args.atoms, contacts=args.contacts,
                            progress=_progress(args), **options)
+
+
+def _scales(args):
+    from granavg.pipeline.scales import scale_study_to_file
+
+    return scale_study_to_file(args.run_dir, args.out, widths=args.widths,
+                               diameter=args.diameter, fields=_names(args.fields),
+                               atoms=args.atoms, contacts=args.contacts,
+                               progress=_progress(args), **_averaging(args))
 
 
 def _analyze(args):
@@ -300,7 +355,8 @@ def _demo(args):
 def argv_command(argv) -> str | None:
     """The command word of the arguments (``sys.argv`` without one)."""
     words = list(sys.argv[1:] if argv is None else argv)
-    return next((w for w in words if w in ("simulate", "average", "analyze", "demo")), None)
+    return next((w for w in words if w in ("simulate", "average", "scales", "analyze",
+                                                   "demo")), None)
 
 
 def main(argv=None) -> int:
@@ -312,7 +368,8 @@ def main(argv=None) -> int:
     with signals_as_interrupts():
         try:
             args = _parser().parse_args(argv)
-            command = {"simulate": _simulate, "average": _average, "analyze": _analyze,
+            command = {"simulate": _simulate, "average": _average, "scales": _scales,
+                       "analyze": _analyze,
                        "demo": _demo}[args.command]
             configure_logging(args.verbose)
             done = command(args)

@@ -4,7 +4,6 @@ import math
 import re
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from granavg.sim.contact_law import (ContactLaw, contact_duration, damping_for_restitution,

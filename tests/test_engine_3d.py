@@ -20,7 +20,7 @@ def cubic_crystal(a=0.002, delta=5e-5, k=100.0, n=14):
     x, y, z = (c.ravel() + 1e-7 for c in np.meshgrid(g, g, g, indexing="ij"))
     ids = np.arange(1, len(x) + 1, dtype=float)
     pos = np.column_stack([x, y, z])
-    i, j, axis = [], [], []
+    i, j = [], []
     idx = np.arange(len(x)).reshape(n, n, n)
     for ax in range(3):
         sl = [slice(None)] * 3

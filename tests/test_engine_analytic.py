@@ -5,6 +5,7 @@ import pytest
 
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.average import CellAverage, frame_sums
+from granavg.engine.cells.base import layout_of
 from granavg.engine.cells.rings import Rings
 from granavg.engine.quantities import QUANTITIES
 from granavg.io.frames import Frame
@@ -120,7 +121,8 @@ def test_chunks_merge_into_the_one_pass_result():
     channels = ["vol", "mom", "spin", "kin"]
 
     def accumulate(chunk):
-        acc = CellAccumulator((rings.n, rings.layout.n), t_min=0.0, block_time=2.0)
+        acc = CellAccumulator((rings.n, layout_of(rings.axes, channels).n), t_min=0.0,
+                              block_time=2.0)
         for f in chunk:
             acc.add(f.timestep, f.time, frame_sums(f, rings, RHO_P, channels))
         return acc

@@ -11,6 +11,7 @@ import pytest
 from granavg.engine import Grid, Rings, Slabs, average
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.average import CellAverage, frame_sums
+from granavg.engine.cells.base import layout_of
 from granavg.engine.channels import BLOCKS, Layout
 from granavg.engine.uncertainty import structure as replicas
 from granavg.engine.uncertainty.blocking import combine_errors, interaction_variance
@@ -85,7 +86,7 @@ def test_sector_sums_add_up_to_the_cells_sums(geometry):
     blocks = [b for b in BLOCKS if b not in ("wall", "body")]
     cells = frame_sums(frame, geometry, 1060.0, blocks)
     sectors = frame_sums(frame, geometry, 1060.0, blocks, sectors=24)
-    assert sectors.shape == (geometry.n, 24, len(CHANNELS))
+    assert sectors.shape == (geometry.n, 24, layout_of(geometry.axes, blocks).n)
     assert np.allclose(sectors.sum(axis=1), cells, rtol=1e-12, atol=1e-15)
     vol = sectors[:, :, INDEX["vol"]]                  # every sector holds disks
     assert np.all(vol.sum(axis=0) > 0)
@@ -106,8 +107,8 @@ def synthetic_average(rng, frozen, common, local, k=24, n_cells=3, frames=512, t
     for t in range(frames):
         T = rho * T + math.sqrt(1 - rho**2) * rng.normal(0, common)
         e = rho * e + math.sqrt(1 - rho**2) * rng.normal(0, local, e.shape)
-        sums = np.zeros((n_cells, k, len(CHANNELS)))
-        sums[:, :, INDEX["vol"]] = (0.8 + F + T + e) * vol
+        sums = np.zeros((n_cells, k, avg.layout.n))       # the channels nu needs
+        sums[:, :, avg.layout.index["vol"]] = (0.8 + F + T + e) * vol
         avg.replica_acc.add(t, float(t), sums)
         avg.acc.add(t, float(t), sums.sum(axis=1))
     structure = avg.conclude()

@@ -373,11 +373,12 @@ def test_a_signal_before_the_renames_leaves_nothing(capsys, pour, tmp_path, monk
 
 @pytest.fixture(scope="module")
 def long_series(pour, tmp_path_factory):
-    """A series of 40 files of the pour's settled frames (its last frame, at later
-    steps): long enough to be stopped by a signal with --workers."""
+    """A series of 80 files of the pour's settled frames (its last frame, at later
+    steps): long enough to be stopped by a signal with --workers (40 took 4.3 s here,
+    as long as the later signal's delay)."""
     d = tmp_path_factory.mktemp("series")
     last = "".join(frames(pour / "atoms.dump")[-1][2:])
-    for f in range(40):
+    for f in range(80):
         with open(d / f"atoms.{f * 50000}.txt", "w") as fh:
             for k in range(50):
                 fh.write(f"ITEM: TIMESTEP\n{f * 50000 + k * 1000}\n{last}")

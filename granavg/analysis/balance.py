@@ -80,9 +80,34 @@ def residuals(values, geometry, terms=FORCE_DENSITIES, dynamic=True, closed=Fals
     geometry's finite-volume form, :meth:`~granavg.engine.cells.base.Cells.residuals`),
     a stress: the flux of T through each face from the mean of the two cells beside it,
     and through the outer faces none where ``closed`` (else the edge cells are NaN:
-    their outer flux is unknown)."""
+    their outer flux is unknown). Fields of a smoothing kernel with their divergences
+    (``divsigma_*``) balance pointwise instead (:func:`pointwise`)."""
+    if pointwise_possible(values, geometry):
+        return pointwise(values, geometry, terms, dynamic)
     return geometry.residuals(tensor_total(values, geometry, dynamic),
                               force_density(values, geometry, terms), closed)
+
+
+def pointwise_possible(values, geometry) -> bool:
+    """Whether the profile holds the divergence of its stress at every node (a smoothing
+    kernel's derivative)."""
+    return all(f"divsigma_{a}" in values for a in geometry.axes)
+
+
+def pointwise(values, geometry, terms=FORCE_DENSITIES, dynamic=True):
+    """div(sigma - dsigma) + b + t at each node from the kernel's own derivative (no
+    differences between nodes), times the kernel's width w: the net force density over
+    w, a stress like the finite-volume residual's, per component."""
+    n = geometry.n
+    f = force_density(values, geometry, terms)
+    width = getattr(geometry, "width", 1.0)
+    out = []
+    for a in geometry.axes:
+        div = _component(values, f"divsigma_{a}", n)
+        if dynamic:
+            div = div - _component(values, f"divdsigma_{a}", n)
+        out.append(width * (div + f[a]))
+    return tuple(out)
 
 
 def stress_scale(values, geometry) -> float:

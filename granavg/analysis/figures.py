@@ -304,3 +304,51 @@ def fig1(first, later, contacts, R_i, R_o, *, stripes=10, axes=None):
               xlabel="x (m)", ylabel="y (m)", title=title)
     ax[1].legend(fontsize=6, loc="upper right")
     return ax
+
+
+def fig_scales(widths_d, diameter, profiles, exact, names, plateaus, *, unit="", units=None,
+               axes=None):
+    """A scale study: each field against position at each kernel width (light to dark
+    with the width; the standard errors as bands) and the exact weights' profile (black
+    points), one panel per field; each panel's title gives the plateau's widths in
+    diameters (:mod:`granavg.analysis.scales`).
+
+    Parameters
+    ----------
+    widths_d : sequence of float, shape (K,)
+        The widths in mean diameters.
+    diameter : float
+        The mean diameter, in the length unit.
+    profiles : sequence of Profiles, shape (K,)
+    exact : Profiles or None
+        The exact weights' profile of the same cells and frames.
+    names : sequence of str
+        Value columns to draw, one panel each.
+    plateaus : dict of name -> (w_from, w_to) or None
+        In the length unit (shown in diameters).
+    unit : str
+        The length unit's label.
+    units : dict of name -> str, optional
+        Each field's unit, for its axis label.
+    """
+    ax = _axes(axes, len(names), size=(4.0, 3.2))
+    line = profiles[0].cells.position()
+    colours = plt.get_cmap("viridis")(np.linspace(0.85, 0.1, len(profiles)))
+    for a, name in zip(ax, names):
+        for k, (wd, p) in enumerate(zip(widths_d, profiles)):
+            x = line[1] if line else np.arange(p.cells.n)
+            y, e = p.values[name], p.sem[name]
+            a.plot(x, y, color=colours[k], lw=1.2, label=f"w = {wd:g} d")
+            a.fill_between(x, y - e, y + e, color=colours[k], alpha=0.25, lw=0)
+        if exact is not None and name in exact.values:
+            xe = exact.cells.position()[1] if line else np.arange(exact.cells.n)
+            a.errorbar(xe, exact.values[name], exact.sem[name], ls="none", marker="o",
+                       ms=3, color="k", lw=0.8, label="exact weights")
+        span = plateaus.get(name)
+        where = f"plateau w = {span[0] / diameter:.3g}-{span[1] / diameter:.3g} d" \
+            if span else "no plateau"
+        a.set(xlabel=f"{line[0]} ({unit})" if line else "cell",
+              ylabel=f"{name} ({(units or {}).get(name) or '-'})",
+              title=f"{name}: {where}")
+        a.legend(fontsize=6)
+    return ax

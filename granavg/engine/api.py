@@ -19,9 +19,11 @@ from __future__ import annotations
 import itertools
 import logging
 
+import numpy as np
+
 from granavg.engine.average import CellAverage
 from granavg.engine.profiles import Profiles
-from granavg.engine.quantities import groups_for, missing_columns
+from granavg.engine.quantities import QUANTITIES, groups_for, missing_columns
 from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError
 
@@ -54,6 +56,27 @@ def _with_columns(groups, requested: bool, frame, dim: int) -> tuple:
             f"{g} (no {' '.join(c for _, c in m)})" for g, m in lacking.items()))
     return [g for g in groups if g not in lacking], {g: [c for _, c in m]
                                                      for g, m in lacking.items()}
+
+
+def _resolvable(cells, radius) -> None:
+    """Refuse a kernel narrower than half the smallest particle radius: the fields
+    would resolve single particles (a particle-resolved, not a continuum, picture);
+    warn below the mean radius."""
+    radius = np.asarray(radius, float)
+    if not len(radius):
+        return
+    smallest = float(radius.min())
+    if cells.width < 0.5 * smallest:
+        raise ParameterError("width", f"{{param}} {cells.width:g}: below half the smallest "
+                             f"particle radius ({smallest:g}), the fields would resolve "
+                             "single particles; give a width of at least "
+                             f"{0.5 * smallest:g} (a diameter or more for continuum "
+                             "fields)")
+    mean = float(radius.mean())
+    if cells.width < mean:
+        log.warning("kernel width %g below the mean particle radius %g: the fields are "
+                    "particle-resolved (layers show; the volume fraction at a node can "
+                    "exceed 1), not continuum fields", cells.width, mean)
 
 
 def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
@@ -110,12 +133,16 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         raise UserError("no frame to average")
     has_contacts = head[0].contacts is not None
     has_mass = "mass" in head[0].atoms
-    groups = groups_for(quantities, has_contacts, "bx" in head[0].atoms)
+    kernel = getattr(cells, "kernel", None)
+    if kernel is not None:
+        _resolvable(cells, head[0].atoms["radius"])
+    groups = groups_for(quantities, has_contacts, "bx" in head[0].atoms,
+                        smooth=bool(kernel and kernel.smooth_edge))
     groups, lacking = _with_columns(groups, quantities is not None, head[0], cells.dim)
     if rho_p is not None and has_mass:
         log.info("the masses come from the atoms' mass column; the material density "
                  "given is not used")
-    massive = [g for g in groups if g in ("rho", "dsigma", "dsigma_fluct")]
+    massive = [g for g in groups if QUANTITIES[g].needs_mass]
     if rho_p is None and not has_mass:
         if quantities is not None and massive:
             raise ParameterError("rho_p", f"{massive[0]} needs masses: give the material "

@@ -21,11 +21,12 @@ from typing import Protocol
 import numpy as np
 
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.cells.base import Cells
+from granavg.engine.cells.base import Cells, layout_of
 from granavg.engine.kernels import (BRANCHES, cell_sums, contact_rows, particle_channels,
                                    sector_sums, wall_points)
 from granavg.engine.profiles import Profiles, flags, standard_errors, values
 from granavg.engine.quantities import QUANTITIES
+from granavg.engine.smoothing.sums import smoothed_frame_sums
 from granavg.engine.stationarity import DRIFT_Z, stationarity
 from granavg.engine.uncertainty import structure
 from granavg.errors import ParameterError, named
@@ -104,6 +105,8 @@ class CellAverage:
                        else self.sectors or 0)
         self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
         self.channels = sorted({b for g in self.groups for b in QUANTITIES[g].blocks})
+        #: the channels held: only the blocks the quantities need
+        self.layout = layout_of(cells.axes, self.channels)
         self.series = series
         self.results: Profiles | None = None
         self.meta: dict = {}
@@ -121,7 +124,7 @@ class CellAverage:
 
     def prepare(self):
         """Start with an empty accumulator (and time series)."""
-        n_channels = self.cells.layout.n
+        n_channels = self.layout.n
         self.acc = CellAccumulator((self.cells.n, n_channels), self.t_min, self.block_time)
         self.replica_acc = CellAccumulator(
             (self.cells.n, self.k_fine, n_channels), self.t_min, self.block_time,
@@ -154,7 +157,7 @@ class CellAverage:
 
     def conclude(self) -> Profiles:
         """Profiles of the frames added so far."""
-        acc, V, layout = self.acc, self.cells.volume, self.cells.layout
+        acc, V, layout = self.acc, self.cells.volume, self.layout
         if acc.n_frames == 0:
             raise ParameterError("t_min", f"no frame at t >= {self.t_min:g}, the start of "
                                  "the average ({param}); lower it")
@@ -168,13 +171,16 @@ class CellAverage:
             meta["branch"] = self.branch
         if "boundary" in self.groups:
             seen = bool(np.any(layout.block(S, "wall") != 0))
+            # a kernel's nodes see only the contacts within its support
+            where = "within the kernel's support of any node" \
+                if getattr(self.cells, "kernel", None) is not None else "in the contact data"
             meta["boundary"] = "wall contacts at their contact points" if seen else (
-                "absent: no wall contact in the contact data (walls made by fix wall/gran "
+                f"absent: no wall contact {where} (walls made by fix wall/gran "
                 "leave none: their force on the packing is not in the balance; wall atoms "
                 "named as walls are)")
             if not seen:
-                log.info("no wall contact in the contact data: the boundary force density "
-                         "is absent (walls as fix wall/gran leave no contact rows)")
+                log.info("no wall contact %s: the boundary force density is absent (walls "
+                         "as fix wall/gran leave no contact rows)", where)
         ring_flags = flags(S, self.groups, layout)
         extra = [[] for _ in ring_flags]
         if len(counts) < 2:
@@ -284,20 +290,23 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     ``sectors`` > 0: the sums of each cell's sectors (the cells' ``sector_shares``),
     which add up to the cell's.
     """
+    layout = layout_of(cells.axes, blocks)
+    if getattr(cells, "spreads_branches", False):     # a smoothing kernel's nodes
+        return smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout)
     a = frame.atoms
     contacts = frame.contacts
     radius = a["radius"]
     rows = contact_rows(a, contacts) if contacts is not None and (
         {"ncontact", "fab", "sig", "def", "wall"} & set(blocks)) else None
     n = cells.n * max(sectors, 1)
-    sums = np.zeros((n, cells.layout.n))
-    buffer = np.empty((min(CHUNK, len(radius)), cells.layout.n))
+    sums = np.zeros((n, layout.n))
+    buffer = np.empty((min(CHUNK, len(radius)), layout.n))
     for lo in range(0, len(radius), CHUNK):
         part = slice(lo, lo + CHUNK)
         chunk = {k: v[part] for k, v in a.items()}
         pos = tuple(chunk[c] for c in cells.position_names)
         r = chunk["radius"]
-        q = particle_channels(chunk, contacts, cells.layout, cells.particle_volume(r),
+        q = particle_channels(chunk, contacts, layout, cells.particle_volume(r),
                               cells.def_factor(r), rho_p, blocks, basis=cells.basis(pos),
                               branch=branch, rows=rows, first=lo, out=buffer)
         particle, cell, w = cells.weights(pos, r)
@@ -315,7 +324,7 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
         if sectors:
             where = where * sectors + cells.sector_shares(      # radius 0: its centre's
                 at, np.zeros(len(points)), sectors)[0][:, 0]
-        first = cells.layout.first("wall")
+        first = layout.first("wall")
         for i in range(cells.dim):
             along = np.einsum("pj,pj->p", forces, E[:, i, :]) if cells.dim == 3 else \
                 forces[:, 0] * E[:, i, 0] + forces[:, 1] * E[:, i, 1]

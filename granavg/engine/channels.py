@@ -22,6 +22,11 @@ kin        kin_<ij>                    m^p v_i v_j
 def        def_<ij>                    (V^p / a_p^2) sum_c Delta_i l_j
 wall       wall_<i>                    the walls' forces (at the contact points)
 body       body_<i>                    b^p (gravity, base-plate friction, ...)
+dvol       dvol_<j>                    d_j of the vol sum (smoothing kernels only)
+dmom       dmom_<ij>                   d_j of the mom_i sum
+dsig       dsig_<i>                    sum_j d_j of the sig_ij sum
+dkin       dkin_<i>                    sum_j d_j of the kin_ij sum
+rinv       rinv                        V^p / r_k (r_k the node's radius in a polar basis)
 =========  ==========================  ==========================================
 
 For disks V^p / a_p^2 = pi h, the factor of Eq. 7; a sphere's is 4/3 pi a_p. The 2D
@@ -101,7 +106,20 @@ BLOCK = {b.name: b for b in (
     Block("def", "tensor", ("id",), (*_PAIRS, "{n}", "overlap")),
     Block("wall", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
     Block("body", "vector", ("{b}",)),
+    # the derivatives a smoothing kernel gives (granavg.engine.smoothing): d_j of the
+    # volume and momentum sums, and the divergences d_j T_ij of the static and kinetic
+    # stress sums, along the cells' basis (partial derivatives: the curvature terms of a
+    # polar basis are added with the values)
+    Block("dvol", "vector"),
+    Block("dmom", "tensor", ("{v}",)),
+    Block("dsig", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
+    Block("dkin", "vector", ("{v}",)),
+    # 1/r of the node, weighted as the volume (1/r = rinv / vol): the curvature terms of
+    # a polar basis, from the sums alone
+    Block("rinv", "scalar"),
 )}
+#: Blocks only a smoothing kernel fills.
+DERIVATIVE_BLOCKS = ("dvol", "dmom", "dsig", "dkin", "rinv")
 #: The blocks in channel order.
 BLOCKS = tuple(BLOCK)
 #: Blocks that the particles' contacts fill in the contact pass (``wall`` is filled at
@@ -115,28 +133,43 @@ def pairs(axes) -> tuple:
     return tuple(i + j for i in axes for j in axes)
 
 
+#: Blocks every layout holds (the particles' volume and mass: cheap, and read by the
+#: flags and several quantities).
+ALWAYS = ("vol", "mass")
+
+
 @dataclass(frozen=True)
 class Layout:
-    """Channel names and positions for cells whose basis has these axes.
+    """Channel names and positions for cells whose basis has these axes, holding the
+    ``blocks`` an average needs (all by default; :data:`ALWAYS` always).
 
     Attributes
     ----------
     axes : tuple of str
         The basis' axes: ``("r", "phi")`` (rings), ``("x", "y")``, ``("x", "y", "z")``
         or ``("r", "phi", "z")`` (cylindrical shells).
+    blocks : tuple of str, optional
+        The blocks held, in :data:`BLOCKS` order.
     offsets : tuple of int
-        The first channel of each block, in :data:`BLOCKS` order: what the compiled
-        kernels index.
+        The first channel of each block, in :data:`BLOCKS` order (-1 for a block not
+        held): what the compiled kernels index, for the blocks they are asked to fill.
     """
 
     axes: tuple
+    blocks: tuple = None
     names: tuple = field(init=False)
     index: dict = field(init=False)
     offsets: tuple = field(init=False)
 
     def __post_init__(self):
+        held = BLOCKS if self.blocks is None else tuple(
+            b for b in BLOCKS if b in self.blocks or b in ALWAYS)
+        object.__setattr__(self, "blocks", held)
         names, first = [], []
         for b in BLOCK.values():
+            if b.name not in held:
+                first.append(-1)
+                continue
             first.append(len(names))
             if b.shape in ("vector", "axial") and b.size(self.dim) > 1:
                 names += [f"{b.name}_{i}" for i in self.axes]
@@ -159,6 +192,8 @@ class Layout:
 
     def first(self, block: str) -> int:
         """Column of the block's first channel."""
+        if block not in self.blocks:
+            raise KeyError(f"block {block!r} is not in this layout ({', '.join(self.blocks)})")
         return self.offsets[BLOCKS.index(block)]
 
     def block(self, S, block: str):
@@ -172,5 +207,6 @@ class Layout:
 
 
 def stacked(S: np.ndarray, layout: Layout, blocks) -> np.ndarray:
-    """The columns of several blocks of sums ``S`` side by side."""
-    return np.concatenate([layout.block(S, b) for b in blocks], axis=-1)
+    """The columns of the blocks of sums ``S`` that the layout holds, side by side."""
+    held = [layout.block(S, b) for b in blocks if b in layout.blocks]
+    return np.concatenate(held, axis=-1) if held else S[..., :0]

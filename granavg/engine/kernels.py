@@ -218,8 +218,9 @@ def _fill_particles(q, vol, mass, v, w, b, E, moving, kinetic, spin, body, dims,
         q[p, off[VOL]], q[p, off[MASS]] = vol[p], mass[p]
         if moving:
             vb = project(v, p, E, p, 1.0, dims)
-            for i in range(D):
-                q[p, off[MOM] + i] = vol[p] * vb[i]
+            if off[MOM] >= 0:                   # the kinetic tensor may come alone
+                for i in range(D):
+                    q[p, off[MOM] + i] = vol[p] * vb[i]
             if kinetic:
                 m = mass[p]
                 for i in range(D):

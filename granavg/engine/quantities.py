@@ -55,6 +55,9 @@ class Quantity:
         ``flag(S, layout) -> ndarray of bool (n_cells,)``: cells where its value is
         undefined, flagged with :attr:`flag_name`.
     flag_name : str
+    smooth : bool
+        It needs a smoothing kernel with a continuous edge (its values are derivatives
+        of the coarse-grained fields, :mod:`granavg.engine.smoothing`).
     help : str
         What it is, in words (the command line's help).
     """
@@ -67,6 +70,7 @@ class Quantity:
     balanced: Callable | None = None
     flag: Callable | None = None
     flag_name: str = ""
+    smooth: bool = False
     help: str = ""
 
     @property
@@ -182,6 +186,71 @@ def _values(fn, name):
     return lambda S, V, layout: fn(S, V, layout, name)
 
 
+def _curvature(S, layout):
+    """1/r of each node in a polar basis (the ``rinv`` block over ``vol``), else None."""
+    if layout.axes[:2] != ("r", "phi"):
+        return None
+    return S[:, layout.index["rinv"]] * _inverse_volume(S, layout)
+
+
+def _gradient(S, layout):
+    """L_ij = d v_i / d x_j at each node, shape (n, D, D), from the kernel's derivatives:
+    v = P / N (P, N the momentum and volume sums), d_j v_i = (d_j P_i - v_i d_j N) / N,
+    plus in a polar basis the curvature terms L_rphi -= v_phi / r, L_phiphi += v_r / r."""
+    D = layout.dim
+    inv_vol = _inverse_volume(S, layout)
+    v = layout.block(S, "mom") * inv_vol[:, None]
+    dP = layout.block(S, "dmom").reshape(-1, D, D)
+    dN = layout.block(S, "dvol")
+    L = (dP - v[:, :, None] * dN[:, None, :]) * inv_vol[:, None, None]
+    rinv = _curvature(S, layout)
+    if rinv is not None:
+        L[:, 0, 1] -= v[:, 1] * rinv
+        L[:, 1, 1] += v[:, 0] * rinv
+    return L
+
+
+def _tensor_columns(T, layout, name):
+    D = layout.dim
+    return {f"{name}_{c}": T.reshape(-1, D * D)[:, k] for k, c in enumerate(pairs(layout.axes))}
+
+
+def _gradv(S, V, layout, name):
+    return _tensor_columns(_gradient(S, layout), layout, name)
+
+
+def _rate(S, V, layout, name):
+    """D = (L + L^T) / 2 (Eq. 13)."""
+    L = _gradient(S, layout)
+    return _tensor_columns(0.5 * (L + np.swapaxes(L, 1, 2)), layout, name)
+
+
+def _spin_rate(S, V, layout, name):
+    """W_ij = (L_ji - L_ij) / 2: W_rphi = (dv_phi/dr + v_phi/r) / 2 for a flow v_phi(r),
+    the rotation rate, equal to Omega in a rigid rotation (Eq. 14's sign)."""
+    L = _gradient(S, layout)
+    return _tensor_columns(0.5 * (np.swapaxes(L, 1, 2) - L), layout, name)
+
+
+def _divergence(block, div_block):
+    """(div T)_i = sum_j d_j T_ij per node volume: the kernel's partial derivatives, plus
+    in a polar basis the curvature terms (T_rr - T_phiphi)/r, (T_rphi + T_phir)/r and,
+    in 3D, T_zr / r."""
+    def value(S, V, layout, name):
+        D = layout.dim
+        div = layout.block(S, div_block) / V[:, None]
+        rinv = _curvature(S, layout)
+        if rinv is not None:
+            T = (layout.block(S, block) / V[:, None]).reshape(-1, D, D)
+            div = div.copy()
+            div[:, 0] += (T[:, 0, 0] - T[:, 1, 1]) * rinv
+            div[:, 1] += (T[:, 0, 1] + T[:, 1, 0]) * rinv
+            if D == 3:
+                div[:, 2] += T[:, 2, 0] * rinv
+        return {n: div[:, k] for k, n in enumerate(columns(name, layout.axes))}
+    return value
+
+
 #: Every quantity, by name.
 QUANTITIES = {q.name: q for q in (
     Quantity("nu", ("vol",), "scalar", _values(_ratio("vol", "nu"), "nu"),
@@ -209,6 +278,20 @@ QUANTITIES = {q.name: q for q in (
              balanced=_all_components, help="force density of the walls"),
     Quantity("body", ("body",), "vector", _values(_per_cell_volume("body"), "body"),
              help="body force density: gravity, base-plate friction, a force column"),
+    Quantity("gradv", ("vol", "mom", "dvol", "dmom", "rinv"), "tensor",
+             _values(_gradv, "gradv"), smooth=True,
+             help="velocity gradient d v_i / d x_j (smoothing kernels only)"),
+    Quantity("D", ("vol", "mom", "dvol", "dmom", "rinv"), "tensor", _values(_rate, "D"),
+             smooth=True, help="deformation rate, Eq. 13 (smoothing kernels only)"),
+    Quantity("W", ("vol", "mom", "dvol", "dmom", "rinv"), "tensor",
+             _values(_spin_rate, "W"), smooth=True,
+             help="rotation rate, Eq. 14 (smoothing kernels only)"),
+    Quantity("divsigma", ("vol", "sig", "dsig", "rinv"), "vector",
+             _values(_divergence("sig", "dsig"), "divsigma"), smooth=True,
+             help="divergence of the static stress (smoothing kernels only)"),
+    Quantity("divdsigma", ("vol", "kin", "dkin", "rinv"), "vector",
+             _values(_divergence("kin", "dkin"), "divdsigma"), needs_mass=True, smooth=True,
+             help="divergence of the dynamic stress (smoothing kernels only)"),
 )}
 
 
@@ -283,13 +366,20 @@ def missing_columns(group: str, atoms, contacts, dim: int) -> list:
     return list(dict.fromkeys(missing))
 
 
-def groups_for(quantities, have_contacts: bool, have_body: bool = False) -> list:
+def groups_for(quantities, have_contacts: bool, have_body: bool = False,
+               smooth: bool = False) -> list:
     """The quantity groups to compute: the requested ones (checked), or all that the
     data allow (without contacts, only those that need none; ``body`` only where the
-    frames carry body forces)."""
+    frames carry body forces; the derivatives only with a ``smooth`` kernel)."""
     if quantities is None:
         return [g for g, q in QUANTITIES.items()
-                if (have_contacts or not q.contacts) and (have_body or g != "body")]
+                if (have_contacts or not q.contacts) and (have_body or g != "body")
+                and (smooth or not q.smooth)]
+    rough = [q for q in quantities if q in QUANTITIES and QUANTITIES[q].smooth and not smooth]
+    if rough:
+        raise ParameterError("quantities", f"{rough[0]} is a derivative of the coarse-"
+                             "grained fields: it needs a smoothing kernel continuous at "
+                             "its edge ({kernel} lucy or gauss, with {width})")
     unknown = [q for q in quantities if q not in QUANTITIES]
     if unknown:
         raise ParameterError("quantities", f"{{param}}: unknown quantity {unknown[0]!r}; "

@@ -18,6 +18,7 @@ from granavg.engine.body_forces import add_body_forces, base_plate
 from granavg.engine.cells import Space, from_options
 from granavg.engine.cells.base import Cells
 from granavg.engine.quantities import catalogue
+from granavg.engine.smoothing import smooth
 from granavg.engine.unit_system import SI
 from granavg.io.frames import Frame
 from granavg.pipeline.prefetch import Prefetched
@@ -100,15 +101,18 @@ class RunAverage:
 
     @classmethod
     def of(cls, manifest: dict, groups, *, t_min=None, block_time=None, branch="contact",
-           sectors="auto", **cells) -> "RunAverage":
+           sectors="auto", kernel=None, width=None, **cells) -> "RunAverage":
         """The average of the run ``manifest`` describes, options resolved. ``cells``:
         options of the cells (:func:`granavg.engine.cells.from_options`; ``bins`` equal
         rings or ``edges``, or any kind of 2D cells about the cell's axis), in the run's
-        annulus: the disks' height h, radii from R_i to R_o about the origin."""
+        annulus: the disks' height h, radii from R_i to R_o about the origin; with a
+        smoothing ``kernel`` of ``width`` (m), their nodes
+        (:func:`granavg.engine.smoothing.smooth`)."""
         scene, derived = manifest["scene"], manifest["derived"]
         given = {k: v for k, v in cells.items() if v is not None}
-        rings = from_options(Space(2), **{"thickness": scene["h"],
-                                          "r_range": (scene["R_i"], scene["R_o"]), **given})
+        rings = smooth(from_options(Space(2), **{"thickness": scene["h"],
+                                                 "r_range": (scene["R_i"], scene["R_o"]),
+                                                 **given}), kernel, width)
         t_min = discard_time(manifest) if t_min is None else float(t_min)
         block_time = block_time or max(derived["dump_interval_s"],
                                        (derived["t_end_s"] - t_min) / MAX_BLOCKS)

@@ -11,6 +11,7 @@ from granavg.engine import body_forces
 from granavg.engine.api import averager
 from granavg.engine.cells import Space, from_options
 from granavg.engine.profiles import Profiles
+from granavg.engine.smoothing import smooth
 from granavg.errors import ParameterError
 from granavg.io import formats, validate
 from granavg.pipeline.description import WithBodyForces
@@ -31,7 +32,8 @@ def average_dumps(atoms, contacts=None, *, progress=None, **options) -> Profiles
 
 def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
                   quantities=None, t_min=None, block_time=None, gravity=None,
-                  branch="contact", sectors="auto", check_cells=None, **source_options):
+                  branch="contact", sectors="auto", check_cells=None, kernel=None,
+                  width=None, **source_options):
     """The averager of anyone's dumps (:func:`granavg.engine.api.averager`) and the
     frame source it reads (whose ``dropped`` counts rows left out).
 
@@ -56,6 +58,10 @@ def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     sectors : "auto", int or None
         Sectors per cell along the symmetry direction (rings: phi; slabs: their length)
         for the errors' spatial replicas (:mod:`granavg.engine.uncertainty.structure`).
+    kernel, width : optional
+        A smoothing kernel (``lucy``, ``gauss``, ``heaviside``; :mod:`granavg.engine.
+        smoothing`) and its width, in the dumps' length unit: fields at the cells'
+        centres instead of the cells' exact averages.
     check_cells : callable, optional
         Called with the cells before any frame is averaged (e.g. that an output can hold
         them); raises to refuse.
@@ -76,7 +82,7 @@ def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     space = Space(dim, frames.box, getattr(frames, "periodic", None) or (lambda: (False,) * 3),
                   getattr(frames, "tilt", None) or (lambda: (0.0, 0.0, 0.0)),
                   getattr(frames, "dim_reason", None))
-    cells_of_options = from_options(space, **cells)
+    cells_of_options = smooth(from_options(space, **cells), kernel, width)
     if check_cells is not None:
         check_cells(cells_of_options)
     if gravity and frames.units.momentum_flux:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from granavg.engine.profiles import Profiles
 from granavg.engine.quantities import QUANTITIES, groups_for, needed_columns
+from granavg.engine.smoothing import get as get_kernel
 from granavg.errors import UserError
 from granavg.io import validate
 from granavg.io.reader import DumpReader
@@ -17,7 +18,7 @@ from granavg.pipeline.description import RunAverage, scene_body_forces
 
 def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms=None,
                  contacts=None, steps=None, branch="contact", sectors="auto",
-                 check_cells=None, **cells):
+                 check_cells=None, kernel=None, width=None, **cells):
     """The :class:`~granavg.engine.average.CellAverage` of a run directory, its frames
     read lazily (only those with time steps in ``steps = (first, last)`` if given).
 
@@ -39,6 +40,9 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
     sectors : "auto", int or None
         Sectors per ring for the errors' spatial replicas
         (:mod:`granavg.engine.uncertainty.structure`).
+    kernel, width : optional
+        A smoothing kernel and its width (m): fields at the cells' centres
+        (:mod:`granavg.engine.smoothing`).
     check_cells : callable, optional
         Called with the cells before any frame is read (e.g. that an output can hold
         them); raises to refuse.
@@ -55,7 +59,8 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
     if contacts is None and (run_dir / f"contacts.{ext}").exists():
         contacts = run_dir / f"contacts.{ext}"
     body = scene_body_forces(manifest)
-    groups = groups_for(quantities, contacts is not None, bool(body))
+    smooth_edge = kernel not in (None, "exact") and get_kernel(kernel).smooth_edge
+    groups = groups_for(quantities, contacts is not None, bool(body), smooth=smooth_edge)
     atom_cols, contact_cols = needed_columns(groups)
     if "body" in groups:                  # computed from the disks' velocities, not read
         atom_cols = {**{c: g for c, g in atom_cols.items() if c not in ("bx", "by")},
@@ -65,7 +70,8 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
     reader_c = DumpReader(contacts, list(contact_cols), contact_cols, steps) \
         if need_contacts else None
     spec = RunAverage.of(manifest, groups, t_min=t_min, block_time=block_time,
-                         branch=branch, sectors=sectors, **cells)
+                         branch=branch, sectors=sectors, kernel=kernel, width=width,
+                         **cells)
     if check_cells is not None:
         check_cells(spec.geometry)
     spec.files = {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None}

@@ -29,7 +29,16 @@ def registry() -> dict:
 
 
 def restore(description: dict) -> Cells:
-    """The cells a sidecar describes (``describe()``'s dict; older sidecars: rings)."""
+    """The cells a sidecar describes (``describe()``'s dict; older sidecars: rings); with
+    a ``kernel``, the smoothed nodes of them
+    (:class:`~granavg.engine.smoothing.smoothed.Smoothed`)."""
+    if "kernel" in description:
+        from granavg.engine.smoothing import get
+        from granavg.engine.smoothing.smoothed import Smoothed
+
+        inner = {k: v for k, v in description.items() if k not in ("kernel", "width")}
+        return Smoothed(restore(inner), get(description["kernel"]),
+                        float(description["width"]))
     kind = description.get("kind", "rings")
     known = registry()
     if kind not in known:

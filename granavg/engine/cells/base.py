@@ -153,7 +153,7 @@ class Cells(ABC):
 
     @property
     def layout(self) -> Layout:
-        """The channels of the cell sums in this basis."""
+        """The channels of the cell sums in this basis (every block)."""
         return layout_of(self.axes)
 
     @abstractmethod
@@ -208,6 +208,17 @@ class Cells(ABC):
         (:mod:`granavg.analysis.balance`). ``T``: the stress components (``rr``,
         ``rphi``, ... or ``xx``, ...), ``f``: the force density per axis; ``closed``:
         no flux through the outer faces (else the edge cells are NaN)."""
+
+    @abstractmethod
+    def nodes(self) -> tuple:
+        """Where a smoothing kernel evaluates the fields of these cells (their centres;
+        :mod:`granavg.engine.smoothing.nodes`): ``("lattice", (x, y[, z]))`` points on
+        a rectilinear lattice of node coordinates (node k the C-order index),
+        ``("planes", axis, u, section)`` planes across the axis (index 0, 1, 2) at u,
+        of the cells' extent along them (length in 2D, area in 3D),
+        ``("circles", center, radii, heights)`` circles about the axis (node k = ring *
+        n_heights + layer; 2D: one height, 0), ``("polar", center, radii, phis)`` points
+        of a polar lattice (node k = ring * n_phi + sector)."""
 
     def position(self):
         """(name, coordinate per cell) where the cells form a line, else None."""
@@ -267,11 +278,13 @@ def disk_height(space: Space, h) -> float:
 _LAYOUTS = {}
 
 
-def layout_of(axes) -> Layout:
-    """One Layout per set of axes (they are immutable)."""
-    if axes not in _LAYOUTS:
-        _LAYOUTS[axes] = Layout(axes)
-    return _LAYOUTS[axes]
+def layout_of(axes, blocks=None) -> Layout:
+    """One Layout per set of axes and blocks (they are immutable); every block by
+    default."""
+    key = (tuple(axes), None if blocks is None else tuple(sorted(blocks)))
+    if key not in _LAYOUTS:
+        _LAYOUTS[key] = Layout(tuple(axes), key[1])
+    return _LAYOUTS[key]
 
 
 def checked_edges(values, what) -> np.ndarray:

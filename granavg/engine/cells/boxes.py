@@ -114,6 +114,10 @@ class Boxes(Spheres, Imaged, Cells):
             out.append(width * (div.ravel() + f[c]))
         return tuple(out)
 
+    def nodes(self):
+        """The boxes' centres."""
+        return "lattice", tuple(0.5 * (e[1:] + e[:-1]) for e in self.edges3)
+
     def planes(self):
         nx, ny, nz = self.shape
         return [(f"x-y, layer {nz // 2 + 1} of {nz} in z", ("x", self.xedges),

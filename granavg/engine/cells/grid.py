@@ -119,6 +119,10 @@ class Grid(Disks, Imaged, Cells):
             return np.where(inner, d, np.nan).ravel()
         return (width * (div("x") + f["x"]), width * (div("y") + f["y"]))
 
+    def nodes(self):
+        """The rectangles' centres."""
+        return "lattice", tuple(0.5 * (e[1:] + e[:-1]) for e in (self.xedges, self.yedges))
+
     def planes(self):
         nx, ny = self.shape
         return [("x-y", ("x", self.xedges), ("y", self.yedges), lambda a: a.reshape(nx, ny).T)]

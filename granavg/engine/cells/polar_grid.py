@@ -181,6 +181,11 @@ class PolarGrid(Disks, Cells):
         return tuple((dr * (res + f[c].reshape(nr, nphi))).ravel()
                      for res, c in ((res_r, "r"), (res_phi, "phi")))
 
+    def nodes(self):
+        """The cells' centres (mid radius, mid angle)."""
+        return "polar", self.center, 0.5 * (self.edges[1:] + self.edges[:-1]), \
+            0.5 * (self.phi_edges[1:] + self.phi_edges[:-1])
+
     def planes(self):
         """The annulus in x-y, each cell's arc drawn in several pieces."""
         nr, nphi = self.shape

@@ -118,5 +118,9 @@ class Rings(Disks, Cells):
     def position(self):
         return "r", self.coordinates()["r"]
 
+    def nodes(self):
+        """The rings' mid circles."""
+        return "circles", self.center, self.centre, np.zeros(1)
+
 
 CELLS = Rings

@@ -162,6 +162,11 @@ class Shells(Spheres, Imaged, Cells):
         return tuple(width * (res.ravel() + f[c]) for res, c in
                      ((res_r, "r"), (res_phi, "phi"), (res_z, "z")))
 
+    def nodes(self):
+        """Circles at the shells' mid radii and the layers' mid heights."""
+        return "circles", self.center, self.centre_r, 0.5 * (self.zedges[1:] +
+                                                              self.zedges[:-1])
+
     def position(self):
         return ("r", self.coordinates()["r"]) if self.shape[1] == 1 else None
 

@@ -49,6 +49,12 @@ class AcrossAxis:
     def position(self):
         return self.axis, self.coordinates()[self.axis]
 
+    def nodes(self):
+        """The slabs' mid planes, and the slabs' extent along them (length in 2D, area
+        in 3D)."""
+        return "planes", "xyz".index(self.axis), 0.5 * (self.edges[1:] + self.edges[:-1]), \
+            self.volume / (np.diff(self.edges) * (self.h if self.dim == 2 else 1.0))
+
 
 @dataclass(frozen=True)
 class Slabs(Disks, Imaged, AcrossAxis, Cells):

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from granavg.engine.cells import sectors
 from granavg.engine.cells.base import (Cells, Imaged, Space, Spheres, cartesian_basis,
                                       check_range, checked_edges, cuts, periods_of, positive,
                                       spans_of)
@@ -18,12 +19,18 @@ from granavg.errors import ParameterError, UserError
 class Slabs3D(Spheres, Imaged, AcrossAxis, Cells):
     """Slabs [u_k, u_k+1) across ``axis`` (x, y or z) with cross-section ``area`` (the
     slabs are taken to span the packing in the other two directions); volumes area x
-    (u_k+1 - u_k). Exact weights (spherical caps). Cartesian basis."""
+    (u_k+1 - u_k). Exact weights (spherical caps). Cartesian basis.
+
+    ``span`` = (lo, hi), the slabs' extent along their first other axis (x for slabs
+    across y or z, y across x), lets them split into strips along it: the spatial
+    replicas of the errors (a packing's frozen structure). Without it the errors come
+    from time alone."""
 
     edges: np.ndarray
     axis: str = "z"
     area: float = 1.0
     periods: tuple | None = None
+    span: tuple | None = None
 
     kind = "slabs3d"
     title = "3D slabs"
@@ -58,12 +65,18 @@ class Slabs3D(Spheres, Imaged, AcrossAxis, Cells):
             area = (others[0][1] - others[0][0]) * (others[1][1] - others[1][0])
         positive("area", area)
         periods = tuple(space.period(a, range) if a == slabs else None for a in "xyz")
-        return cls(cells, slabs, float(area), periods if any(periods) else None)
+        span = None if space.tilted else tuple(space.span(_along(slabs)))
+        return cls(cells, slabs, float(area), periods if any(periods) else None, span)
 
     @classmethod
     def restore(cls, d: dict) -> "Slabs3D":
         return cls(np.asarray(d["edges"], float), d["axis"], float(d["area"]),
-                   periods_of(d.get("periods")))
+                   periods_of(d.get("periods")), tuple(d["span"]) if d.get("span") else None)
+
+    @property
+    def symmetry(self):
+        """The direction of the strips (:attr:`span`), or None without one."""
+        return None if self.span is None else _along(self.axis)
 
     def __post_init__(self):
         object.__setattr__(self, "edges", checked_edges(self.edges, "slab edges"))
@@ -84,9 +97,18 @@ class Slabs3D(Spheres, Imaged, AcrossAxis, Cells):
     def basis(self, pos):
         return cartesian_basis(len(pos[0]), 3)
 
+    def sector_shares(self, pos, a, k):
+        return sectors.along_line(pos["xyz".index(_along(self.axis))], a, self.span, k, 3)
+
     def describe(self) -> dict:
-        return {"kind": self.kind, "edges": list(self.edges), "axis": self.axis,
-                "area": self.area, "periods": spans_of(self.periods)}
+        out = {"kind": self.kind, "edges": list(self.edges), "axis": self.axis,
+               "area": self.area, "periods": spans_of(self.periods)}
+        return out if self.span is None else {**out, "span": [float(v) for v in self.span]}
+
+
+def _along(axis: str) -> str:
+    """The axis of the strips of slabs across ``axis``."""
+    return "y" if axis == "x" else "x"
 
 
 

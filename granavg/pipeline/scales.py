@@ -1,0 +1,166 @@
+"""The ``scales`` command: a scale study of one run (or ensemble) or of anyone's dumps -
+the same frames averaged with the exact weights and with a smoothing kernel at several
+widths (in mean diameters), each field's change from one width to the next against
+its error, the plateau where it stops depending on the width
+(:mod:`granavg.analysis.scales`), written as one set: the table, a JSON summary and the
+figure (:func:`granavg.analysis.figures.fig_scales`)."""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from granavg.analysis.scales import FLAT, plateau, steps
+from granavg.engine.smoothing import get
+from granavg.engine.unit_system import SI, UnitSystem
+from granavg.errors import ParameterError
+from granavg.io import formats, validate
+from granavg.io.output_set import OutputSet
+from granavg.io.profiles_io import write_csv
+from granavg.io.run_directory import read_manifest
+from granavg.pipeline.averaging import average_runs
+from granavg.pipeline.dumps import average_dumps
+from granavg.pipeline.runs import average_run, chosen_sectors
+
+log = logging.getLogger(__name__)
+
+#: The fields drawn by default: the density, then the first three of these present.
+DRAWN = ("v_phi", "v_x", "omega", "omega_z", "sigma_rphi", "sigma_zz", "sigma_yy",
+         "sigma_xy", "dsigma_fluct_phiphi")
+
+#: Options of the dumps' source, for the first frame's diameters.
+_SOURCE = ("fmt", "atom_map", "wall_types", "dt", "units", "dim")
+
+
+def mean_diameter(run_dirs, atoms, options) -> float:
+    """The particles' mean diameter: of a run's scene (its manifest's counts and
+    diameters), or over the first frame with particles of the dumps."""
+    if run_dirs:
+        scene = read_manifest(validate.run_directory(run_dirs[0]))["scene"]
+        n = np.array([scene["n_small"], scene["n_large"]], float)
+        return float(n @ np.array([scene["d_s"], scene["d_l"]]) / n.sum())
+    source = {k: options[k] for k in _SOURCE if options.get(k) not in (None, [], ())}
+    for frame in formats.open_frames(atoms, None, **source):
+        if len(frame.atoms["radius"]):
+            return float(2.0 * np.mean(frame.atoms["radius"]))
+    raise ParameterError("atoms", "{param}: no frame holds particles")
+
+
+def scale_study(run_dirs, *, widths, kernel="lucy", diameter=None, atoms=None,
+                contacts=None, progress=None, **options):
+    """The exact weights' profiles and the kernel's at each width.
+
+    Parameters
+    ----------
+    run_dirs : sequence of path
+        Run directories (one run, or an ensemble), or empty for the dumps ``atoms``,
+        ``contacts``.
+    widths : sequence of float
+        Kernel widths in mean diameters, increasing.
+    kernel : str
+        A smoothing kernel (:mod:`granavg.engine.smoothing`).
+    diameter : float, optional
+        The mean diameter (length unit of the data); default :func:`mean_diameter`.
+    **options
+        As :func:`granavg.pipeline.averaging.average_to_file` takes them.
+
+    Returns
+    -------
+    exact : Profiles
+    profiles : list of Profiles, one per width
+    diameter : float
+    """
+    if kernel in (None, "exact"):
+        raise ParameterError("kernel", "{param} exact has no width: a scale study needs a "
+                             "smoothing kernel (lucy, gauss, heaviside)")
+    widths = [float(w) for w in widths]
+    if any(b <= a for a, b in zip(widths, widths[1:])) or widths[0] <= 0:
+        raise ParameterError("widths", f"{{param}} {' '.join(f'{w:g}' for w in widths)}: "
+                             "give positive widths in increasing order")
+    validate.positive("diameter", diameter)
+    if not run_dirs:
+        if not atoms:
+            raise ParameterError("atoms", "give a run directory, or a LAMMPS dump with "
+                                 "{param} (and {contacts})")
+        atoms = validate.existing_file("atoms", atoms)
+        contacts = validate.existing_file("contacts", contacts)
+    d = diameter or mean_diameter(run_dirs, atoms, options)
+
+    def average(**chosen):
+        if run_dirs:
+            return average_runs(run_dirs, average_run, progress=progress, atoms=atoms,
+                                contacts=contacts, **dict(options, **chosen))
+        return average_dumps(atoms, contacts, progress=progress, **dict(options, **chosen))
+
+    exact = average(kernel="exact")
+    sectors = chosen_sectors(exact, options.get("sectors", "auto"))   # the same replicas
+    profiles = []
+    for f in widths:
+        log.info("%s kernel, w = %g d = %g", kernel, f, f * d)
+        profiles.append(average(kernel=kernel, width=f * d, sectors=sectors))
+    return exact, profiles, d
+
+
+def scale_study_to_file(run_dirs, out, *, widths, kernel="lucy", diameter=None,
+                        fields=None, progress=None, **options) -> Path:
+    """The ``scales`` command: :func:`scale_study` written to ``out`` (table, one row per
+    width and cell, the exact weights' rows first with width 0, empty in the columns
+    only a kernel gives: the gradients), ``<out>.json`` (the diameter, widths, each
+    field's steps and plateau) and ``<out>.png`` / ``.pdf``."""
+    from granavg.analysis import figures          # matplotlib, only where drawn
+
+    out = validate.free_output(Path(out), ("", ".json", ".png", ".pdf"))
+    exact, profiles, d = scale_study(run_dirs, widths=widths, kernel=kernel,
+                                     diameter=diameter, progress=progress, **options)
+    names = list(profiles[0].values)         # the gradients too: the exact rows leave them
+    drawn = fields or (["nu"] + [n for n in DRAWN if n in names][:3])
+    missing = [n for n in drawn if n not in names]
+    if missing:
+        raise ParameterError("fields", f"{{param}} {','.join(missing)}: not among the "
+                             f"profiles' columns ({', '.join(names)})")
+    width = [f * d for f in widths]
+    cut = [get(kernel).cutoff(w) for w in width]
+    judged = steps(width, profiles, cut, names)
+    flat = {n: plateau(rows) for n, rows in judged.items()}
+    units = (exact.meta.get("unit_system") or {}).get("length", "m")
+    table = _table([0.0] + list(widths), [exact] + profiles, d, names)
+    summary = {"kernel": kernel, "diameter": d, "length_unit": units,
+               "widths_in_diameters": list(widths), "widths": width,
+               "n_frames": exact.n_frames, "errors": exact.meta.get("errors", {}).get("kind"),
+               "flat_sigmas": FLAT,
+               "fields": {n: {"plateau": flat[n], "steps": judged[n]} for n in names}}
+    with OutputSet(out) as outputs:
+        system = exact.meta.get("unit_system")
+        of = (UnitSystem(**system) if system else SI).of
+        ax = figures.fig_scales(widths, d, profiles, exact, drawn, flat, unit=units,
+                                units={n: of(n) for n in drawn})
+        fig = ax[0].figure
+        fig.savefig(outputs.temp(".png"), dpi=130, format="png")
+        fig.savefig(outputs.temp(".pdf"), format="pdf")
+        figures.plt.close(fig)
+        outputs.temp(".json").write_text(json.dumps(summary, indent=2) + "\n")
+        write_csv(outputs.temp(""), table, "%.10g")
+        outputs.commit()
+    for n in drawn:
+        span = flat[n]
+        log.info("%s: %s", n, f"no dependence on w from {span[0] / d:g} d to "
+                 f"{span[1] / d:g} d" if span else "depends on w at every step")
+    log.info("%d widths x %d %s -> %s (+ .json, .png, .pdf)", len(widths),
+             exact.cells.n, exact.cells.kind, out)
+    return out
+
+
+def _table(widths_d, profiles, d, names) -> dict:
+    """Columns: width_d, width, the cells' coordinates, each value and its error."""
+    cols = {"width_d": np.repeat(widths_d, [p.cells.n for p in profiles])}
+    cols["width"] = cols["width_d"] * d
+    for key in profiles[0].cells.coordinates():
+        cols[key] = np.concatenate([p.cells.coordinates()[key] for p in profiles])
+    for n in names:
+        for key, of in ((n, "values"), (f"{n}_sem", "sem")):
+            cols[key] = np.concatenate([getattr(p, of).get(n, np.full(p.cells.n, np.nan))
+                                        for p in profiles])
+    return cols
