@@ -141,3 +141,21 @@ def test_3d_slabs_errors_count_a_static_piles_frozen_structure(pile3d, tmp_path)
         assert np.array_equal(strips.values[name], time.values[name])
     assert np.all(strips.sem["nu"] > 10 * time.sem["nu"]), (strips.sem["nu"], time.sem["nu"])
     assert np.array_equal(strips.sem["sigma_zz"], time.sem["sigma_zz"])
+
+
+def test_a_runs_scale_study_takes_the_scenes_diameter(small_run, tmp_path):
+    """On a run directory the mean diameter is the scene's (its counts and diameters);
+    the table holds the exact weights' rows (width 0) and each width's."""
+    from granavg.io.run_directory import read_manifest
+    out = tmp_path / "s.csv"
+    proc = run_cli("scales", small_run, "--bins", 10, "--widths", 1, 2, "--quantities",
+                   "nu,v", "--t-min", 1, "--out", out, "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    scene = read_manifest(small_run)["scene"]
+    d = (scene["n_small"] * scene["d_s"] + scene["n_large"] * scene["d_l"]) / \
+        (scene["n_small"] + scene["n_large"])
+    study = json.loads(out.with_name("s.csv.json").read_text())
+    assert abs(study["diameter"] - d) < 1e-12 * d
+    table = np.genfromtxt(out, delimiter=",", names=True)
+    assert list(np.unique(table["width_d"])) == [0.0, 1.0, 2.0] and len(table) == 30
+    assert set(study["fields"]) >= {"nu", "v_phi"}

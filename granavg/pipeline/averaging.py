@@ -67,7 +67,7 @@ def average_to_file(run_dirs, out, *, parquet=False, netcdf=False, vtk=False, wo
         raise ParameterError("workers", f"{{param}} {workers}: must be >= 1 (leave it out to "
                              "average in this process)")
     if run_dirs:
-        profiles = _average_run_dirs(run_dirs, atoms, contacts, workers, scheduler,
+        profiles = average_run_dirs(run_dirs, atoms, contacts, workers, scheduler,
                                      progress, options)
         warn_if_inertial(profiles)
     else:
@@ -96,7 +96,9 @@ def average_to_file(run_dirs, out, *, parquet=False, netcdf=False, vtk=False, wo
     return out
 
 
-def _average_run_dirs(run_dirs, atoms, contacts, workers, scheduler, progress, options):
+def average_run_dirs(run_dirs, atoms, contacts, workers, scheduler, progress, options):
+    """Profiles of run directories (one, or an ensemble; on dask with ``workers`` or
+    ``scheduler``), ``atoms`` and ``contacts`` naming other dumps of one run."""
     for run in run_dirs:
         validate.run_directory(run)
     validate.positive("block_time", options.get("block_time"))

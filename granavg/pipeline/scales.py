@@ -21,9 +21,9 @@ from granavg.io import formats, validate
 from granavg.io.output_set import OutputSet
 from granavg.io.profiles_io import write_csv
 from granavg.io.run_directory import read_manifest
-from granavg.pipeline.averaging import average_runs
+from granavg.pipeline.averaging import average_run_dirs
 from granavg.pipeline.dumps import average_dumps
-from granavg.pipeline.runs import average_run, chosen_sectors
+from granavg.pipeline.runs import chosen_sectors
 
 log = logging.getLogger(__name__)
 
@@ -91,8 +91,8 @@ def scale_study(run_dirs, *, widths, kernel="lucy", diameter=None, atoms=None,
 
     def average(**chosen):
         if run_dirs:
-            return average_runs(run_dirs, average_run, progress=progress, atoms=atoms,
-                                contacts=contacts, **dict(options, **chosen))
+            return average_run_dirs(run_dirs, atoms, contacts, None, None, progress,
+                                    dict(options, **chosen))
         return average_dumps(atoms, contacts, progress=progress, **dict(options, **chosen))
 
     exact = average(kernel="exact")
