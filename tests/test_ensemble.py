@@ -84,6 +84,9 @@ def test_the_analysis_of_an_ensemble_uses_between_run_errors(ensemble, tmp_path)
     assert np.isfinite(summary["numbers"]["shear_band"]["decades_err"])
     assert np.isfinite(summary["numbers"]["stress_exponents"]["sigma_rr_err"])
     assert len(summary["runs"]) == 3
+    # named as the directory that holds them names them, not by this machine's paths
+    assert sorted(r["run"] for r in summary["runs"]) == [r.name for r in runs]
+    assert {r.name for r in runs} < set(summary["stationarity"])
     # the window judged from the spread between the realisations, beside each run's verdict
     per_run = [r["stationarity"] for r in summary["runs"]]
     assert all(per_run) and summary["stationarity"]["ensemble (3 runs)"] == \

@@ -71,6 +71,21 @@ def test_report_and_summary_hold_the_headline_numbers(report):
         assert claim["claim"] in text and claim["evidence"] in text
     assert html.count("data:image/png;base64,") == len(FIGURES) + 1   # + Fig. 1; self-contained
     assert "src='http" not in html and 'src="http' not in html
+    # the run table as a person writes it; no path of this machine in the summary
+    assert "<th>packing</th><td>None" not in html and "grown linearly" in html
+    assert "<th>averaged from t (s)</th><td>1</td>" in html
+    strings = []
+
+    def walk(x):
+        if isinstance(x, dict):
+            strings.extend(map(str, x))
+            [walk(v) for v in x.values()]
+        elif isinstance(x, list):
+            [walk(v) for v in x]
+        elif isinstance(x, str):
+            strings.append(x)
+    walk(summary)
+    assert not [t for t in strings if "/tmp" in t or t.startswith("/")], strings
     # the speed/accuracy study's forecast: the small test cell is not the study's scene
     assert "accuracy class of the settings" in html and "not measured: the study measured one" in html
 
@@ -153,3 +168,10 @@ def test_fig1_draws_every_disk_and_every_contact_in_thirds(small_run, tmp_path):
 
 def test_the_report_of_a_run_includes_fig1(report):
     assert (report / "figures" / "fig1.png").exists() and (report / "figures" / "fig1.pdf").exists()
+
+
+def test_a_shipped_packings_description_names_no_path_of_the_machine_that_made_it():
+    from granavg.sim import packings
+    text = packings.describe("rolling-coulomb-sheared", 20011)
+    assert "sheared 150 s" in text and "workflows/sheared_packings.py OUT" in text
+    assert not [w for w in text.split() if w.startswith("/")], text

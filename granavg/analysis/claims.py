@@ -23,6 +23,7 @@ range; the *bulk* is the middle half of the rings (away from both walls).
 from __future__ import annotations
 
 import logging
+import os
 from types import SimpleNamespace
 
 import numpy as np
@@ -412,14 +413,25 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
                     "every claim is inconclusive; average them again with this granavg")
     summary = {"units": "SI (m, s, kg, N, Pa)",
                "run": {k: manifest.get(k) for k in ("preset", "scene", "contact_law", "derived",
-                                                   "forecast", "lammps_version",
-                                                   "granavg_version")},
+                                                   "forecast", "preparation",
+                                                   "lammps_version", "granavg_version")},
                "frames": p20.meta.get("frames") if p20.meta else None,
-               "runs": (p20.meta or {}).get("runs"),
+               "runs": _runs_by_name((p20.meta or {}).get("runs")),
                "stationarity": _stationarity(p20),
                "errors": errors, "numbers": _plain(num), "claims": claims}
     summary["series"] = series
     return summary
+
+
+def _runs_by_name(runs):
+    """An ensemble's runs named relative to the directory that holds them all (the
+    summary names no path of the machine that made it)."""
+    if not runs:
+        return runs
+    paths = [os.path.abspath(r["run"]) for r in runs]
+    root = os.path.dirname(os.path.commonpath(paths)) if len(paths) == 1 else \
+        os.path.commonpath(paths)
+    return [{**r, "run": os.path.relpath(p, root)} for r, p in zip(runs, paths)]
 
 
 class SceneNumbers:
@@ -672,7 +684,7 @@ def _stationarity(p):
     meta = p.meta or {}
     if not meta.get("runs"):
         return {"run": meta.get("stationarity")}
-    judged = {r["run"]: r.get("stationarity") for r in meta["runs"]}
+    judged = {r["run"]: r.get("stationarity") for r in _runs_by_name(meta["runs"])}
     ensemble = ensemble_stationarity(list(judged.values()))
     if ensemble:
         judged[f"ensemble ({max(r['n_runs'] for r in ensemble.values())} runs)"] = ensemble

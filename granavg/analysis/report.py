@@ -150,6 +150,11 @@ def stationarity_table(summary, e) -> list:
     return out
 
 
+def _seconds(t):
+    """A time as a person writes it (4 significant digits), or "-"."""
+    return "-" if t is None else f"{t:.4g}"
+
+
 def write_report(summary: dict, figures: dict, path, title="granavg report") -> Path:
     """A self-contained ``report.html``: parameters, numbers, claims and Figs. 2-9."""
     run = summary["run"]
@@ -163,11 +168,11 @@ def write_report(summary: dict, figures: dict, path, title="granavg report") -> 
               ("base-plate friction mu_base, v_base (m/s)",
                f"{scene.get('mu_base', 0.0)}, {scene.get('v_base', 0.001)}"
                if scene.get("mu_base") else "none"),
-              ("packing", run.get("preparation")),
+              ("packing", run.get("preparation") or "not recorded"),
               ("t_c, dt (s)", f"{derived['t_c_s']:.4g}, {derived['dt_s']:.4g}"),
               ("sheared (s)", f"{derived['t_end_s']:.4g}"),
               ("frames averaged", (summary.get("frames") or {}).get("n")),
-              ("t_min (s)", (summary.get("frames") or {}).get("t_min_s")),
+              ("averaged from t (s)", _seconds((summary.get("frames") or {}).get("t_min_s"))),
               ("LAMMPS, granavg", f"{run.get('lammps_version')}, {run.get('granavg_version')}")]
     forecast = run.get("forecast") or {}
     if "accuracy_class" in forecast:      # what the speed/accuracy study expects (docs/sweep)

@@ -20,6 +20,7 @@ from granavg.errors import ParameterError, UserError, literal
 from granavg.extras import require
 from granavg.io.profiles_io import read_profiles, write_profiles
 from granavg.pipeline.runs import average_run, chosen_sectors, run_averager
+from granavg.sim.packings import without_paths
 
 log = logging.getLogger(__name__)
 
@@ -36,6 +37,8 @@ def report_profiles(coarse: Profiles, fine: Profiles, out, title="granavg report
         raise UserError("the profiles carry no run manifest; make them with 'granavg average'")
     if coarse.cells.n > fine.cells.n:
         coarse, fine = fine, coarse
+    # the report names no path of the machine that made a shipped packing
+    manifest = {**manifest, "preparation": without_paths(manifest.get("preparation"))}
     summary = analyze(coarse, fine, manifest, density_series)
     figures = save_all(coarse, fine, summary, out / "figures")
     run = _run_dir_of(coarse)

@@ -70,5 +70,13 @@ def describe(name: str, seed: int) -> str:
         before = f"sheared {first['aged_s']:g} s with {first['law']}, then "
     aged = p["aged_s"] - (provenance(p["started_from"])["aged_s"] if before else 0.0)
     return (f"shipped sheared packing {name}/seed{seed} (grown from seed {seed}, {before}"
-            f"sheared {aged:g} s with {p['law']}; {p['made_by']}); contacts start "
-            "with unloaded tangential springs")
+            f"sheared {aged:g} s with {p['law']}; {without_paths(p['made_by'])}); contacts "
+            "start with unloaded tangential springs")
+
+
+def without_paths(text):
+    """Text (the command that made a packing, a preparation), its absolute paths (those
+    of the machine that made it) as OUT; None stays None."""
+    if text is None:
+        return None
+    return " ".join("OUT" if word.startswith("/") else word for word in text.split(" "))
