@@ -48,6 +48,14 @@ def _quiet_worker():
     logging.getLogger("distributed").setLevel(logging.ERROR)
 
 
+def _mute_worker():
+    """In a worker of granavg's local cluster that is about to be closed after a refusal
+    or a signal: no dask message at all (its heartbeat to a scheduler already closing
+    would log a stack)."""
+    for name in ("distributed", "asyncio", "tornado"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
 class Refused:
     """A worker's :class:`UserError`, carried back as a value."""
 
@@ -162,6 +170,11 @@ def _close(client, cluster, quiet: bool):
     if quiet:
         for n in names:
             logging.getLogger(n).setLevel(logging.CRITICAL + 1)
+        if client is not None and cluster is not None:      # our own workers, muted too
+            try:
+                client.run(_mute_worker)
+            except Exception:                      # noqa: BLE001 - a worker already gone
+                pass
     try:
         for part in (client, cluster):
             if part is None:
