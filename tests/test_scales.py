@@ -113,6 +113,8 @@ def test_the_piles_stress_does_not_depend_on_the_width_its_floor_does(pile3d, tm
     (("--kernel", "exact"), "--kernel exact has no width"),
     (("--widths", 1, 0.5), "--widths 1 0.5: give positive widths in increasing order"),
     (("--diameter", -1), "--diameter -1: must be a finite number > 0"),
+    (("--widths", 0.1, 1), "--widths 0.1: 0.1 d = "),
+    (("--kernel", "cubic"), "--kernel 'cubic': choose exact or one of"),
 ])
 def test_scale_study_refusals_in_one_line(pile3d, tmp_path, extra, needle):
     proc = run_cli("scales", "--atoms", pile3d / "atoms.dump", "--slabs", "z",

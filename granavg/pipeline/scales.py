@@ -35,17 +35,20 @@ DRAWN = ("v_phi", "v_x", "omega", "omega_z", "sigma_rphi", "sigma_zz", "sigma_yy
 _SOURCE = ("fmt", "atom_map", "wall_types", "dt", "units", "dim")
 
 
-def mean_diameter(run_dirs, atoms, options) -> float:
-    """The particles' mean diameter: of a run's scene (its manifest's counts and
-    diameters), or over the first frame with particles of the dumps."""
+def diameters(run_dirs, atoms, options) -> tuple:
+    """The particles' mean diameter and smallest radius: of a run's scene (its
+    manifest's counts and diameters), or over the first frame with particles of the
+    dumps."""
     if run_dirs:
         scene = read_manifest(validate.run_directory(run_dirs[0]))["scene"]
         n = np.array([scene["n_small"], scene["n_large"]], float)
-        return float(n @ np.array([scene["d_s"], scene["d_l"]]) / n.sum())
+        d = np.array([scene["d_s"], scene["d_l"]])
+        return float(n @ d / n.sum()), float(0.5 * d[n > 0].min())
     source = {k: options[k] for k in _SOURCE if options.get(k) not in (None, [], ())}
     for frame in formats.open_frames(atoms, None, **source):
-        if len(frame.atoms["radius"]):
-            return float(2.0 * np.mean(frame.atoms["radius"]))
+        a = np.asarray(frame.atoms["radius"], float)
+        if len(a):
+            return float(2.0 * a.mean()), float(a.min())
     raise ParameterError("atoms", "{param}: no frame holds particles")
 
 
@@ -63,7 +66,7 @@ def scale_study(run_dirs, *, widths, kernel="lucy", diameter=None, atoms=None,
     kernel : str
         A smoothing kernel (:mod:`granavg.engine.smoothing`).
     diameter : float, optional
-        The mean diameter (length unit of the data); default :func:`mean_diameter`.
+        The mean diameter (length unit of the data); default :func:`diameters`.
     **options
         As :func:`granavg.pipeline.averaging.average_to_file` takes them.
 
@@ -87,7 +90,14 @@ def scale_study(run_dirs, *, widths, kernel="lucy", diameter=None, atoms=None,
                                  "{param} (and {contacts})")
         atoms = validate.existing_file("atoms", atoms)
         contacts = validate.existing_file("contacts", contacts)
-    d = diameter or mean_diameter(run_dirs, atoms, options)
+    get(kernel)                                     # an unknown name refused here
+    mean, smallest = diameters(run_dirs, atoms, options)
+    d = diameter or mean
+    if widths[0] * d < 0.5 * smallest:              # refused before any work
+        raise ParameterError("widths", f"{{param}} {widths[0]:g}: {widths[0]:g} d = "
+                             f"{widths[0] * d:g} is below half the smallest particle radius "
+                             f"({smallest:g}), where the fields resolve single particles; "
+                             f"start at {0.5 * smallest / d:.3g} d or more")
 
     def average(**chosen):
         if run_dirs:
