@@ -498,6 +498,27 @@ def test_a_pile_balances_at_every_node_and_carries_its_weight(case, pile2d, pile
     assert np.all(np.abs(ratio - 1) < 0.005), ratio
 
 
+def test_the_stress_divergence_is_the_derivative_of_the_segments_stress(pile3d, tmp_path):
+    """divsigma comes from the particles' net contact forces and the walls' forces at
+    their points, sigma from the line integrals along the segments: on planes 50 um
+    apart (Lucy, w = 2 mm) the central differences of sigma_zz are divsigma_z to 3e-4 of
+    rho g (their own error is O(h^2)), where divsigma reaches rho g."""
+    out = tmp_path / "fd.csv"
+    proc = run_cli("average", "--atoms", pile3d / "atoms.dump", "--contacts",
+                   pile3d / "contacts.dump", "--contact-columns", MAP3, "--slabs", "z",
+                   "--range", 0.004, 0.016, "--bins", 240, "--kernel", "lucy", "--width",
+                   0.002, "--quantities", "nu,rho,sigma,divsigma", "--out", out,
+                   "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    p = read_profiles(out)
+    z = p.cells.coordinates()["z"]
+    scale = np.nanmean(p.values["rho"]) * 9.81
+    fd = np.gradient(p.values["sigma_zz"], z)[2:-2]
+    div = p.values["divsigma_z"][2:-2]
+    assert np.max(np.abs(div)) > 0.5 * scale
+    assert np.max(np.abs(fd - div)) < 3e-4 * scale, np.max(np.abs(fd - div)) / scale
+
+
 def test_the_top_hat_across_slabs_counts_the_centres_where_exact_weights_split(pile3d,
                                                                               tmp_path):
     """The definitions' difference, stated: a top hat of radius w (its w is its

@@ -2,7 +2,8 @@
 smoothed.Smoothed`): the engine's per-particle channels
 (:func:`granavg.engine.kernels.particle_channels`) scattered with the kernel's weights,
 the contact stress along the branch segments, the walls' forces at their contact
-points, and the derivative blocks from the kernel's derivative - the same channels and
+points, and the derivative blocks from the kernel's derivative (the stress divergence
+from the particles' net contact forces and the walls' forces) - the same channels and
 sums as the exact weights give cells, so that accumulators, errors, sectors and dask
 merges are the engine's own.
 
@@ -91,6 +92,14 @@ def branch_halves(atoms, contacts, rows, dim, branch):
     return owner, np.concatenate([l1, l2]), np.concatenate([f, -f[pair]])
 
 
+def _net_contact_forces(atoms, contacts, rows, dim, branch, n):
+    """Each particle's net contact force (walls' included), shape (n, dim), Cartesian."""
+    owner, _, f = branch_halves(atoms, contacts, rows, dim, branch)
+    net = np.zeros((n, dim))
+    np.add.at(net, owner, f)
+    return net
+
+
 #: Two branches meet where their contact points agree within this fraction of the
 #: contact's length: far above a dump's rounding (LAMMPS' %g: 1e-5), far below a
 #: contact point off the line of centres.
@@ -154,14 +163,18 @@ def smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout):
     rinv = cells.inverse_radius() if "rinv" in want else None
     rinv_terms = terms.into("scalar", lambda o: col("rinv"), col("vol")) \
         if rinv is not None else None
-    halves = branch_segments(a, contacts, rows, D, branch) if rows is not None and \
-        {"sig", "dsig"} & want else None
+    segments = branch_segments(a, contacts, rows, D, branch) if rows is not None and \
+        "sig" in want else None
     seg_terms = terms.into("tensor", lambda o: col("sig") + o, 0) \
         if "sig" in want else None
     # div of f (x) l int_0^1 phi(x - x_p - s l) ds is f (phi(x - x_p) - phi(x - x_p - l)):
-    # the force at the particle less at the segment's end (no integral)
+    # summed over a contact's two halves (the forces opposite, the ends at the contact
+    # point alike), each particle's net contact force at its centre, less each wall
+    # contact's force at its contact point (no integral, no segment)
     div_terms = terms.into("vector", lambda o: col("dsig") + o, 0) \
-        if "dsig" in want else None
+        if "dsig" in want and rows is not None else None
+    net = _net_contact_forces(a, contacts, rows, D, branch, len(radius)) \
+        if div_terms is not None else None
     buffer = np.empty((min(CHUNK, len(radius)), layout.n))
     for lo in range(0, len(radius), CHUNK):
         part = slice(lo, lo + CHUNK)
@@ -182,8 +195,11 @@ def smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout):
         if rinv is not None:
             _scatter(particle, node, W * rinv[node][:, None], q, rinv_terms, sector, share,
                      sectors, sums)
-        if halves is not None:
-            owner, l, f = halves
+        if net is not None:
+            fb = np.einsum("pij,pj->pi", E, net[part])
+            _scatter(particle, node, W, fb, div_terms, sector, share, sectors, sums)
+        if segments is not None:
+            owner, l, f = segments
             mine = (owner >= lo) & (owner < lo + len(r))
             if mine.any():
                 own = owner[mine] - lo
@@ -193,24 +209,20 @@ def smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout):
                 Q = (fb[:, :, None] * lb[:, None, :]).reshape(-1, D * D)
                 start = tuple(u[own] for u in pos)
                 ss, sh = (sector[own], share[own]) if sectors else (sector, share)
-                if seg_terms is not None:
-                    seg, snode, sW = cells.segment_weights(start, l[mine])
-                    _scatter(seg, snode, sW, Q, seg_terms, ss, sh, sectors, sums)
-                if div_terms is not None:
-                    k0, n0, W0, _ = cells.kernel_weights(start, False)
-                    _scatter(k0, n0, W0, fb, div_terms, ss, sh, sectors, sums)
-                    end = tuple(u + l[mine][:, j] for j, u in enumerate(start))
-                    k1, n1, W1, _ = cells.kernel_weights(end, False, frame=start)
-                    _scatter(k1, n1, -W1, fb, div_terms, ss, sh, sectors, sums)
-    if "wall" in want and contacts is not None:
+                seg, snode, sW = cells.segment_weights(start, l[mine])
+                _scatter(seg, snode, sW, Q, seg_terms, ss, sh, sectors, sums)
+    if ("wall" in want or div_terms is not None) and contacts is not None:
         points, forces = wall_points(a, contacts, D, branch, rows)
         at = tuple(points.T)
         Fw = np.einsum("pij,pj->pi", cells.basis(at), forces)
         k, node, W, _ = cells.kernel_weights(at, False)
         sector, share = cells.sector_shares(at, np.zeros(len(points)), sectors) if sectors \
             else (_EMPTY_SECTOR, _EMPTY_SHARE)
-        _scatter(k, node, W, Fw, terms.into("vector", lambda o: col("wall") + o, 0),
-                 sector, share, sectors, sums)
+        if "wall" in want:
+            _scatter(k, node, W, Fw, terms.into("vector", lambda o: col("wall") + o, 0),
+                     sector, share, sectors, sums)
+        if div_terms is not None:
+            _scatter(k, node, -W, Fw, div_terms, sector, share, sectors, sums)
     if "dsig" in want and rinv is not None:
         _partial(sums, layout, np.repeat(rinv, max(sectors, 1)))
     return sums.reshape(cells.n, sectors, -1) if sectors else sums
