@@ -94,14 +94,6 @@ def terms(layout: Layout, blocks):
     return np.array(o), np.array(i), np.array(m), np.array(f)
 
 
-def turned(W, delta):
-    """Moments W (T, 5) of quantities in the polar basis at azimuth phi, for quantities
-    in the basis at phi - delta: W1 + i W2 and W3 + i W4 turned by delta and 2 delta."""
-    z1 = (W[:, 1] + 1j * W[:, 2]) * np.exp(1j * delta)
-    z2 = (W[:, 3] + 1j * W[:, 4]) * np.exp(2j * delta)
-    return np.column_stack([W[:, 0], z1.real, z1.imag, z2.real, z2.imag])
-
-
 @njit(cache=True, nogil=True)
 def mixed(item, node, W, q, t_out, t_in, t_m, t_f, sector, share, k, out):
     """out[row, t_out] += t_f W[t, t_m] q[item[t], t_in] for each pair t and term, row

@@ -34,7 +34,7 @@ import numpy as np
 from granavg.engine.cells.base import Cells, with_images
 from granavg.engine.smoothing import circles, lookup, points
 from granavg.engine.smoothing.base import Kernel
-from granavg.engine.smoothing.rotation import MOMENTS, turned
+from granavg.engine.smoothing.rotation import MOMENTS
 from granavg.errors import ParameterError
 
 
@@ -152,21 +152,12 @@ class Smoothed(Cells):
         particle, node, W, _ = self.kernel_weights(pos, deriv=False)
         return particle, node, W[:, 0]
 
-    def kernel_weights(self, pos, deriv=True, frame=None):
+    def kernel_weights(self, pos, deriv=True):
         """(particle, node, W, dW): the weights, shape (T, :attr:`moments`), and with
         ``deriv`` their derivatives along the cells' basis, shape (T, moments, D)
         (zeros along directions the nodes do not vary in). Where the basis turns, the
-        moments take the quantities from the polar basis at ``frame`` (positions, one
-        per item; the items' own by default)."""
-        pos = tuple(np.asarray(u, float) for u in pos)
-        item, node, W, dW = self._pairs(pos, None, deriv)
-        if frame is not None and self.moments > 1:
-            center = self.cells.nodes()[1]
-            azimuth = [np.arctan2(u[1] - center[1], u[0] - center[0]) for u in (pos, frame)]
-            W = turned(W, (azimuth[0] - azimuth[1])[item])
-            dW = np.stack([turned(dW[:, :, j], (azimuth[0] - azimuth[1])[item])
-                           for j in range(self.dim)], axis=-1)
-        return item, node, W, dW
+        moments take the quantities from the polar basis at each item's own position."""
+        return self._pairs(tuple(np.asarray(u, float) for u in pos), None, deriv)
 
     def segment_weights(self, start, branch):
         """(segment, node, W) of the line integrals along the segments from ``start``
