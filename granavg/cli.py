@@ -146,11 +146,17 @@ def _parser() -> argparse.ArgumentParser:
 
     ana = sub.add_parser("analyze", help="figures 2-9, summary.json and report.html from "
                          "two ring profiles of one run; for profiles of any other cells "
-                         "(slabs, grids, plain dumps) the fields and the balance of forces")
+                         "(slabs, grids, plain dumps) the fields and the balance of forces and "
+                         "of the spins")
     ana.add_argument("profiles", nargs="+", help="profiles of 'granavg average' (two ring "
                      "profiles of a run, e.g. 20 and 60 rings, for the paper's analysis)")
     ana.add_argument("--closed", action="store_true", help="the cells' outer faces are "
                      "walls or empty space: edge cells' balance judged too (runs' rings are)")
+    ana.add_argument("--torque-arm", choices=["contact", "surface"], default="contact",
+                     help="where the contact law's lever arm for the torque ends, for the "
+                     "balance of the spins: the contact point (pair granular, the "
+                     "default) or the particle's surface (pair gran/hooke, "
+                     "gran/hooke/history, gran/hertz/history)")
     ana.add_argument("--out", required=True, help="directory for the report (must be new)")
     ana.add_argument("--density-series", nargs="+", metavar="PROFILES", default=[],
                      help="coarse profiles of the same scene at other area fractions: "
@@ -343,7 +349,8 @@ def _scales(args):
 def _analyze(args):
     from granavg.pipeline.reporting import analyze_command
 
-    return analyze_command(args.profiles, args.out, args.density_series, args.closed)
+    return analyze_command(args.profiles, args.out, args.density_series, args.closed,
+                           args.torque_arm)
 
 
 def _demo(args):

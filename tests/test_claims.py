@@ -30,7 +30,7 @@ def rotate(theta, major, minor):
 def fields(r, *, dilation=0.02, layering=0.03, bulk_layering=0.0, v_floor=1e-7,
            anisotropy=0.1, sigma_rr_exponent=0.0, dynamic=1.0, colinear=False,
            hertz=False, unbalanced=False, same_sign_rotation=False, s=0.0127,
-           v0_ratio=0.645, first_layer=False):
+           v0_ratio=0.645, first_layer=False, loose_couples=False):
     """Profile values of a steady, quasi-static Couette state over rings at r (SI).
     ``first_layer``: the disks touching the wall move as one block, at the exponential's
     velocity at the layer's centre (a staircase in rings finer than a disk)."""
@@ -74,17 +74,41 @@ def fields(r, *, dilation=0.02, layering=0.03, bulk_layering=0.0, v_floor=1e-7,
         E = E * 0.6
     eps = (E[:, 0, 0], E[:, 0, 1], E[:, 1, 0], E[:, 1, 1])
     out = {"nu": nu, "rho": rho, "v_r": 0 * r, "v_phi": v, "omega": omega,
-           "coordination": trF / nu}
+           "coordination": trF / nu,
+           # the spins at rest in the mean: a couple stress mu_r ~ 1/r passes no couple
+           # (d(r mu_r)/dr = 0), sigma is symmetric; ``loose_couples``: the contacts pass
+           # a net couple that nothing balances
+           "mu_r": 1e-3 / r, "mu_phi": 0 * r,
+           "couple_density": (0.3 * P0 if loose_couples else 0.0) + 0 * r}
     for name, t in (("F", F), ("sigma", sigma), ("dsigma", dsigma), ("eps", eps)):
         out.update({f"{name}_{k}": np.asarray(c, float) for k, c in
                     zip(("rr", "rphi", "phir", "phiphi"), t)})
     return out
 
 
-def profiles(n, n_rep=6, noise=1e-3, seed=0, **kw):
-    """Ensemble-like profiles: replicates = exact fields with relative noise."""
+#: The inner wall's power (W) in the synthetic state: 0.9 of it reaches the disks
+#: through the wall's contacts, 0.6 is dissipated by the disks' contacts, 0.2 by the
+#: base plate and 0.1 at the outer wall.
+POWER = 1e-4
+
+
+def powers(rings, leaky=False):
+    """Power densities whose sum over the rings is nil (a steady state); ``leaky``: the
+    disks' contacts dissipate 0.3 of the wall's power more than reaches them."""
+    V, n = rings.volume, rings.n
+    spread = np.full(n, 1.0 / V.sum())
+    wall = np.zeros(n)
+    wall[0], wall[-1] = 0.9 * POWER / V[0], -0.1 * POWER / V[-1]
+    return {"contact_power": -(0.9 if leaky else 0.6) * POWER * spread,
+            "wall_power": wall, "body_power": -0.2 * POWER * spread,
+            "lever_power": 0 * spread}
+
+
+def profiles(n, n_rep=6, noise=1e-3, seed=0, leaky=False, **kw):
+    """Ensemble-like profiles: replicates = exact fields with relative noise, and the
+    runs' time series of the inner wall's torque."""
     rings = Rings.count(n, SCENE["R_i"], SCENE["R_o"], SCENE["h"])
-    exact = fields(rings.centre, **kw)
+    exact = {**fields(rings.centre, **kw), **powers(rings, leaky)}
     rng = np.random.default_rng(seed + n)
     reps = {k: v[None] * (1 + noise * rng.standard_normal((n_rep, n))) for k, v in exact.items()}
     reps["nu"] = exact["nu"][None] + noise * rng.standard_normal((n_rep, n))
@@ -92,8 +116,11 @@ def profiles(n, n_rep=6, noise=1e-3, seed=0, **kw):
     values = {k: v.mean(axis=0) for k, v in reps.items()}
     sem = rep.profile_errors()
     meta = {"run_manifest": {"scene": SCENE}, "frames": {"n": 100}}
+    t = np.tile(np.arange(20.0), n_rep)
+    torque = -POWER / SCENE["Omega"] * (1 + noise * rng.standard_normal(t.size))
+    series = {"t_s": t, "run": np.repeat(np.arange(n_rep), 20), "torque_in_Nm": torque}
     return Profiles(rings, values, sem, np.array([""] * n, dtype=object), 100, meta, rep,
-                        np.full(n, n_rep))
+                    np.full(n, n_rep), series)
 
 
 def verdicts(**kw):
@@ -114,6 +141,8 @@ CLAIMS = {
     "rotation": "eigen-rotation alternates over the two innermost layers",
     "s": "decay length s within 15% of the paper's 12.7 mm",
     "v0": "v0/(Omega R_i) within 10% of the paper's 0.645",
+    "spins": "the spins' angular momentum balances in every ring",
+    "power": "the inner wall's power is dissipated",
 }
 
 
@@ -143,6 +172,8 @@ def test_a_state_with_the_papers_physics_reproduces_every_claim():
     ("rotation", dict(same_sign_rotation=True), "not reproduced"),
     ("s", dict(s=0.006), "not reproduced"),                    # half the paper's band
     ("v0", dict(v0_ratio=0.45), "not reproduced"),             # the wall slips more
+    ("spins", dict(loose_couples=True), "not reproduced"),     # a couple nothing balances
+    ("power", dict(leaky=True), "not reproduced"),             # more dissipated than given
 ])
 def test_each_claim_fails_when_the_data_break_it(key, broken, expected):
     got, _ = verdicts(**broken)

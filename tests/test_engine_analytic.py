@@ -12,7 +12,7 @@ from granavg.io.frames import Frame
 from granavg.engine.weights import ring_weights
 
 H, RHO_P = 0.006, 1060.0
-ALL = [g for g in QUANTITIES if g != "body"]      # these frames carry no body forces
+ALL = [g for g in QUANTITIES if "body" not in QUANTITIES[g].blocks]  # no body forces here
 
 
 def hex_crystal(a=0.004, delta=1e-4, k=10.0, extent=0.12):

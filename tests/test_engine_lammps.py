@@ -80,8 +80,8 @@ def test_sum_rule_over_rings_is_exact(small_run):
 def live_frame_and_virial(out, *sets):
     """Run the small cell in-process; at its last step return the frame (contact table
     built as granavg writes it), the trace of LAMMPS' summed per-atom pair stress of
-    the disks (SI: N m in 2D) and the disks' pair forces (N, by id), all from the same
-    LAMMPS state."""
+    the disks (SI: N m in 2D), the disks' pair forces (N, by id) and their torques
+    (N m, by id), all from the same LAMMPS state."""
     lammps = load_lammps()
 
     scene = PAPER_HOOKE.with_overrides([*SMALL_CELL, *sets])
@@ -106,14 +106,19 @@ def live_frame_and_virial(out, *sets):
         ids = np.array(lmp.numpy.extract_atom("id")[:n], dtype=float)
         rad = np.array(lmp.numpy.extract_atom("radius")[:n])
         force = np.array(lmp.numpy.extract_atom("f")[:n, :2])
+        torque = np.array(lmp.numpy.extract_atom("torque")[:n, 2])
+        v = np.array(lmp.numpy.extract_atom("v")[:n, :2])
+        omega = np.array(lmp.numpy.extract_atom("omega")[:n, 2])
     disk = typ <= 2
     order = np.argsort(ids[disk])
     atoms = {"id": ids[disk][order], "x": x[disk, 0][order], "y": x[disk, 1][order],
-             "radius": rad[disk][order]}
+             "radius": rad[disk][order], "vx": v[disk, 0][order], "vy": v[disk, 1][order],
+             "omegaz": omega[disk][order]}
     table = contact_table(raw, radius_by_id(ids, rad))
     frame = Frame(int(last["Step"]), 0.0, atoms, dict(zip(COLUMNS, table.T)))
     forces = dict(zip(ids[disk].astype(int), force[disk]))
-    return scene, derived, frame, last["c_t[1]"] + last["c_t[2]"], forces
+    torques = dict(zip(ids[disk].astype(int), torque[disk]))
+    return scene, derived, frame, last["c_t[1]"] + last["c_t[2]"], forces, torques
 
 
 @pytest.mark.parametrize("sets", [(), ("mu_roll=0.2",)], ids=["gran-hooke-history",
@@ -122,7 +127,7 @@ def test_contact_rows_sum_to_lammps_forces_on_every_disk(tmp_path, sets):
     """Normal plus tangential force of the contact rows, summed per disk (minus on the
     second disk of a pair), equals LAMMPS' force on it: the pair/local columns mean the
     same for both contact laws (rolling resistance adds torque only)."""
-    _, _, frame, _, forces = live_frame_and_virial(tmp_path / "live", *sets)
+    _, _, frame, _, forces, _ = live_frame_and_virial(tmp_path / "live", *sets)
     c = frame.contacts
     total = {i: np.zeros(2) for i in forces}
     f = np.column_stack([c["fnx"] + c["ftx"], c["fny"] + c["fty"]])
@@ -142,7 +147,7 @@ def test_stress_trace_equals_lammps_virial(tmp_path, branch):
     gives f.n dist, LAMMPS' own virial term; Eq. 5 as printed gives f.n (r1 + r2), an
     overlap more. LAMMPS gives half of a wall pair to the wall disk. With those known
     geometric differences they agree to round-off."""
-    scene, derived, frame, lmp_trace, _ = live_frame_and_virial(tmp_path / f"live_{branch}")
+    scene, derived, frame, lmp_trace, _, _ = live_frame_and_virial(tmp_path / f"live_{branch}")
     rings = covering_rings(frame, scene.h)
     p = CellAverage([frame], rings, ["sigma"], scene.rho_p, 0.0, 1.0, branch=branch).run(False)
     ours = np.sum(rings.volume * (p.values["sigma_rr"] + p.values["sigma_phiphi"]))

@@ -65,7 +65,7 @@ def test_report_and_summary_hold_the_headline_numbers(report):
     sb = summary["numbers"]["shear_band"]
     assert f"{sb['v0_over_omega_Ri']:.4g}" in html and f"{sb['s_m']:.4g}" in html
     assert "0.645" in html and "0.0127" in html                  # the paper's values beside
-    assert len(summary["claims"]) == 12
+    assert len(summary["claims"]) == 14
     text = html.replace("&#x27;", "'")
     for claim in summary["claims"]:
         assert claim["claim"] in text and claim["evidence"] in text

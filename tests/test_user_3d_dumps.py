@@ -151,7 +151,12 @@ def test_a_pour_without_spin_averages_everything_else_and_says_so(capsys, caplog
     assert len(said) == 1 and "omega (no omegax omegay omegaz)" in said[0], said
     p = read_profiles(tmp_path / "all.csv")
     assert "omega_x" not in p.values and "sigma_zz" in p.values and "dsigma_zz" in p.values
-    assert p.meta["left_out"] == {"omega": "no omegax omegay omegaz in the data"}
+    spinning = ("omega", "dmu", "spin_density", "erot", "temperature_rot", "contact_power",
+                "wall_power", "lever_power")
+    assert p.meta["left_out"] == {q: "no omegax omegay omegaz in the data" for q in spinning}
+    # the couple stress, the forces' moments and the translational energy are there
+    assert "mu_zx" in p.values and "lever_z" in p.values and "temperature" in p.values
+    assert "mx" in p.meta["taken_as_zero"]
     code, _ = cli(capsys, *pour_args(pour, tmp_path / "few.csv", "--slabs", "z", "--range",
                                      0, 10, "--bins", 5, "--t-min", 30, "--quantities",
                                      "nu,sigma"))

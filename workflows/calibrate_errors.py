@@ -3,6 +3,7 @@
 Usage::
 
     python workflows/calibrate_errors.py OUT RUN RUN RUN RUN [--bins 20] [--t-min T]
+                                         [--quantities paper|micropolar]
 
 Each run is read once and its errors made several ways from the same accumulators: from
 time alone (blocking analysis), and from time and structure with the rings split into
@@ -62,13 +63,18 @@ def scores(x, e):
     return z
 
 
-def calibrate(runs, bins, t_min) -> pd.DataFrame:
+#: The micropolar and energy fields (issue 39): ``--quantities micropolar``.
+MICROPOLAR = ["mu_r", "mu_phi", "dmu_phi", "spin_density", "couple_density", "ekin", "erot",
+              "temperature", "temperature_rot", "contact_power"]
+
+
+def calibrate(runs, bins, t_min, quantities=QUANTITIES) -> pd.DataFrame:
     results = [one_run(r, bins, t_min) for r in runs]
     n = results[0]["time"].cells.n
     bulk = slice(n // 4, n - n // 4)
     rows = []
     for method in METHODS:
-        for q in QUANTITIES:
+        for q in quantities:
             x = np.stack([r[method].values[q][bulk] for r in results])
             e = np.stack([r[method].sem[q][bulk] for r in results])
             with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
@@ -115,13 +121,17 @@ def main(argv=None):
     ap.add_argument("--sectors-for-stress", action="store_true",
                     help="give sigma_rr, sigma_rphi, sigma_phir sector errors too (to measure "
                          "why granavg gives them time errors only)")
+    ap.add_argument("--quantities", choices=["paper", "micropolar"], default="paper",
+                    help="the paper's quantities (default) or the micropolar and energy "
+                         "fields")
     args = ap.parse_args(argv)
     if args.sectors_for_stress:
         replicas.balanced_names = lambda groups, across="r": set()
     if len(args.runs) < 3:
         ap.error("give at least three independent realisations")
     args.out.mkdir(parents=True, exist_ok=True)
-    df = calibrate(args.runs, args.bins, args.t_min)
+    df = calibrate(args.runs, args.bins, args.t_min,
+                   MICROPOLAR if args.quantities == "micropolar" else QUANTITIES)
     df.to_csv(args.out / "calibration.csv", index=False, float_format="%.4g")
     print(markdown(df))
 

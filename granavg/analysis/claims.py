@@ -30,7 +30,10 @@ import numpy as np
 
 from granavg.analysis import continuum as c
 from granavg.analysis import shear_band as sb_fit
-from granavg.analysis.balance import FORCE_DENSITIES, residuals
+from granavg.analysis.balance import FORCE_DENSITIES, residuals, stress_scale
+from granavg.analysis.spin_balance import (ARMS, has_couples, moment_density, spin_balance,
+                                           spin_residuals)
+from granavg.engine.kernels import BRANCHES
 from granavg.errors import UserError
 from granavg.engine.quantities import TENSOR
 from granavg.engine.stationarity import ensemble_stationarity, window_mean
@@ -58,6 +61,12 @@ ESTIMATOR_TEXT = ("ln v_phi fitted over the finer rings from one mean diameter o
                   "(docs/analysis.md)")
 #: Bulk EoM residual, relative to the stress scale, below which the equations close.
 EOM_LIMIT = 0.1
+#: The spins' balance closes (issue 39): every ring's |residual| below SPIN_LIMIT of the
+#: stress scale, walls included, and the bulk's median below SPIN_BULK_LIMIT.
+SPIN_LIMIT, SPIN_BULK_LIMIT = 0.1, 0.02
+#: The power balance closes: the energy left unbalanced within 2% of the inner wall's
+#: power, or within Z errors where those are larger.
+POWER_LIMIT = 0.02
 #: Relative deviation from the linear-spring identity accepted by the identity check.
 IDENTITY_TOLERANCE = 0.05
 
@@ -367,6 +376,62 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         f"{eo['balance_wall_residual_max_err']:.1g} ({eo['balance_wall_residual_max_without_forces']:.2f}"
         " without the force densities)"))
 
+    # the spins' balance (micropolar): the forces' moments, the couples passed and the
+    # spins' flux, with the law's own lever arm (pair granular with rolling resistance:
+    # the contact point; gran/hooke/history: the surface)
+    arm = "contact" if scene.get("mu_roll", 0) > 0 else "surface"
+    if all(has_couples(p.values, p.cells) for p in (p20, p60)):
+        for p in (p20, p60):
+            series[f"spins_{p.cells.n}"] = _spins(p, arm)
+        num["spin_balance"] = est(lambda a, b: _spin_numbers(a, arm), balance=True)
+        sp = num["spin_balance"]
+        claims.append(_claim(
+            "the spins' angular momentum balances in every ring",
+            _both(verdict(sp["max_residual"], sp["max_residual_err"], SPIN_LIMIT, above=False),
+                  verdict(sp["bulk_median_residual"], sp["bulk_median_residual_err"],
+                          SPIN_BULK_LIMIT, above=False)),
+            f"moment density left unbalanced by the forces' moments (lever arm to the "
+            f"{'contact point' if arm == 'contact' else 'surface'}), the couples the "
+            f"contacts pass and the spins' flux, over the stress scale ({p20.cells.n} "
+            f"rings, walls included): at most {sp['max_residual']:.2g} +- "
+            f"{sp['max_residual_err']:.1g}, bulk median {sp['bulk_median_residual']:.2g} +- "
+            f"{sp['bulk_median_residual_err']:.1g} (closes below {SPIN_LIMIT:g} and "
+            f"{SPIN_BULK_LIMIT:g}); the forces' moments alone reach {sp['tau_max']:.2g}. "
+            f"With the couple stress field's divergence instead of the couples passed: at "
+            f"most {sp['field_max_residual']:.2g} +- {sp['field_max_residual_err']:.1g}"))
+
+    # the power balance: what the inner wall delivers (-Omega <T_in>) is dissipated by the
+    # contacts, at the walls and by the base plate, the packing's kinetic energy steady
+    if all(k in p20.values for k in ("contact_power", "wall_power")):
+        t_in = window_mean(p20.timeseries, "torque_in_Nm",
+                           (p20.meta.get("frames") or {}).get("t_min_s", 0.0))
+        pw = est(lambda a, b: _power_numbers(a, arm), balance=True)
+        if t_in is not None:
+            P, P_err = -geo.Omega * t_in["mean"], geo.Omega * t_in["err"]
+            pw.update({"inner_wall_power_W": P, "inner_wall_power_W_err": P_err,
+                       "inner_wall_contacts_dissipation_W": P - pw["inner_wall_delivered_W"],
+                       "inner_wall_contacts_dissipation_W_err": float(np.hypot(
+                           P_err, pw["inner_wall_delivered_W_err"])),
+                       "closure": pw["kinetic_energy_rate_W"] / P,
+                       "closure_err": pw["kinetic_energy_rate_W_err"] / abs(P)})
+            plate = (f", the base plate {pw['plate_dissipation_W']:.4g} +- "
+                     f"{pw['plate_dissipation_W_err']:.2g} W" if "body_power" in p20.values
+                     else " (no base plate)")
+            claims.append(_claim(
+                "the inner wall's power is dissipated",
+                _closes(pw["closure"], pw["closure_err"], POWER_LIMIT),
+                f"inner wall -Omega T_in (window mean) = {P:.4g} +- {P_err:.2g} W; "
+                f"dissipated by the disks' contacts {pw['contact_dissipation_W']:.4g} +- "
+                f"{pw['contact_dissipation_W_err']:.2g} W, the inner wall's contacts "
+                f"{pw['inner_wall_contacts_dissipation_W']:.4g} +- "
+                f"{pw['inner_wall_contacts_dissipation_W_err']:.2g} W, the outer wall's "
+                f"{-pw['outer_wall_delivered_W']:.4g} +- "
+                f"{pw['outer_wall_delivered_W_err']:.2g} W{plate}: unbalanced "
+                f"{pw['closure']:.3g} +- {pw['closure_err']:.2g} of the wall's power (closes "
+                f"within {POWER_LIMIT:g} or {Z:g} errors; what is left is the rate of the "
+                "kinetic and elastic energy, nil in a steady state)"))
+        num["power_balance"] = pw
+
     # the shear cell's torque (what the experiments measure), and its balance with the
     # base plate's: the packing passes the inner wall's torque on to the outer wall and
     # the plate
@@ -664,6 +729,60 @@ def _eom_numbers(p):
             "balance_max_residual": float(np.nanmax(full)),
             "balance_wall_residual_max_without_forces": float(np.nanmax(bare[:, [0, -1]])),
             "balance_terms": len(terms)}
+
+
+def _closes(value, err, limit):
+    """A balance closes (``reproduced``) if |value| is within ``limit`` or Z errors,
+    fails (``not reproduced``) beyond both, undecided without an error."""
+    if not (np.isfinite(value) and np.isfinite(err)):
+        return "inconclusive"
+    return "reproduced" if abs(value) <= max(limit, Z * err) else "not reproduced"
+
+
+def _power_numbers(p, arm):
+    """The powers (W) the contacts and the body forces deliver to the disks over all
+    rings: the disks' contacts (with the law's lever arm), the inner and the outer
+    wall's contacts (the rings of the inner and the outer half), the base plate; their
+    sum is the rate of the disks' kinetic energy."""
+    V = p.cells.volume
+    branch = (p.meta or {}).get("branch", "contact")
+    lever = (BRANCHES[branch] - ARMS[arm]) / 0.5
+
+    def total(name, where=slice(None)):
+        return float(np.nansum((V * p.values[name])[where])) if name in p.values else 0.0
+    inner = np.arange(p.cells.n) < p.cells.n // 2
+    pp = total("contact_power") + lever * total("lever_power")
+    w_in, w_out = total("wall_power", inner), total("wall_power", ~inner)
+    body = total("body_power")
+    return {"contact_dissipation_W": -pp, "plate_dissipation_W": -body,
+            "inner_wall_delivered_W": w_in, "outer_wall_delivered_W": w_out,
+            "kinetic_energy_rate_W": pp + w_in + w_out + body}
+
+
+def _spins(p, arm):
+    """The spins' balance residual per ring (cells' and field's form, walls closed) and
+    the forces' moment density, over the stress scale, for the figure."""
+    cells = spin_balance(p, arm=arm, closed=True)
+    field = spin_balance(p, arm=arm, closed=True, form="field")
+    tau = moment_density(p.values, p.cells, arm)[0] / cells["scale"]
+    return cells["residual"][0], cells["residual_err"][0], field["residual"][0], tau
+
+
+def _spin_numbers(p, arm):
+    """The spins' balance over the rings (walls closed), relative to the stress scale:
+    the couples passed (``cells`` form) and the couple stress's divergence (``field``)."""
+    scale = stress_scale(p.values, p.cells)
+    cells, field = (np.abs(spin_residuals(p.values, p.cells, arm, closed=True,
+                                          form=form)[0]) / scale
+                    for form in ("cells", "field"))
+    b = bulk(p.cells.n)
+    return {"max_residual": float(np.nanmax(cells)),
+            "bulk_median_residual": float(np.nanmedian(cells[b])),
+            "wall_residual_max": float(np.nanmax(cells[[0, -1]])),
+            "field_max_residual": float(np.nanmax(field)),
+            "field_bulk_median_residual": float(np.nanmedian(field[b])),
+            "tau_max": float(np.nanmax(np.abs(moment_density(p.values, p.cells, arm)[0])))
+            / scale}
 
 
 def _layers(p, geo):

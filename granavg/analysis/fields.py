@@ -20,6 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from granavg.analysis.balance import balance  # noqa: E402
+from granavg.analysis.spin_balance import has_couples, spin_balance  # noqa: E402
 
 OKABE_ITO = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000"]
 #: Groups of columns drawn together, by prefix.
@@ -100,30 +101,55 @@ def profile_panels(p, ax=None):
     return ax
 
 
-def balance_panel(p, result, ax=None):
-    """The balance residual per cell (both components, relative to the stress scale),
-    with its errors; the band +-0.1 for scale."""
+def balance_panel(p, result, ax=None, spins=False):
+    """The balance residual per cell (each component, relative to the stress scale),
+    with its errors; the band +-0.1 for scale. ``spins``: the spins' balance
+    (:mod:`granavg.analysis.spin_balance`; one component in 2D, about z)."""
     if ax is None:
         _, ax = plt.subplots(figsize=(4.8, 3.2), constrained_layout=True)
     where = position(p)
     x = where[1] if where else np.arange(p.cells.n)
-    for k, comp in enumerate(p.cells.axes):
+    comps = ("z",) if spins and p.cells.dim == 2 else p.cells.axes
+    for k, comp in enumerate(comps):
         ax.errorbar(x, result["residual"][k], yerr=result["residual_err"][k], ls="none",
                     marker="os^"[k], ms=4, color=OKABE_ITO[k], label=f"{comp} component")
     ax.axhspan(-0.1, 0.1, color="0.9", zorder=0)
     ax.axhline(0, color="0.5", lw=0.8)
     ax.set_xlabel(where[0] if where else "cell")
-    ax.set_ylabel("net force on a cell / (stress scale x face)")
-    terms = ", ".join(result["terms"]) or "none"
-    ax.set_title(f"balance (force densities: {terms})", fontsize=9)
+    if spins:
+        ax.set_ylabel("unbalanced moment density / stress scale")
+        ax.set_title(f"balance of the spins ({result['form']} form, lever arm to the "
+                     f"{'contact point' if result['arm'] == 'contact' else 'surface'})",
+                     fontsize=9)
+    else:
+        ax.set_ylabel("net force on a cell / (stress scale x face)")
+        terms = ", ".join(result["terms"]) or "none"
+        ax.set_title(f"balance (force densities: {terms})", fontsize=9)
     ax.legend(fontsize=7)
     return ax
 
 
-def analyze_fields(profiles, names, closed=False) -> dict:
-    """The summary of profiles of any cells: per profile its geometry, units and the
+def spin_summary(p, closed=False, arm="contact") -> dict | None:
+    """The spins' balance of a profile (None without the stress and couple fields): the
+    cells' form where the profile holds the couples passed (``couple_density``), else
+    the field's; median and largest |residual| with the residuals and errors."""
+    if not has_couples(p.values, p.cells):
+        return None
+    form = "cells" if any(k.startswith("couple_density") for k in p.values) else "field"
+    b = spin_balance(p, arm=arm, closed=closed, form=form)
+    occupied = np.asarray(p.values.get("nu", np.ones(p.cells.n))) > 0
+    res = np.abs(b["residual"])[:, occupied]
+    return {"form": form, "arm": arm, "stress_scale": b["scale"], "terms": b["terms"],
+            "median_abs_residual": float(np.nanmedian(res)) if res.size else None,
+            "max_abs_residual": float(np.nanmax(res)) if res.size else None,
+            "residual": b["residual"].tolist(), "residual_err": b["residual_err"].tolist()}
+
+
+def analyze_fields(profiles, names, closed=False, arm="contact") -> dict:
+    """The summary of profiles of any cells: per profile its geometry, units, the
     balance of forces (median and largest |residual| with errors; with and without the
-    force densities)."""
+    force densities) and, where the profile holds the couple stress, the spins' balance
+    (:func:`spin_summary`; ``arm``: the contact law's lever arm for the torque)."""
     out = {"kind": "fields", "closed": bool(closed), "profiles": []}
     for p, name in zip(profiles, names):
         full, bare = balance(p, closed=closed), balance(p, terms=(), closed=closed)
@@ -140,8 +166,26 @@ def analyze_fields(profiles, names, closed=False) -> dict:
                             float(np.nanmax(np.abs(bare["residual"])[:, occupied]))
                             if res.size else None,
                         "residual": full["residual"].tolist(),
-                        "residual_err": full["residual_err"].tolist()}})
+                        "residual_err": full["residual_err"].tolist()},
+            "spin_balance": spin_summary(p, closed, arm)})
     return out
+
+
+def _spin_row(p, s, k, out) -> str:
+    """The spins' balance of one profile: its panel (saved) and sentence."""
+    sb = s.get("spin_balance")
+    if not sb:
+        return ""
+    ax = balance_panel(p, {"residual": np.array(sb["residual"]),
+                           "residual_err": np.array(sb["residual_err"]), "form": sb["form"],
+                           "arm": sb["arm"]}, spins=True)
+    ax.figure.savefig(out / "figures" / f"spin_balance{k}.png", dpi=110)
+    plt.close(ax.figure)
+    return (f"<p>Balance of the spins ({sb['form']} form, the law's lever arm to the "
+            f"{html.escape(sb['arm'])}): median |residual| {sb['median_abs_residual']:.3g}, "
+            f"largest {sb['max_abs_residual']:.3g} of the stress scale; the forces' moment "
+            f"density alone reaches {sb['terms']['tau']:.3g}.</p>"
+            f"<img src='figures/spin_balance{k}.png'>")
 
 
 def write_field_report(summary, profiles, out) -> Path:
@@ -170,9 +214,9 @@ def write_field_report(summary, profiles, out) -> Path:
                     f"{b['max_abs_residual']:.3g} (without the force densities "
                     f"{b['max_abs_residual_without_forces']:.3g}) of the stress scale "
                     f"{b['stress_scale']:.4g}.</p><img src='figures/profiles{k}.png'>"
-                    f"<img src='figures/balance{k}.png'>")
+                    f"<img src='figures/balance{k}.png'>" + _spin_row(p, s, k, out))
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (out / "report.html").write_text(
         "<!doctype html><meta charset='utf-8'><title>granavg fields</title><body>"
-        "<h1>granavg: fields and the balance of forces</h1>" + "".join(rows) + "</body>")
+        "<h1>granavg: fields and their balance laws</h1>" + "".join(rows) + "</body>")
     return out / "report.html"

@@ -199,6 +199,55 @@ def fig9(p20, p60, summary, axes=None):
     return ax
 
 
+def fig_spins(p20, p60, summary, axes=None):
+    """Figs. 8-9 in micropolar terms: the couple stress (mu_r: the couple through a
+    circle; mu_phi: through a radial cut), the eigen-rotation omega* beside the couples
+    the contacts pass (per volume, over the stress scale), and the spins' balance
+    residual per ring with the forces' moment density for scale."""
+    ax = _axes(axes, 3, size=(4.2, 3.2))
+    if "spins_20" not in summary["series"] and f"spins_{p20.cells.n}" not in summary["series"]:
+        ax[0].text(0.5, 0.5, "no couple stress in these profiles", ha="center",
+                   transform=ax[0].transAxes)
+        return ax
+    for k, p in enumerate((p20, p60)):
+        r = p.cells.centre
+        for j, comp in enumerate(("r", "phi")):
+            ax[0].plot(r, p.values[f"mu_{comp}"], marker=MARKERS[k], ls="none",
+                       color=OKABE_ITO[j], mfc=OKABE_ITO[j] if k == 0 else "none",
+                       label=f"mu_{comp} ({p.cells.n} rings)")
+        cells, err, field, tau = summary["series"][f"spins_{p.cells.n}"]
+        ax[2].errorbar(r, cells, yerr=err, marker=MARKERS[k], ls="none", color=OKABE_ITO[0],
+                       mfc=OKABE_ITO[0] if k == 0 else "none", ms=4,
+                       label=f"residual, couples passed ({p.cells.n} rings)")
+        ax[2].plot(r, field, marker=MARKERS[k + 2], ls="none", color=OKABE_ITO[1],
+                   mfc=OKABE_ITO[1] if k == 0 else "none", ms=4,
+                   label=f"residual, div mu ({p.cells.n} rings)")
+        ax[2].plot(r, tau, color=OKABE_ITO[2], lw=0.8 if k else 1.4,
+                   label=f"forces' moments alone ({p.cells.n} rings)")
+    fine = p60
+    ws = summary["series"][f"rates_{fine.cells.n}"][5]
+    ax[1].plot(fine.cells.centre, -ws, color=OKABE_ITO[0], marker="o", ms=3,
+               label=f"-omega* ({fine.cells.n} rings)")
+    scale = summary["numbers"]["spin_balance"]["tau_max"] if "spin_balance" in \
+        summary["numbers"] else None
+    twin = ax[1].twinx()
+    twin.plot(fine.cells.centre, fine.values["couple_density"], color=OKABE_ITO[1], lw=1.0,
+              label="couples passed per volume")
+    twin.set_ylabel("couples passed (N m / m^3)", color=OKABE_ITO[1])
+    ax[0].axhline(0, color="k", lw=0.5)
+    ax[0].set(xlabel="r (m)", ylabel="couple stress (N m / m^2)", title="couple stress")
+    ax[1].axhline(0, color="k", lw=0.5)
+    ax[1].set(xlabel="r (m)", ylabel="-omega* (1/s)", title="eigen-rotation and couples")
+    ax[2].axhspan(-0.1, 0.1, color="0.9", zorder=0)
+    ax[2].axhline(0, color="k", lw=0.5)
+    ax[2].set(xlabel="r (m)", ylabel="moment density / stress scale (-)",
+              title="balance of the spins" + (f" (tau up to {scale:.2g})" if scale else ""))
+    for a in (ax[0], ax[2]):
+        a.legend(fontsize=6)
+    ax[1].legend(fontsize=6, loc="upper right")
+    return ax
+
+
 #: Panels of the time-series figure: (columns, y label, log scale).
 _SERIES_PANELS = [
     (("C", "C_bulk"), "coordination (contacts per disk)", False),
@@ -235,7 +284,7 @@ def fig_timeseries(p20, p60, summary, axes=None):
 
 
 FIGURES = {"timeseries": fig_timeseries, "fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
-           "fig7": fig7, "fig8": fig8, "fig9": fig9}
+           "fig7": fig7, "fig8": fig8, "fig9": fig9, "spins": fig_spins}
 
 
 def save_all(p20, p60, summary, out_dir) -> dict:

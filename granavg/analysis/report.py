@@ -41,6 +41,10 @@ _NUMBERS = [  # (section, key, label, unit, paper key)
     ("equations_of_motion", "balance_bulk_median_residual", "median balance residual with body and boundary forces, bulk", "-", None),
     ("equations_of_motion", "balance_wall_residual_max", "largest balance residual with body and boundary forces, wall rings", "-", None),
     ("equations_of_motion", "balance_near_wall_residual_max", "largest balance residual, rings next to the wall rings", "-", None),
+    ("spin_balance", "max_residual", "largest spins' balance residual / stress scale, any ring", "-", None),
+    ("spin_balance", "bulk_median_residual", "median spins' balance residual / stress scale, bulk", "-", None),
+    ("spin_balance", "field_max_residual", "largest spins' balance residual with div mu, any ring", "-", None),
+    ("spin_balance", "tau_max", "largest moment density of the forces / stress scale", "-", None),
     ("wall_loads", "torque_in_Nm", "torque of the packing on the inner wall", "N m", None),
     ("wall_loads", "torque_out_Nm", "torque of the packing on the outer wall", "N m", None),
     ("eigen_rotation", "layer1_per_s", "omega*, first layer", "1/s", None),
@@ -207,7 +211,8 @@ def write_report(summary: dict, figures: dict, path, title="granavg report") -> 
     parts.append("<h2>Figures</h2>")
     for name, png in figures.items():
         data = base64.b64encode(Path(png).read_bytes()).decode()
-        parts.append(f"<h3>{e(name.replace('fig', 'Fig. '))}</h3>"
+        title = "Figs. 8-9 in micropolar terms" if name == "spins" else name.replace("fig", "Fig. ")
+        parts.append(f"<h3>{e(title)}</h3>"
                      f"<img alt='{e(name)}' src='data:image/png;base64,{data}'>")
     parts.append("</body></html>")
     path = Path(path)

@@ -23,7 +23,8 @@ import numpy as np
 
 from granavg.engine.average import CellAverage
 from granavg.engine.profiles import Profiles
-from granavg.engine.quantities import QUANTITIES, groups_for, missing_columns
+from granavg.engine.quantities import (QUANTITIES, groups_for, missing_columns,
+                                       optional_columns)
 from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError
 
@@ -56,6 +57,24 @@ def _with_columns(groups, requested: bool, frame, dim: int) -> tuple:
             f"{g} (no {' '.join(c for _, c in m)})" for g, m in lacking.items()))
     return [g for g in groups if g not in lacking], {g: [c for _, c in m]
                                                      for g, m in lacking.items()}
+
+
+def _taken_as_zero(groups, frame, dim: int) -> dict:
+    """Optional contact columns the groups read and the frame lacks (the contact
+    couple: a law without rolling resistance, or dumps that do not hold it), said in
+    one log line; ``{column: what that means}`` for the sidecar."""
+    if frame.contacts is None:
+        return {}
+    absent = {c: g for c, g in optional_columns(groups, dim).items()
+              if c not in frame.contacts}
+    if not absent:
+        return {}
+    cols = " ".join(absent)
+    log.info("no contact couple (%s) in the contact data: taken as zero, so %s come from "
+             "the contact forces alone (rolling and twisting resistance, if the law has "
+             "any, are missed)", cols, ", ".join(dict.fromkeys(absent.values())))
+    return {c: "not in the contact data: taken as zero (the couples come from the forces "
+               "alone)" for c in absent}
 
 
 def _resolvable(cells, radius) -> None:
@@ -160,4 +179,7 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
                 "frames": {"t_min_s": t_min, "block_time_s": block_time}}
     if lacking:
         avg.meta["left_out"] = {g: f"no {' '.join(c)} in the data" for g, c in lacking.items()}
+    zero = _taken_as_zero(groups, head[0], cells.dim)
+    if zero:
+        avg.meta["taken_as_zero"] = zero
     return avg

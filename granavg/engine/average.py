@@ -22,10 +22,11 @@ import numpy as np
 
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.cells.base import Cells, layout_of
+from granavg.engine.channels import CONTACT_BLOCKS
 from granavg.engine.kernels import (BRANCHES, cell_sums, contact_rows, particle_channels,
                                    sector_sums, wall_points)
 from granavg.engine.profiles import Profiles, flags, standard_errors, values
-from granavg.engine.quantities import QUANTITIES
+from granavg.engine.quantities import MICROPOLAR, MICROPOLAR_CONVENTIONS, QUANTITIES
 from granavg.engine.smoothing.sums import smoothed_frame_sums
 from granavg.engine.stationarity import DRIFT_Z, stationarity
 from granavg.engine.uncertainty import structure
@@ -169,6 +170,9 @@ class CellAverage:
         meta = {**self.meta, "frames": {**self.meta.get("frames", {}), "n": acc.n_frames}}
         if {"sigma", "eps"} & set(self.groups):
             meta["branch"] = self.branch
+        micropolar = [g for g in self.groups if g in MICROPOLAR]
+        if micropolar:
+            meta["micropolar"] = dict(MICROPOLAR_CONVENTIONS, quantities=micropolar)
         if "boundary" in self.groups:
             seen = bool(np.any(layout.block(S, "wall") != 0))
             # a kernel's nodes see only the contacts within its support
@@ -297,7 +301,7 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     contacts = frame.contacts
     radius = a["radius"]
     rows = contact_rows(a, contacts) if contacts is not None and (
-        {"ncontact", "fab", "sig", "def", "wall"} & set(blocks)) else None
+        {*CONTACT_BLOCKS, "wall"} & set(blocks)) else None
     n = cells.n * max(sectors, 1)
     sums = np.zeros((n, layout.n))
     buffer = np.empty((min(CHUNK, len(radius)), layout.n))

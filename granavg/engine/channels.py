@@ -27,7 +27,27 @@ dmom       dmom_<ij>                   d_j of the mom_i sum
 dsig       dsig_<i>                    sum_j d_j of the sig_ij sum
 dkin       dkin_<i>                    sum_j d_j of the kin_ij sum
 rinv       rinv                        V^p / r_k (r_k the node's radius in a polar basis)
+ispin      ispin (2D) or ispin_<i>     I^p omega: the spin angular momentum
+inertia    inertia                     I^p
+erot       erot                        I^p |omega|^2 / 2
+ekin       ekin                        m^p |v|^2 / 2
+cst        cst_<j> (2D), cst_<ij>      sum_c l_j m_z (2D), sum_c l_i m_j (3D): m the
+                                       contact couple (rolling, twisting resistance)
+kcpl       kcpl_<j> (2D), kcpl_<ij>    v_j I^p omega_z (2D), v_i I^p omega_j (3D)
+lever      lever (2D) or lever_<i>     sum_c (delta / 2) n x f: the moment a lever arm
+                                       to the surface adds to one to the contact point
+cnet       cnet (2D) or cnet_<i>       sum_c m: the contact couples on the particle
+wcpl       wcpl (2D) or wcpl_<i>       the same over the walls' contacts alone
+ppow       ppow                        sum_c f . (v + omega x l) + m . omega over the
+                                       particles' contacts: the power they deliver
+wpow       wpow                        the same over the walls' contacts
+lpow       lpow                        sum_c ((delta / 2) n x f) . omega
+bpow       bpow                        b^p . v: the body force's power
 =========  ==========================  ==========================================
+
+I^p = k m^p a_p^2 with k = 1/2 for a disk and 2/5 for a sphere (``inertia``). The
+``couple`` shape is a vector in 2D (the couple about z, one channel per branch axis)
+and a tensor in 3D (first index the branch vector's, second the couple's).
 
 For disks V^p / a_p^2 = pi h, the factor of Eq. 7; a sphere's is 4/3 pi a_p. The 2D
 rings' layout, axes ``(r, phi)``, is the one granavg always had (``vol, mass, mom_r,
@@ -51,31 +71,40 @@ class Block:
     Attributes
     ----------
     name : str
-    shape : {"scalar", "vector", "tensor", "axial"}
+    shape : {"scalar", "vector", "tensor", "axial", "couple"}
     atoms : tuple of str
         The atom columns it reads besides positions and radii (``{v}`` stands for the
         velocity components of the dimension, ``{w}`` the spin's, ``{b}`` the body
         force's).
     contacts : tuple of str
         The contact columns it reads (``{n}`` the normal's components, ``{f}`` the
-        normal and tangential forces'); empty for blocks the contacts do not fill.
+        normal and tangential forces', ``{m}`` the contact couple's); empty for blocks
+        the contacts do not fill.
+    optional : tuple of str
+        Contact columns it may lack: taken as zero, and said so (the contact couple of
+        a law without rolling resistance, or of dumps that do not hold it).
     """
 
     name: str
     shape: str
     atoms: tuple = ()
     contacts: tuple = ()
+    optional: tuple = ()
 
     def size(self, dim: int) -> int:
         """Channels of the block in ``dim`` dimensions."""
         return {"scalar": 1, "vector": dim, "tensor": dim * dim,
-                "axial": 1 if dim == 2 else dim}[self.shape]
+                "axial": 1 if dim == 2 else dim,
+                "couple": dim if dim == 2 else dim * dim}[self.shape]
 
     def atom_columns(self, dim: int) -> list:
         return _expand(self.atoms, dim)
 
     def contact_columns(self, dim: int) -> list:
         return _expand(self.contacts, dim)
+
+    def optional_columns(self, dim: int) -> list:
+        return _expand(self.optional, dim)
 
 
 def _expand(names, dim) -> list:
@@ -85,7 +114,8 @@ def _expand(names, dim) -> list:
     groups = {"{v}": [f"v{x}" for x in xyz],
               "{w}": ["omegaz"] if dim == 2 else [f"omega{x}" for x in xyz],
               "{b}": [f"b{x}" for x in xyz], "{n}": [f"n{x}" for x in xyz],
-              "{f}": [f"fn{x}" for x in xyz] + [f"ft{x}" for x in xyz]}
+              "{f}": [f"fn{x}" for x in xyz] + [f"ft{x}" for x in xyz],
+              "{m}": ["mz"] if dim == 2 else [f"m{x}" for x in xyz]}
     out = []
     for name in names:
         out += groups.get(name, [name])
@@ -117,6 +147,24 @@ BLOCK = {b.name: b for b in (
     # 1/r of the node, weighted as the volume (1/r = rinv / vol): the curvature terms of
     # a polar basis, from the sums alone
     Block("rinv", "scalar"),
+    # micropolar and energy fields (I = k m a^2 from the masses and radii)
+    Block("ispin", "axial", ("{w}",)),
+    Block("inertia", "scalar"),
+    Block("erot", "scalar", ("{w}",)),
+    Block("ekin", "scalar", ("{v}",)),
+    Block("cst", "couple", ("id",), (*_PAIRS, "{n}", "overlap", "{m}"), ("{m}",)),
+    Block("kcpl", "couple", ("{v}", "{w}")),
+    Block("lever", "axial", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
+    Block("cnet", "axial", ("id",), (*_PAIRS, "{m}"), ("{m}",)),
+    Block("wcpl", "axial", ("id",), (*_PAIRS, "{m}"), ("{m}",)),
+    # powers (W): what the contacts deliver to each particle, f . (v + omega x l) +
+    # m . omega (the particles' contacts, the walls'), the lever moment's, the body force's
+    Block("ppow", "scalar", ("id", "{v}", "{w}"), (*_PAIRS, "{f}", "{n}", "overlap", "{m}"),
+          ("{m}",)),
+    Block("wpow", "scalar", ("id", "{v}", "{w}"), (*_PAIRS, "{f}", "{n}", "overlap", "{m}"),
+          ("{m}",)),
+    Block("lpow", "scalar", ("id", "{w}"), (*_PAIRS, "{f}", "{n}", "overlap")),
+    Block("bpow", "scalar", ("{v}", "{b}")),
 )}
 #: Blocks only a smoothing kernel fills.
 DERIVATIVE_BLOCKS = ("dvol", "dmom", "dsig", "dkin", "rinv")
@@ -124,7 +172,8 @@ DERIVATIVE_BLOCKS = ("dvol", "dmom", "dsig", "dkin", "rinv")
 BLOCKS = tuple(BLOCK)
 #: Blocks that the particles' contacts fill in the contact pass (``wall`` is filled at
 #: the contact points instead).
-CONTACT_BLOCKS = ("ncontact", "fab", "sig", "def")
+CONTACT_BLOCKS = ("ncontact", "fab", "sig", "def", "cst", "lever", "cnet", "wcpl", "ppow",
+                  "wpow", "lpow")
 
 
 def pairs(axes) -> tuple:
@@ -171,9 +220,9 @@ class Layout:
                 first.append(-1)
                 continue
             first.append(len(names))
-            if b.shape in ("vector", "axial") and b.size(self.dim) > 1:
+            if b.shape in ("vector", "axial", "couple") and b.size(self.dim) == self.dim:
                 names += [f"{b.name}_{i}" for i in self.axes]
-            elif b.shape == "tensor":
+            elif b.shape in ("tensor", "couple"):
                 names += [f"{b.name}_{c}" for c in pairs(self.axes)]
             else:
                 names.append(b.name)

@@ -49,6 +49,10 @@ VOL, MASS, MOM, SPIN, NC, FAB, SIG, KIN, DEF, WALL, BODY = (
                               "def", "wall", "body"))
 
 
+#: The contact blocks of the compiled pass, in the order of its ``keep`` flags (the
+#: couple blocks are numpy's, :func:`_couple_channels`).
+COMPILED_CONTACT_BLOCKS = ("ncontact", "fab", "sig", "def")
+
 _last_rows = (None, None)               # (the arrays looked up, their rows), replaced whole
 
 
@@ -136,6 +140,7 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
                     _stack(atoms, ["bx", "by", "bz"][:D]) if body else zero,
                     E, moving, "kin" in want, "spin" in want, body, (0,) * D,
                     layout.offsets)
+    _spin_and_energy(q, layout, atoms, mass, E, want)
     if want & set(CONTACT_BLOCKS):
         if branch not in BRANCHES:
             raise UserError(f"branch {branch!r}: choose from {', '.join(BRANCHES)}")
@@ -145,7 +150,124 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
             rows = contact_rows(atoms, contacts)
         _contact_channels(q, layout, atoms, contacts, E, vol, dfac, want, BRANCHES[branch],
                           rows, first)
+        if want & set(NUMPY_CONTACT_BLOCKS):
+            _couple_channels(q, layout, atoms, contacts, E, want, BRANCHES[branch], rows,
+                             first)
     return q
+
+
+#: I = k m a^2: a disk's k (2D) and a sphere's (3D).
+INERTIA = {2: 0.5, 3: 0.4}
+
+
+def _spin_and_energy(q, layout, atoms, mass, E, want):
+    """The micropolar and energy channels of the particles (numpy): I omega, I,
+    I |omega|^2 / 2, m |v|^2 / 2, the spin's flux v (x) I omega, in the basis E, and the
+    body force's power b . v."""
+    D = layout.dim
+    if "bpow" in want:
+        q[:, layout.first("bpow")] = np.sum(_stack(atoms, ["bx", "by", "bz"][:D]) *
+                                            _stack(atoms, ["vx", "vy", "vz"][:D]), axis=1)
+    if not want & {"ispin", "inertia", "erot", "ekin", "kcpl"}:
+        return
+    inertia = INERTIA[D] * mass * np.asarray(atoms["radius"], float) ** 2
+    if "inertia" in want:
+        q[:, layout.first("inertia")] = inertia
+    spin_cols = ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"]
+    w = _stack(atoms, spin_cols) if want & {"ispin", "erot", "kcpl"} else None
+    wb = w if D == 2 or w is None else np.einsum("pij,pj->pi", E, w)
+    if "ispin" in want:
+        layout.block(q, "ispin")[:] = inertia[:, None] * wb
+    if "erot" in want:
+        q[:, layout.first("erot")] = 0.5 * inertia * np.sum(w * w, axis=1)
+    v = _stack(atoms, ["vx", "vy", "vz"][:D]) if want & {"ekin", "kcpl"} else None
+    if "ekin" in want:
+        q[:, layout.first("ekin")] = 0.5 * mass * np.sum(v * v, axis=1)
+    if "kcpl" in want:
+        vb = np.einsum("pij,pj->pi", E, v)
+        flux = vb[:, :, None] * (inertia[:, None] * wb)[:, None, :]   # v_i I omega_j
+        layout.block(q, "kcpl")[:] = flux.reshape(len(v), D * wb.shape[1])
+
+
+def _cross(a, b):
+    """a x b per row: the z component, shape (n, 1), of 2D vectors (a 2D vector crossed
+    with a z spin, shape (n, 1), gives the in-plane vector); the vector in 3D."""
+    if a.shape[1] == 3:
+        return np.cross(a, b)
+    if b.shape[1] == 1:                                  # (x, y) x (0, 0, w)
+        return np.column_stack([a[:, 1] * b[:, 0], -a[:, 0] * b[:, 0]])
+    return (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])[:, None]
+
+
+#: The blocks of :func:`_couple_channels`.
+NUMPY_CONTACT_BLOCKS = ("cst", "lever", "cnet", "wcpl", "ppow", "wpow", "lpow")
+
+
+def _couple_channels(q, layout, atoms, contacts, E, want, shorten, rows, first):
+    """The contacts' couple and power channels (numpy), each contact on both of its
+    particles (side 2 sees -n, -f, -m; a wall contact on its particle alone):
+    sum_c l (x) m (``cst``), the moment (delta / 2) n x f that a lever arm to the surface
+    adds to one to the contact point (``lever``), sum_c m (``cnet``), the power the
+    contacts deliver to the particle, f . (v + omega x l) + m . omega (``ppow``: of the
+    particles' contacts, ``wpow``: of the walls'), and that of the lever moment
+    (``lpow``). Vectors in the basis E (rows e_i); powers are scalars."""
+    D = layout.dim
+    i1, i2 = rows
+    n = np.column_stack([np.asarray(contacts["n" + x], float) for x in "xyz"[:D]])
+    overlap = np.asarray(contacts["overlap"], float)
+    names = ["mz"] if D == 2 else ["mx", "my", "mz"]
+    m = np.column_stack([np.asarray(contacts[k], float) if k in contacts else
+                         np.zeros(len(i1)) for k in names])
+    powers = want & {"ppow", "wpow", "lpow"}
+    f = np.column_stack([np.asarray(contacts["fn" + x], float) +
+                         np.asarray(contacts.get("ft" + x, 0.0), float)
+                         for x in "xyz"[:D]]) if powers or "lever" in want else None
+    arm = 0.5 * overlap[:, None] * _cross(n, f) if f is not None else None
+    if powers:
+        v = _stack(atoms, ["vx", "vy", "vz"][:D])
+        w = _stack(atoms, ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"])
+    a = np.asarray(atoms["radius"], float)
+    wall = i2 < 0
+    hi = first + q.shape[0]
+    for side, row in enumerate((i1, i2)):
+        s = 1.0 if side == 0 else -1.0
+        mine = (row >= first) & (row < hi)
+        p = row[mine] - first
+        Ep = E[p]
+        nb = s * np.einsum("hij,hj->hi", Ep, n[mine])
+        length = a[p] - shorten * overlap[mine]
+        if powers:                          # in the lab frame: scalars need no basis
+            lv = s * length[:, None] * n[mine]
+            fs, ms, wp = s * f[mine], s * m[mine], w[p]
+            moving = v[p] + (_cross(wp, lv) if D == 3 else -_cross(lv, wp))  # v + w x l
+            power = np.sum(fs * moving, axis=1) + np.sum(ms * wp, axis=1)
+            for block, which in (("ppow", ~wall[mine]), ("wpow", wall[mine])):
+                if block in want:
+                    q[:, layout.first(block)] += np.bincount(p[which], power[which],
+                                                             minlength=q.shape[0])
+            if "lpow" in want:
+                q[:, layout.first("lpow")] += np.bincount(
+                    p, np.sum(arm[mine] * wp, axis=1), minlength=q.shape[0])
+        if "cst" in want:
+            mb = s * (m[mine] if D == 2 else np.einsum("hij,hj->hi", Ep, m[mine]))
+            flux = (length[:, None] * nb)[:, :, None] * mb[:, None, :]    # l_i m_j
+            _add_rows(layout.block(q, "cst"), p, flux.reshape(len(p), D * mb.shape[1]))
+        if "lever" in want:
+            ab = arm[mine] if D == 2 else np.einsum("hij,hj->hi", Ep, arm[mine])
+            _add_rows(layout.block(q, "lever"), p, ab)
+        if want & {"cnet", "wcpl"}:
+            mb = s * (m[mine] if D == 2 else np.einsum("hij,hj->hi", Ep, m[mine]))
+            if "cnet" in want:
+                _add_rows(layout.block(q, "cnet"), p, mb)
+            if "wcpl" in want:
+                at_wall = wall[mine]
+                _add_rows(layout.block(q, "wcpl"), p[at_wall], mb[at_wall])
+
+
+def _add_rows(block, rows, values):
+    """block[rows] += values, rows repeated (one column at a time)."""
+    for k in range(block.shape[1]):
+        block[:, k] += np.bincount(rows, values[:, k], minlength=block.shape[0])
 
 
 def _stack(columns, names):
@@ -163,7 +285,7 @@ def _contact_channels(q, layout, atoms, contacts, E, vol, dfac, want, shorten, r
            for k in ("fnx", "fny", "fnz", "ftx", "fty", "ftz", "nx", "ny", "nz", "overlap")}
     f = np.column_stack([col["fn" + x] + col["ft" + x] for x in "xyz"[:D]])
     n = np.column_stack([col["n" + x] for x in "xyz"[:D]])
-    keep = np.array([b in want for b in CONTACT_BLOCKS])
+    keep = np.array([b in want for b in COMPILED_CONTACT_BLOCKS])
     _accumulate_contacts(i1, i2, f, n, col["overlap"], E, np.asarray(atoms["radius"], float),
                          vol, np.asarray(dfac, float), shorten, keep, q, first, (0,) * D,
                          layout.offsets)

@@ -41,8 +41,9 @@ class Quantity:
         Its name in ``quantities`` and the prefix of its profile columns.
     blocks : tuple of str
         The channel blocks its values need (:data:`granavg.engine.channels.BLOCK`).
-    shape : {"scalar", "vector", "tensor", "axial"}
-        How its columns are named in a basis (:func:`columns`).
+    shape : {"scalar", "vector", "tensor", "axial", "couple"}
+        How its columns are named in a basis (:func:`columns`; ``couple``: a vector in
+        2D, a tensor in 3D).
     value : callable
         ``value(S, V, layout) -> dict of column -> ndarray (n_cells,)`` from the mean
         cell sums ``S`` (n_cells, n_channels) and the cell volumes ``V``.
@@ -88,7 +89,7 @@ def columns(group: str, axes) -> list:
     shape = QUANTITIES[group].shape
     if shape == "scalar" or (shape == "axial" and len(axes) == 2):
         return [group]
-    if shape in ("vector", "axial"):
+    if shape in ("vector", "axial") or (shape == "couple" and len(axes) == 2):
         return [f"{group}_{i}" for i in axes]
     return [f"{group}_{c}" for c in pairs(axes)]
 
@@ -251,6 +252,32 @@ def _divergence(block, div_block):
     return value
 
 
+def _granular_temperature(S, V, layout, name):
+    """T = tr(sum m v v - m_cell v v) / (D m_cell): the kinetic energy of the velocity
+    fluctuations about the cell's mean flow per mass and degree of freedom (v the
+    volume-weighted mean velocity of Eq. 3), m^2/s^2 in SI."""
+    D = layout.dim
+    inv_vol = _inverse_volume(S, layout)
+    mass = S[:, layout.index["mass"]]
+    mom, kin = layout.block(S, "mom"), layout.block(S, "kin")
+    v = mom * inv_vol[:, None]
+    trace = sum(kin[:, k * D + k] for k in range(D))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return {name: (trace - mass * np.sum(v * v, axis=1)) / (D * mass)}
+
+
+def _rotational_temperature(S, V, layout, name):
+    """T_rot = (sum I |omega|^2 - |sum I omega|^2 / sum I) / (n_rot m_cell): the energy
+    of the spins' fluctuations about the cell's inertia-weighted mean spin, per mass and
+    rotational degree of freedom (n_rot = 1 in 2D, 3 in 3D), m^2/s^2 in SI."""
+    D = layout.dim
+    mass, inertia = S[:, layout.index["mass"]], S[:, layout.index["inertia"]]
+    spin = layout.block(S, "ispin")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.sum(spin * spin, axis=1) / inertia
+        return {name: (2.0 * S[:, layout.index["erot"]] - mean) / ((1 if D == 2 else 3) * mass)}
+
+
 #: Every quantity, by name.
 QUANTITIES = {q.name: q for q in (
     Quantity("nu", ("vol",), "scalar", _values(_ratio("vol", "nu"), "nu"),
@@ -292,9 +319,76 @@ QUANTITIES = {q.name: q for q in (
     Quantity("divdsigma", ("vol", "kin", "dkin", "rinv"), "vector",
              _values(_divergence("kin", "dkin"), "divdsigma"), needs_mass=True, smooth=True,
              help="divergence of the dynamic stress (smoothing kernels only)"),
+    # micropolar fields (granavg.analysis.spin_balance) and energy
+    Quantity("mu", ("cst",), "couple", _values(_per_cell_volume("cst"), "mu"),
+             help="couple stress of the contact couples, sum l m / V (first index the "
+                  "branch vector's)"),
+    Quantity("dmu", ("kcpl",), "couple", _values(_per_cell_volume("kcpl"), "dmu"),
+             needs_mass=True, help="flux of spin angular momentum, sum v I omega / V"),
+    Quantity("spin_density", ("ispin",), "axial",
+             _values(_per_cell_volume("ispin"), "spin_density"), needs_mass=True,
+             help="angular momentum density of the spins, sum I omega / V"),
+    Quantity("lever", ("lever",), "axial", _values(_per_cell_volume("lever"), "lever"),
+             help="moment density (delta/2) n x f that a lever arm to the particle's "
+                  "surface (pair gran/*) adds to one to the contact point"),
+    Quantity("couple_density", ("cnet",), "axial",
+             _values(_per_cell_volume("cnet"), "couple_density"),
+             help="net contact couple on the particles, sum m / V: what the couple "
+                  "stress's divergence stands for in a cell"),
+    Quantity("boundary_couple", ("wcpl",), "axial",
+             _values(_per_cell_volume("wcpl"), "boundary_couple"),
+             help="the walls' contact couples on the particles, per volume"),
+    Quantity("contact_power", ("ppow",), "scalar",
+             _values(_ratio("ppow", "contact_power"), "contact_power"),
+             help="power the particles' contacts deliver, sum f.(v + omega x l) + m.omega "
+                  "/ V: in a steady state's time average minus their dissipation rate"),
+    Quantity("wall_power", ("wpow",), "scalar",
+             _values(_ratio("wpow", "wall_power"), "wall_power"),
+             help="power the walls' contacts deliver to the particles"),
+    Quantity("lever_power", ("lpow",), "scalar",
+             _values(_ratio("lpow", "lever_power"), "lever_power"),
+             help="power of the lever moment (delta/2) n x f (pair gran/* styles)"),
+    Quantity("body_power", ("body", "bpow"), "scalar",
+             _values(_ratio("bpow", "body_power"), "body_power"),
+             help="power of the body forces, sum b.v / V (minus the base plate's "
+                  "dissipation rate)"),
+    Quantity("ekin", ("ekin",), "scalar", _values(_ratio("ekin", "ekin"), "ekin"),
+             needs_mass=True, help="translational kinetic energy density"),
+    Quantity("erot", ("erot",), "scalar", _values(_ratio("erot", "erot"), "erot"),
+             needs_mass=True, help="rotational kinetic energy density"),
+    Quantity("temperature", ("vol", "mass", "mom", "kin"), "scalar",
+             _values(_granular_temperature, "temperature"), needs_mass=True,
+             help="translational granular temperature"),
+    Quantity("temperature_rot", ("mass", "ispin", "inertia", "erot"), "scalar",
+             _values(_rotational_temperature, "temperature_rot"), needs_mass=True,
+             help="rotational granular temperature"),
 )}
 
 
+#: The micropolar and energy quantities the sidecar's ``micropolar`` entry explains.
+MICROPOLAR = ("mu", "dmu", "spin_density", "couple_density", "boundary_couple", "lever",
+              "contact_power", "wall_power", "lever_power", "body_power", "ekin", "erot",
+              "temperature", "temperature_rot")
+#: Their definitions and sign conventions, for the sidecar (docs/profiles.md).
+MICROPOLAR_CONVENTIONS = {
+    "couple": "m, the contact couple on a particle beyond the moment of the forces "
+              "(rolling and twisting resistance; contact columns mz, or mx my mz; the "
+              "other particle gets -m); counter-clockwise positive about z in 2D",
+    "mu": "couple stress (1/V) sum_p w_p sum_c l_i m_j: first index the branch vector's "
+          "(the face's normal), second the couple's; 2D: mu_<i> = l_i m_z; l to the "
+          "contact point as the stress's",
+    "dmu": "flux of the spins' angular momentum (1/V) sum w v_i I omega_j, I = k m a^2 "
+           "(k = 1/2 disks, 2/5 spheres)",
+    "balance": "div(mu - dmu) + tau + lever + couples passed at walls = d(spin_density)/dt, "
+               "tau_z = sigma_yx - sigma_xy (sigma_ij = f_i l_j), divergence on mu's first "
+               "index (granavg.analysis.spin_balance)",
+    "lever": "(1/V) sum w sum_c (delta/2) n x f: what a law whose torque arm ends at the "
+             "surface (pair gran/*) adds to one ending at the contact point (pair granular)",
+    "powers": "power the contacts deliver to the particles, f . (v + omega x l) + m . "
+              "omega, per volume (W/m^3 in SI): in a steady state's time average minus "
+              "the dissipation rate (the elastic energy's rate averages out); body_power "
+              "b . v",
+}
 #: What the balance of forces fixes in a whole cell: the tractions on the cell's own
 #: faces. A cell's summed stress is the traction on its boundary, and the components
 #: with the normal across the cells (rr, phir and, the static stress being symmetric,
@@ -343,7 +437,8 @@ def needed_columns(groups, dim: int = 2):
             for c in atom_columns(b, dim):
                 atoms.setdefault(c, g)
             for c in contact_columns(b, dim):
-                contacts.setdefault(c, g)
+                if c not in BLOCK[b].optional_columns(dim):
+                    contacts.setdefault(c, g)
     return atoms, contacts
 
 
@@ -362,8 +457,26 @@ def missing_columns(group: str, atoms, contacts, dim: int) -> list:
     for b in QUANTITIES[group].blocks:
         missing += [("atom", c) for c in atom_columns(b, dim) if b != "vol" and c not in atoms]
         if contacts is not None:
-            missing += [("contact", c) for c in contact_columns(b, dim) if c not in contacts]
+            optional = BLOCK[b].optional_columns(dim)
+            missing += [("contact", c) for c in contact_columns(b, dim)
+                        if c not in contacts and c not in optional]
     return list(dict.fromkeys(missing))
+
+
+def optional_columns(groups, dim: int = 2) -> dict:
+    """Contact columns these groups read where the data hold them and take as zero
+    where not (the contact couple), with the group that reads each."""
+    out = {}
+    for g in groups:
+        for b in QUANTITIES[g].blocks:
+            for c in BLOCK[b].optional_columns(dim):
+                out.setdefault(c, g)
+    return out
+
+
+def needs_body(groups) -> bool:
+    """Whether these groups need the particles' body forces (``body``, ``body_power``)."""
+    return any("body" in QUANTITIES[g].blocks for g in groups)
 
 
 def groups_for(quantities, have_contacts: bool, have_body: bool = False,
@@ -373,7 +486,7 @@ def groups_for(quantities, have_contacts: bool, have_body: bool = False,
     frames carry body forces; the derivatives only with a ``smooth`` kernel)."""
     if quantities is None:
         return [g for g, q in QUANTITIES.items()
-                if (have_contacts or not q.contacts) and (have_body or g != "body")
+                if (have_contacts or not q.contacts) and (have_body or "body" not in q.blocks)
                 and (smooth or not q.smooth)]
     rough = [q for q in quantities if q in QUANTITIES and QUANTITIES[q].smooth and not smooth]
     if rough:
@@ -389,9 +502,11 @@ def groups_for(quantities, have_contacts: bool, have_body: bool = False,
         raise ParameterError("quantities", f"{lacking[0]} needs the contact dump, and none "
                              "was found; give the contacts ({contacts}) or run the "
                              "simulation with contacts")
-    if "body" in quantities and not have_body:
-        raise ParameterError("quantities", "body needs body forces: none acts in this scene "
-                             "or was given (gravity, base-plate friction, a force column)")
+    bodiless = [q for q in quantities if "body" in QUANTITIES[q].blocks and not have_body]
+    if bodiless:
+        raise ParameterError("quantities", f"{bodiless[0]} needs body forces: none acts in "
+                             "this scene or was given (gravity, base-plate friction, a force "
+                             "column)")
     return list(quantities)
 
 

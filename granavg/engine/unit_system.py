@@ -58,6 +58,19 @@ class UnitSystem:
         """
         name = column[:-4] if column.endswith("_sem") else column
         head = name.split("_")[0]
+        if name.endswith("_power"):                       # power densities
+            return f"{self.force}/({self.length}^2 {self.time})"
+        if name.startswith(("temperature", "temperature_rot")):
+            return f"({self.length}/{self.time})^2"
+        if name == "spin_density":
+            return f"{self.mass}/({self.length} {self.time})"
+        if head in ("ekin", "erot", "dmu") and self.momentum_flux:
+            return self.momentum_flux if head != "dmu" else f"{self.momentum_flux} {self.length}"
+        if head in ("mu", "dmu"):                         # couple stresses
+            return f"{self.force}/{self.length}"
+        if head in ("ekin", "erot", "lever") or name.startswith(("couple_density",
+                                                                  "boundary_couple")):
+            return self.stress                            # energy and moment densities
         if head == "dsigma" and self.momentum_flux:
             return self.momentum_flux
         if head in ("sigma", "dsigma"):

@@ -44,7 +44,7 @@ from isal import igzip
 from granavg.errors import ParameterError, UserError, literal, named
 from granavg.engine.kernels import lookup
 from granavg.io.box import Box
-from granavg.io.contacts import contact_columns
+from granavg.io.contacts import contact_columns, contact_couples
 from granavg.io.dumpfile import open_text
 from granavg.io.formats import Format
 from granavg.io.frames import (CONSISTENCY, Columns, Frame, PairedDumps, check_atoms,
@@ -66,10 +66,24 @@ SCALED = ("xs", "xsu", "ys", "ysu", "zs", "zsu")
 
 
 def granavg_columns(dim: int) -> tuple:
-    """granavg's own contact columns in ``dim`` dimensions."""
+    """granavg's own contact columns in ``dim`` dimensions (without the optional
+    couple, :func:`couple_columns`)."""
     xyz = "xyz"[:dim]
     return ("id1", "id2", "wall", *(f"fn{x}" for x in xyz), *(f"ft{x}" for x in xyz),
             *(f"n{x}" for x in xyz), "overlap")
+
+
+def couple_columns(dim: int) -> tuple:
+    """The contact couple's columns (on atom 1, N m in SI): ``mz`` in 2D, ``mx my mz``
+    in 3D."""
+    return ("mz",) if dim == 2 else ("mx", "my", "mz")
+
+
+def rolling_columns(dim: int) -> tuple:
+    """``pair granular``'s outputs the couple is formed from: the rolling force
+    ``frx fry [frz]`` (pair/local p5 p6 p7) and, in 3D, the twisting torque ``twist``
+    (p9)."""
+    return (*(f"fr{x}" for x in "xyz"[:dim]), *(("twist",) if dim == 3 else ()))
 
 
 def parse_map(text) -> dict:
@@ -140,10 +154,10 @@ def resolve_contacts(path, explicit: dict, dim: int) -> dict:
     names, _ = dump_header(path)
     own = granavg_columns(dim)
     if not explicit and all(c in names for c in own):
-        return {c: c for c in own}
+        return {c: c for c in (*own, *couple_columns(dim)) if c in names}
     xyz = "xyz"[:dim]
     known = ("id1", "id2", *(f"d{x}" for x in xyz), "dist", *(f"fn{x}" for x in xyz),
-             *(f"ft{x}" for x in xyz), "force")
+             *(f"ft{x}" for x in xyz), "force", *couple_columns(dim), *rolling_columns(dim))
     unknown = [k for k in explicit if k not in known]
     if unknown:
         hint = " (a 2D dump: no z components)" if dim == 2 and unknown[0].endswith("z") \
@@ -159,6 +173,7 @@ def resolve_contacts(path, explicit: dict, dim: int) -> dict:
         if col not in names:
             raise UserError(f"{path}: column {col!r} (for {ours}) is not in the dump "
                             f"(columns: {' '.join(names)})")
+    _check_couple(path, out, dim)
     missing = [c for c in ("id1", "id2", *(f"d{x}" for x in xyz), "dist") if c not in out]
     if not all(f"fn{x}" in out for x in xyz) and "force" not in out:
         missing.append("force (or " + ", ".join(f"fn{x}" for x in xyz) + ")")
@@ -171,6 +186,21 @@ def resolve_contacts(path, explicit: dict, dim: int) -> dict:
                              "map the pair/local and property/local columns with {param}, "
                              f"e.g. {literal(example)}")
     return out
+
+
+def _check_couple(path, cmap, dim):
+    """A contact couple is mapped whole: all of its own columns, or all of the rolling
+    force's (the twisting torque may come with it, or alone), not both."""
+    own = [c for c in couple_columns(dim) if c in cmap]
+    roll = [c for c in rolling_columns(dim)[:dim] if c in cmap]
+    if (own and roll) or 0 < len(own) < len(couple_columns(dim)) or 0 < len(roll) < dim or \
+            (own and "twist" in cmap):
+        given = [c for c in (*couple_columns(dim), *rolling_columns(dim)) if c in cmap]
+        raise ParameterError(
+            "contact_map", f"{literal(path)}: the contact couple needs all of "
+            f"{literal(' '.join(couple_columns(dim)))} (the couple on atom 1) or of "
+            f"{literal(' '.join(rolling_columns(dim)))} (pair granular's p5 p6"
+            f"{' p7, p9' if dim == 3 else ''}), not {literal(' '.join(given))}")
 
 
 def dimension(path, explicit_map, dim=None) -> tuple:
@@ -396,7 +426,20 @@ class LammpsDumps(PairedDumps):
         ft = np.column_stack([c[f"ft{x}"] for x in xyz]) \
             if all(f"ft{x}" in c for x in xyz) else None
         return contact_columns(c["id1"], c["id2"], d, dist, fn, ft, is_wall[i1], is_wall[i2],
-                               radii[i1], radii[i2])
+                               radii[i1], radii[i2], self._couples(c, d, dist, radii[i1],
+                                                                   radii[i2]))
+
+    def _couples(self, c, d, dist, r1, r2):
+        """The contact couple on atom 1 from the mapped columns (the couple itself, or
+        pair granular's rolling force and twisting torque); None if the dump has none."""
+        own = couple_columns(self.dim)
+        if all(k in c for k in own):
+            return c["mz"] if self.dim == 2 else np.column_stack([c[k] for k in own])
+        roll = [f"fr{x}" for x in "xyz"[:self.dim]]
+        fr = np.column_stack([c[k] for k in roll]) if all(k in c for k in roll) else None
+        if fr is None and "twist" not in c:
+            return None
+        return contact_couples(d, dist, fr, c.get("twist"), r1, r2)
 
 
 def _claims(path) -> bool:

@@ -17,7 +17,7 @@ from granavg.engine.average import MAX_BLOCKS, CellAverage
 from granavg.engine.body_forces import add_body_forces, base_plate
 from granavg.engine.cells import Space, from_options
 from granavg.engine.cells.base import Cells
-from granavg.engine.quantities import catalogue
+from granavg.engine.quantities import catalogue, needs_body
 from granavg.engine.smoothing import smooth
 from granavg.engine.unit_system import SI
 from granavg.io.frames import Frame
@@ -136,7 +136,7 @@ class RunAverage:
         scene = self.manifest["scene"]
         state = CouetteState(scene["R_i"], scene["R_o"], scene["h"], scene["rho_p"],
                              scene["d_s"]) if series else None
-        if frames is not None and self.body_forces and "body" in self.groups:
+        if frames is not None and self.body_forces and needs_body(self.groups):
             frames = WithBodyForces(frames, self.body_forces, self.geometry, scene["rho_p"])
         if frames is not None:
             frames = Prefetched(frames)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from granavg.analysis.claims import warn_if_inertial
-from granavg.engine.quantities import groups_for
+from granavg.engine.quantities import groups_for, needs_body
 from granavg.io.contacts import COLUMNS
 from granavg.io.frames import Frame
 from granavg.io.profiles_io import write_profiles
@@ -63,7 +63,7 @@ class InSituAverage:
         specs = [RunAverage.of(manifest, self.groups, bins=n, t_min=opts.get("t_min_s"),
                                block_time=opts.get("block_time_s"),
                                branch=opts.get("branch", "contact")) for n in opts["bins"]]
-        self.body = WithBodyForces((), specs[0].body_forces if "body" in self.groups else [],
+        self.body = WithBodyForces((), specs[0].body_forces if needs_body(self.groups) else [],
                                    specs[0].geometry, manifest["scene"]["rho_p"])
         self.averages = {n: spec.averager(series=k == 0)  # one time series serves all
                          for k, (n, spec) in enumerate(zip(opts["bins"], specs))}

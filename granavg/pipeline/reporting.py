@@ -117,13 +117,14 @@ def report_run(run_dir, out, bins=(20, 60), t_min=None, progress=None, title="gr
 ANALYSED = ("nu", "rho", "v_phi", "omega", "F_rr", "sigma_rr", "dsigma_rr", "eps_rr")
 
 
-def analyze_command(profiles, out, density_series=(), closed=None) -> Path:
+def analyze_command(profiles, out, density_series=(), closed=None, arm="contact") -> Path:
     """The ``analyze`` command -> ``out/report.html`` and its companions (``out`` must be
     new or empty, and is written only when complete): two ring profiles of one granavg
     run or ensemble (and coarse profiles at other area fractions) get the paper's
     analysis; profiles of any other cells, or without a run manifest, the fields and the
-    balance of forces (:mod:`granavg.analysis.fields`; ``closed``: their outer faces
-    are walls or empty space)."""
+    balance of forces and of the spins (:mod:`granavg.analysis.fields`; ``closed``:
+    their outer faces are walls or empty space; ``arm``: the contact law's lever arm for
+    the torque, :data:`~granavg.analysis.spin_balance.ARMS`)."""
     out = Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ParameterError("out", f"{{param}} {literal(out)}: exists and is not an empty "
@@ -137,7 +138,7 @@ def analyze_command(profiles, out, density_series=(), closed=None) -> Path:
             raise ParameterError("density_series", "{param} needs two ring profiles of a "
                                  "granavg run")
         with staged_directory(out) as tmp:
-            summary = analyze_fields(inputs, profiles, closed=bool(closed))
+            summary = analyze_fields(inputs, profiles, closed=bool(closed), arm=arm)
             write_field_report(summary, inputs, tmp)
         log.info("report: %s", out / "report.html")
         return out / "report.html"

@@ -6,10 +6,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from granavg.engine.profiles import Profiles
-from granavg.engine.quantities import QUANTITIES, groups_for, needed_columns
+from granavg.engine.quantities import (QUANTITIES, groups_for, needed_columns, needs_body,
+                                       optional_columns)
 from granavg.engine.smoothing import get as get_kernel
 from granavg.errors import UserError
 from granavg.io import validate
+from granavg.io.lammps_dumps import dump_header
 from granavg.io.reader import DumpReader
 from granavg.io.run_directory import read_manifest
 from granavg.io.run_dumps import RunDumps
@@ -62,10 +64,13 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
     smooth_edge = kernel not in (None, "exact") and get_kernel(kernel).smooth_edge
     groups = groups_for(quantities, contacts is not None, bool(body), smooth=smooth_edge)
     atom_cols, contact_cols = needed_columns(groups)
-    if "body" in groups:                  # computed from the disks' velocities, not read
+    if needs_body(groups):                # computed from the disks' velocities, not read
         atom_cols = {**{c: g for c, g in atom_cols.items() if c not in ("bx", "by")},
                      "vx": "body", "vy": "body"}
     need_contacts = any(QUANTITIES[g].contacts for g in groups)
+    if need_contacts:                     # the couple, where the run's dump holds it
+        held = set(dump_header(contacts)[0])
+        contact_cols.update({c: g for c, g in optional_columns(groups).items() if c in held})
     reader_a = DumpReader(atoms, list(atom_cols), atom_cols, steps)
     reader_c = DumpReader(contacts, list(contact_cols), contact_cols, steps) \
         if need_contacts else None

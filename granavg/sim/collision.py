@@ -145,7 +145,7 @@ def reference_trajectory(c, dt, start, frozen2, mass, radius, steps, contacts=Fa
         out.append(np.concatenate([disks.x.ravel(), disks.v.ravel(), disks.omega]))
         if contacts:
             found = dem.contact_rows()[2]
-            rows.append(found[0, 3:] if len(found) else np.zeros(4))
+            rows.append(found[0, 3:7] if len(found) else np.zeros(4))
     return (np.array(out), np.array(rows)) if contacts else np.array(out)
 
 

@@ -129,13 +129,16 @@ def _contact_state(i1, i2, fn, a, x, y, n):
 def wall_torques(atoms, contacts, rows) -> dict:
     """Torque about the centre (N m) that the packing exerts on each wall: minus the
     wall contacts' forces on the disks, at their contact points x + (a - delta/2) n
-    (:func:`~granavg.engine.kernels.wall_points`). The shear cell's torque, which the
-    experiments measure (``torque_in_Nm`` on the turning inner ring, ``torque_out_Nm``
-    on the outer)."""
+    (:func:`~granavg.engine.kernels.wall_points`), and minus their contact couples
+    (``mz``: rolling resistance). The shear cell's torque, which the experiments measure
+    (``torque_in_Nm`` on the turning inner ring, ``torque_out_Nm`` on the outer)."""
     points, forces = wall_points(atoms, contacts, 2, "contact", rows)
     code = np.asarray(contacts["wall"])
-    code = code[code != 0]
+    walls = code != 0
+    code = code[walls]
     torque = -(points[:, 0] * forces[:, 1] - points[:, 1] * forces[:, 0])
+    if "mz" in contacts:
+        torque = torque - np.asarray(contacts["mz"], float)[walls]
     return {name: float(np.sum(torque[code == c]))
             for name, c in (("torque_in_Nm", INNER), ("torque_out_Nm", OUTER))}
 

@@ -36,13 +36,16 @@ def local_radii(lmp) -> np.ndarray:
 
 def local_contacts(lmp, lammps) -> np.ndarray:
     """This rank's rows of ``compute cprop`` + ``cpair`` (the deck's pair/local), shape
-    (n, 11), columns :data:`granavg.io.contacts.RAW_COLUMNS`; each pair is on one rank."""
+    (n, 11), columns :data:`granavg.io.contacts.RAW_COLUMNS`, or (n, 13) with the rolling
+    force of a rolling-resistance law (:data:`~granavg.io.contacts.RAW_ROLLING`); each
+    pair is on one rank."""
     loc, arr = lammps.LMP_STYLE_LOCAL, lammps.LMP_TYPE_ARRAY
     prop = lmp.numpy.extract_compute("cprop", loc, arr)
     pair = lmp.numpy.extract_compute("cpair", loc, arr)
     if prop is None or pair is None:
         return np.empty((0, len(RAW_COLUMNS)))
-    return np.hstack([np.asarray(prop).reshape(-1, 4), np.asarray(pair).reshape(-1, 7)])
+    prop = np.asarray(prop).reshape(-1, 4)
+    return np.hstack([prop, np.asarray(pair).reshape(len(prop), -1)])
 
 
 def gather(comm, rows: np.ndarray):

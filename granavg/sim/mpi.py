@@ -11,7 +11,8 @@ import time
 from pathlib import Path
 
 from granavg.errors import LammpsError
-from granavg.io.contacts import COLUMNS, FORMAT, RAW_COLUMNS, contact_table, radius_by_id
+from granavg.io.contacts import (COLUMNS, FORMAT, RAW_COLUMNS, RAW_ROLLING, contact_table,
+                                 radius_by_id)
 from granavg.io.dumpfile import open_text, write_frame
 from granavg.io.lammps_data import read_data
 from granavg.io.reader import DumpReader
@@ -78,7 +79,8 @@ def convert_raw_contacts(raw_path: Path, out_path: Path, derived: Derived) -> No
     overlaps = Overlaps(derived)
     with open_text(out_path, "at") as fh:
         for frame in DumpReader(raw_path):
-            raw = frame.data[:, [frame.columns.index(c) for c in RAW_COLUMNS]]
+            names = RAW_COLUMNS + [c for c in RAW_ROLLING if c in frame.columns]
+            raw = frame.data[:, [frame.columns.index(c) for c in names]]
             table = contact_table(raw, radius)
             overlaps.add(table, frame.timestep)
             write_frame(fh, frame.timestep, frame.time, COLUMNS, table, frame.box, FORMAT)

@@ -134,6 +134,7 @@ class ReferenceDEM:
         self.granular = coeffs.mu_roll > 0
         # sorted pair keys and springs: tangential (x, y), then rolling (x, y) with pair granular
         self.history = (np.empty(0, int), np.empty((0, 4 if self.granular else 2)))
+        self._rolling = np.empty((0, 2))      # the last evaluation's rolling forces on i
         self.rotating = np.zeros(len(disks.radius), bool) if rotating is None \
             else np.asarray(rotating, bool)
         if np.any(self.rotating & ~disks.frozen):
@@ -211,16 +212,19 @@ class ReferenceDEM:
         -------
         i, j : ndarray of int, shape (n,)
             Disk indices of each touching pair (i < j).
-        rows : ndarray, shape (n, 7)
+        rows : ndarray, shape (n, 7), or (n, 9) with pair granular
             dx dy dist (m; dx = x_i - x_j), normal force on i (``del * fforce`` of the
             pair style's ``single()``), tangential force on i (N), re-evaluated from the
             stored springs and the current velocities (with pair granular this rewrites
-            the tangential springs of sliding contacts, as LAMMPS' ``single()`` does).
+            the tangential springs of sliding contacts, as LAMMPS' ``single()`` does),
+            and with pair granular the rolling force on i (``p5 p6``, N).
         """
         i, j, _, ft, _, _, fpair = self._contact_forces(update_history=False)
         dx = self.d.x[i] - self.d.x[j]
-        return i, j, np.column_stack([dx, np.hypot(dx[:, 0], dx[:, 1]),
-                                      dx * fpair[:, None], ft])
+        cols = [dx, np.hypot(dx[:, 0], dx[:, 1]), dx * fpair[:, None], ft]
+        if self.granular:
+            cols.append(self._rolling)
+        return i, j, np.column_stack(cols)
 
     def _contact_forces(self, update_history):
         """Per-contact forces and torques of the active contact law (vectorised over
@@ -327,6 +331,7 @@ class ReferenceDEM:
             c.gamma_roll, c.mu_roll * fncrit, update_history)
         if not update_history:                 # the rolling model keeps its stored spring
             rl1, rl2 = p.springs[:, 2], p.springs[:, 3]
+        self._rolling = np.column_stack([fr1, fr2])                # pair/local's p5 p6
         nxfs = -(nx * fs2 - ny * fs1)                              # -(n x F_t)_z
         torroll = reff * (nx * fr2 - ny * fr1)                     # R_eff (n x F_r)_z
         return (np.column_stack([fntot * nx, fntot * ny]), np.column_stack([fs1, fs2]),

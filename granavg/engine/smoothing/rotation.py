@@ -54,6 +54,8 @@ def block_terms(shape: str, axes) -> list:
     R = _turn(axes)
     D = len(axes)
     out = []
+    if shape == "couple":                   # a vector in 2D (about z), a tensor in 3D
+        shape = "vector" if D == 2 else "tensor"
 
     def add(o, i, sign, word):
         for m, f in _AVERAGE[word]:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from granavg.engine.channels import BLOCK, DERIVATIVE_BLOCKS
+from granavg.engine.channels import BLOCK, CONTACT_BLOCKS, DERIVATIVE_BLOCKS, Block
 from granavg.engine.kernels import (BRANCHES, contact_rows, particle_channels,
                                    wall_points)
 from granavg.engine.smoothing.rotation import block_terms, mixed
@@ -38,8 +38,7 @@ class _Terms:
         """Component terms of a block of this shape."""
         if self.turns:
             return block_terms(shape, self.layout.axes)
-        size = {"scalar": 1, "vector": self.D, "tensor": self.D * self.D,
-                "axial": 1 if self.D == 2 else self.D}[shape]
+        size = Block("", shape).size(self.D)
         return [(i, i, 0, 1.0) for i in range(size)]
 
     def channels(self, blocks):
@@ -139,7 +138,7 @@ def smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout):
     radius = np.asarray(a["radius"], float)
     want = set(blocks) & set(layout.blocks)
     rows = contact_rows(a, contacts) if contacts is not None and \
-        {"ncontact", "fab", "sig", "def", "wall", "dsig"} & want else None
+        {*CONTACT_BLOCKS, "wall", "dsig"} & want else None
     n = cells.n * max(sectors, 1)
     sums = np.zeros((n, layout.n))
     terms = _Terms(layout, cells.moments > 1)
