@@ -237,7 +237,10 @@ def _frames_and_cells(avg):
                        "omegaz=c_spin[3],radius=c_r (others by name or alias)")
     plain.add_argument("--contact-columns", metavar="MAP", help="e.g. id1=c_pp[1],"
                        "id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
-                       "ftx=c_pl[5],fty=c_pl[6]")
+                       "ftx=c_pl[5],fty=c_pl[6]; the contact couple as mz (3D: mx my "
+                       "mz) or as pair granular's rolling force frx fry [frz] (p5 p6 "
+                       "p7) and twisting torque twist (p9); without them the couples "
+                       "are taken as zero")
     avg.add_argument("--t-min", type=_finite, help="average frames with t >= T s (default: "
                      "the scene's discarded transient, discard_rotations rotations)")
     avg.add_argument("--block-time", type=_finite, help="base time blocks of the errors' "
