@@ -332,3 +332,24 @@ def test_the_decks_couples_under_mpirun_obey_the_rolling_coulomb_limit(tmp_path)
         assert np.all(np.abs(c["mz"]) <= cap * (1 + 1e-9) + 1e-15)
         rolling += int(np.sum(np.abs(c["mz"]) > 0.01 * cap))
     assert rolling > 100
+
+
+#: Couple columns mapped in part: half the rolling force, or both forms at once.
+PARTIAL = {2: (",frx=c_pl[8]", ",frx=c_pl[8],fry=c_pl[9],mz=c_pl[9]"),
+           3: (",frx=c_pl[11],fry=c_pl[12]",
+               ",frx=c_pl[11],fry=c_pl[12],frz=c_pl[13],mx=c_pl[11],my=c_pl[12],"
+               "mz=c_pl[13]")}
+
+
+@pytest.mark.parametrize("which", [0, 1], ids=["part-of-the-force", "both-forms"])
+def test_a_couple_mapped_in_part_is_refused_in_one_line(pile, tmp_path, which):
+    """One line, exit 2, nothing written: never a couple made of what is there."""
+    dim, out = pile
+    proc = run_cli("average", "--atoms", out / "atoms.dump", "--contacts",
+                   out / "contacts.dump", "--contact-columns", BASE[dim] + PARTIAL[dim][which],
+                   "--wall-types", 2, *SLABS[dim], "--out", tmp_path / "x.csv",
+                   "--no-progress")
+    assert proc.returncode == 2
+    lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "the contact couple needs all of" in lines[0], lines
+    assert "Traceback" not in proc.stderr and not list(tmp_path.iterdir())
