@@ -24,7 +24,8 @@ def flag(name: str) -> str:
 #: Options that only plain dumps take (a run directory's manifest says them).
 PLAIN_ONLY = ("thickness", "density", "dt", "r_range", "slabs", "grid", "wall_types",
               "atom_columns", "contact_columns", "units", "format", "gravity", "center",
-              "range", "length", "x_range", "y_range", "z_range", "layers", "area", "dim")
+              "range", "length", "x_range", "y_range", "z_range", "layers", "area", "dim",
+              "inertia")
 
 
 #: Where the help names the quantities: filled in from their registry when help is shown
@@ -233,6 +234,11 @@ def _frames_and_cells(avg):
     plain.add_argument("--wall-types", type=int, nargs="+", metavar="T", default=[],
                        help="atom types that are walls: left out of the packing, their "
                        "contacts with disks kept")
+    plain.add_argument("--inertia", choices=["disk", "sphere"], default=None,
+                       help="how 2D particles turn (their moment of inertia for the spin "
+                       "fields): disk, m a^2/2, or sphere, 2/5 m a^2 (LAMMPS' fix "
+                       "nve/sphere without disc); default: spheres where the mass column "
+                       "scales as a^3, else disks; 3D: spheres")
     plain.add_argument("--atom-columns", metavar="MAP", help="our name=dump column, e.g. "
                        "omegaz=c_spin[3],radius=c_r (others by name or alias)")
     plain.add_argument("--contact-columns", metavar="MAP", help="e.g. id1=c_pp[1],"
@@ -325,7 +331,7 @@ def _averaging(args, **extra) -> dict:
                  layers=args.layers, area=args.area)
     return dict(common, cells=cells, fmt=args.format, density=args.density,
                 dt=args.dt, units=args.units, wall_types=args.wall_types, dim=args.dim,
-                gravity=args.gravity,
+                gravity=args.gravity, inertia=args.inertia,
                 atom_map=parse_map(args.atom_columns),
                 contact_map=parse_map(args.contact_columns))
 

@@ -177,6 +177,11 @@ def test_the_spins_balance_in_every_slab_of_a_pile_at_rest(pile, tmp_path):
     assert "taken_as_zero" not in p.meta
     wrong_arm = spin_balance(p, arm="surface", closed=True)
     assert np.abs(wrong_arm["residual"]).max() > 3 * ROUNDING
+    # the stress's branch to the surface (Eq. 5 as printed) is turned into the law's arm
+    paper, _ = pile_balance(pile, tmp_path, "paper.csv", BASE[dim] + ROLLING[dim],
+                            "--branch", "paper")
+    assert paper.meta["branch"] == "paper"
+    assert np.abs(spin_balance(paper, closed=True)["residual"]).max() < ROUNDING
     bare, said = pile_balance(pile, tmp_path, "bare.csv", BASE[dim])
     couple = ["mz"] if dim == 2 else ["mx", "my", "mz"]
     assert set(bare.meta["taken_as_zero"]) == set(couple)
@@ -353,3 +358,82 @@ def test_a_couple_mapped_in_part_is_refused_in_one_line(pile, tmp_path, which):
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "the contact couple needs all of" in lines[0], lines
     assert "Traceback" not in proc.stderr and not list(tmp_path.iterdir())
+
+
+SPINNING = """
+units           lj
+dimension       2
+atom_style      sphere
+boundary        p p p
+region          box block 0 20 0 20 -0.5 0.5
+create_box      1 box
+create_atoms    1 random 120 4417 NULL overlap 1.25 maxtry 200
+variable        d atom 0.8+0.4*random(0,1,4417)
+set             type 1 diameter v_d
+set             type 1 density 1.0
+velocity        all create 1.0 8812 dist gaussian
+variable        w atom 2.0*(random(0,1,91)-0.5)
+set             type 1 omega 0.0 0.0 v_w
+pair_style      zero 1.0
+pair_coeff      * *
+fix             1 all nve/sphere
+fix             2 all enforce2d
+compute         rot all erotate/sphere
+thermo_style    custom step c_rot
+thermo_modify   norm no
+dump            a all custom 1 {out}/atoms.dump id type diameter mass x y vx vy omegaz
+dump_modify     a format float %.15g
+run             0
+"""
+
+
+def test_2d_sphere_masses_turn_as_spheres_as_in_lammps(tmp_path):
+    """A 2D run of sphere masses integrated by fix nve/sphere (no disc), as fix pour
+    gives: granavg sees the masses scale as a^3 and takes I = 2/5 m a^2 (said in the
+    sidecar); the rotational energy over a slab holding every disk is LAMMPS' own
+    compute erotate/sphere. Taken as disks (--inertia disk) it is 5/4 of it."""
+    deck = tmp_path / "spin.lmp"
+    deck.write_text(SPINNING.format(out=tmp_path))
+    with lammps_session(["-log", str(tmp_path / "log.lammps")]) as lmp:
+        lmp.file(str(deck))
+        lammps_erot = lmp.last_thermo()["c_rot"]
+    base = ["average", "--atoms", tmp_path / "atoms.dump", "--thickness", 1, "--slabs", "y",
+            "--range", -1, 21, "--bins", 1, "--quantities", "erot,spin_density",
+            "--dt", 1, "--no-progress"]
+    proc = run_cli(*base, "--out", tmp_path / "a.csv")
+    assert proc.returncode == 0, proc.stderr
+    p = read_profiles(tmp_path / "a.csv")
+    assert p.meta["inputs"]["inertia"]["shape"] == "sphere"
+    assert "a^3" in p.meta["inputs"]["inertia"]["why"] and "turn as spheres" in proc.stderr
+    total = float(p.values["erot"][0] * p.cells.volume[0])
+    assert total == pytest.approx(lammps_erot, rel=1e-9)
+    proc = run_cli(*base, "--inertia", "disk", "--out", tmp_path / "d.csv")
+    assert proc.returncode == 0, proc.stderr
+    disk = read_profiles(tmp_path / "d.csv")
+    assert disk.meta["inputs"]["inertia"] == {"shape": "disk", "I": "m a^2 / 2",
+                                              "why": "given"}
+    assert float(disk.values["erot"][0] * disk.cells.volume[0]) == pytest.approx(
+        1.25 * lammps_erot, rel=1e-9)
+
+
+def test_analyze_shows_the_spins_balance_beside_the_forces(pile, tmp_path):
+    """``granavg analyze`` on the pile's slabs: the report and summary hold the spins'
+    balance beside the force balance, closed to the dumps' rounding with the contact
+    point's lever arm, and missing by the lever moment with --torque-arm surface."""
+    dim, _ = pile
+    pile_balance(pile, tmp_path, "s.csv", BASE[dim] + ROLLING[dim])
+    for arm in ("contact", "surface"):
+        out = tmp_path / f"report-{arm}"
+        proc = run_cli("analyze", tmp_path / "s.csv", "--closed", "--torque-arm", arm,
+                       "--out", out)
+        assert proc.returncode == 0, proc.stderr
+        summary = json.loads((out / "summary.json").read_text())
+        sb = summary["profiles"][0]["spin_balance"]
+        assert sb["form"] == "cells" and sb["arm"] == arm
+        assert summary["profiles"][0]["balance"]["max_abs_residual"] is not None
+        html = (out / "report.html").read_text()
+        assert "Balance of the spins" in html and (out / "figures" / "spin_balance0.png").exists()
+        if arm == "contact":
+            assert sb["max_abs_residual"] < ROUNDING
+        else:
+            assert sb["max_abs_residual"] > 3 * ROUNDING

@@ -762,9 +762,10 @@ def _power_numbers(p, arm):
 def _spins(p, arm):
     """The spins' balance residual per ring (cells' and field's form, walls closed) and
     the forces' moment density, over the stress scale, for the figure."""
+    branch = (p.meta or {}).get("branch", "contact")
     cells = spin_balance(p, arm=arm, closed=True)
     field = spin_balance(p, arm=arm, closed=True, form="field")
-    tau = moment_density(p.values, p.cells, arm)[0] / cells["scale"]
+    tau = moment_density(p.values, p.cells, arm, branch)[0] / cells["scale"]
     return cells["residual"][0], cells["residual_err"][0], field["residual"][0], tau
 
 
@@ -772,7 +773,8 @@ def _spin_numbers(p, arm):
     """The spins' balance over the rings (walls closed), relative to the stress scale:
     the couples passed (``cells`` form) and the couple stress's divergence (``field``)."""
     scale = stress_scale(p.values, p.cells)
-    cells, field = (np.abs(spin_residuals(p.values, p.cells, arm, closed=True,
+    branch = (p.meta or {}).get("branch", "contact")
+    cells, field = (np.abs(spin_residuals(p.values, p.cells, arm, branch, closed=True,
                                           form=form)[0]) / scale
                     for form in ("cells", "field"))
     b = bulk(p.cells.n)
@@ -781,8 +783,8 @@ def _spin_numbers(p, arm):
             "wall_residual_max": float(np.nanmax(cells[[0, -1]])),
             "field_max_residual": float(np.nanmax(field)),
             "field_bulk_median_residual": float(np.nanmedian(field[b])),
-            "tau_max": float(np.nanmax(np.abs(moment_density(p.values, p.cells, arm)[0])))
-            / scale}
+            "tau_max": float(np.nanmax(np.abs(moment_density(p.values, p.cells, arm,
+                                                             branch)[0]))) / scale}
 
 
 def _layers(p, geo):

@@ -128,10 +128,11 @@ def has_couples(values, geometry) -> bool:
         any(k.startswith("mu_") for k in values)
 
 
-def spin_balance(profiles, arm="contact", branch="contact", dynamic=True,
+def spin_balance(profiles, arm="contact", branch=None, dynamic=True,
                  closed=False, form="cells") -> dict:
     """The spins' balance residual of a profile, relative to its stress scale, per cell
-    and component of the couple, with errors from the time replicates.
+    and component of the couple, with errors from the time replicates; ``branch``: the
+    one the profile's stress was averaged with (default: its sidecar's).
 
     Returns
     -------
@@ -143,6 +144,7 @@ def spin_balance(profiles, arm="contact", branch="contact", dynamic=True,
         couples passed, as the residual without tau).
     """
     geo = profiles.cells
+    branch = branch or (profiles.meta or {}).get("branch", "contact")
     dynamic = dynamic and any(k.startswith("dmu_") for k in profiles.values)
     scale = stress_scale(profiles.values, geo)
 

@@ -170,7 +170,8 @@ def _spin_and_energy(q, layout, atoms, mass, E, want):
                                             _stack(atoms, ["vx", "vy", "vz"][:D]), axis=1)
     if not want & {"ispin", "inertia", "erot", "ekin", "kcpl"}:
         return
-    inertia = INERTIA[D] * mass * np.asarray(atoms["radius"], float) ** 2
+    inertia = np.asarray(atoms["inertia"], float) if "inertia" in atoms else \
+        INERTIA[D] * mass * np.asarray(atoms["radius"], float) ** 2
     if "inertia" in want:
         q[:, layout.first("inertia")] = inertia
     spin_cols = ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"]

@@ -263,6 +263,11 @@ class LammpsDumps(PairedDumps):
         The dimension (default from the dump: :func:`dimension`).
     steps : (int, int), optional
         Only the frames with first <= timestep <= last (a dask worker's chunk).
+    inertia : {"disk", "sphere"}, optional
+        The particles' moment of inertia, m a^2 / 2 or 2/5 m a^2 (the spin fields). 3D:
+        spheres. 2D, not given: spheres where the mass column scales as a^3 (sphere
+        masses: LAMMPS' ``fix nve/sphere`` without ``disc`` turns them as spheres),
+        else disks (:func:`inertia_of`).
 
     Attributes
     ----------
@@ -274,7 +279,7 @@ class LammpsDumps(PairedDumps):
     """
 
     def __init__(self, atoms, contacts=None, *, atom_map=None, contact_map=None,
-                 wall_types=(), dt=None, units=None, dim=None, steps=None):
+                 wall_types=(), dt=None, units=None, dim=None, steps=None, inertia=None):
         unit_system = choose_units(dump_header(atoms)[1], units)
         if contacts is not None and (said := dump_header(contacts)[1]) is not None:
             if choose_units(said, None).style != unit_system.style:
@@ -292,6 +297,10 @@ class LammpsDumps(PairedDumps):
                                  "type column")
         if self.cmap is not None and "id" not in self.amap:
             raise UserError(f"{atoms}: contacts need the atoms' id column")
+        if inertia not in (None, "disk", "sphere") or (self.dim == 3 and inertia == "disk"):
+            raise ParameterError("inertia", f"{{param}} {inertia}: give disk or sphere "
+                                 "(3D: sphere)")
+        self.inertia = (inertia, "given") if inertia else None
         super().__init__(DumpReader(atoms, sorted(set(self.amap.values())), steps=steps),
                          DumpReader(contacts, sorted(set(self.cmap.values())), steps=steps)
                          if self.cmap is not None else None, dt, unit_system)
@@ -300,9 +309,12 @@ class LammpsDumps(PairedDumps):
 
     def describe(self) -> dict:
         """The options the frames were read with, for the sidecar."""
+        shape, why = self.inertia or (("sphere", "3D") if self.dim == 3 else
+                                      ("disk", "no frame read"))
         return {"atom_columns": self.amap, "contact_columns": self.cmap,
                 "wall_types": [int(t) for t in self.wall_types], "dt": self.dt,
-                "dim": self.dim}
+                "dim": self.dim, "inertia": {"shape": shape, "I": INERTIA_TEXT[shape],
+                                             "why": why}}
 
     def box(self):
         """The bounds of the atom dump's first frame's cell (of a tilted box: its own,
@@ -354,11 +366,29 @@ class LammpsDumps(PairedDumps):
             col["radius"] = 0.5 * col["radius"]
         col = check_atoms(fa.path, Columns(col, fa))
         if not len(self.wall_types):
-            return {k: v for k, v in col.items() if k != "type"}, {}
+            return self._turned({k: v for k, v in col.items() if k != "type"}), {}
         wall = np.isin(col["type"], self.wall_types)
         walls = {"id": col["id"][wall], "radius": col["radius"][wall]} if "id" in col else {}
         atoms = {k: v[~wall] for k, v in col.items() if k != "type"}
-        return atoms, walls
+        return self._turned(atoms), walls
+
+    def _turned(self, atoms):
+        """The atoms with their moments of inertia where they are not the engine's
+        default for the dimension (2D: spheres), decided once (:func:`inertia_of`)."""
+        if self.dim == 3:
+            return atoms
+        if self.inertia is None and len(atoms["radius"]):
+            self.inertia = inertia_of(atoms)
+            if self.inertia[0] == "sphere" or "cannot tell" in self.inertia[1]:
+                log.info("2D particles turn as %ss (I = %s): %s; the inertia option "
+                         "names the shape otherwise",
+                         self.inertia[0], INERTIA_TEXT[self.inertia[0]], self.inertia[1])
+        if self.inertia is not None and self.inertia[0] == "sphere" and "mass" in atoms:
+            atoms["inertia"] = 0.4 * atoms["mass"] * atoms["radius"] ** 2
+        elif self.inertia is not None and self.inertia[0] == "sphere":
+            raise ParameterError("inertia", "{param} sphere in 2D needs the atoms' mass "
+                                 "column (their masses are otherwise a disk's)")
+        return atoms
 
     def _contacts(self, fc, atoms, walls):
         raw = fc.as_dict()
@@ -442,6 +472,29 @@ class LammpsDumps(PairedDumps):
         return contact_couples(d, dist, fr, c.get("twist"), r1, r2)
 
 
+#: The moments of inertia, in words.
+INERTIA_TEXT = {"disk": "m a^2 / 2", "sphere": "2/5 m a^2"}
+#: Masses scale as a^k within this relative spread.
+SCALING = 1e-3
+
+
+def inertia_of(atoms) -> tuple:
+    """How 2D particles turn, from their masses: ``("sphere", why)`` where the mass
+    column scales as a^3 (sphere masses, as ``fix pour`` and ``create_atoms`` without
+    ``set density/disc`` give; LAMMPS' ``fix nve/sphere`` without ``disc`` then turns
+    them with 2/5 m a^2), else ``("disk", why)``."""
+    if "mass" not in atoms:
+        return "disk", "no mass column: the masses are a disk's (the material density)"
+    m, a = np.asarray(atoms["mass"], float), np.asarray(atoms["radius"], float)
+    spread = {k: float(np.std(m / a ** k) / np.mean(m / a ** k)) for k in (2, 3)}
+    if spread[3] < SCALING < spread[2]:
+        return "sphere", "the masses scale as a^3 (sphere masses)"
+    if spread[2] < SCALING < spread[3]:
+        return "disk", "the masses scale as a^2 (disk masses)"
+    return "disk", ("cannot tell from the masses (one size, or mixed densities): taken "
+                    "as disks")
+
+
 def _claims(path) -> bool:
     """A LAMMPS text dump (plain or gzip; the first of a series) starts with an ``ITEM:``
     line."""
@@ -456,4 +509,5 @@ def _claims(path) -> bool:
 
 FORMAT = Format("lammps", "LAMMPS text dumps: dump custom (atoms) and dump local (contacts: "
                 "pair/local + property/local, or granavg's own columns)", _claims, LammpsDumps,
-                ("atom_map", "contact_map", "wall_types", "dt", "units", "dim", "steps"))
+                ("atom_map", "contact_map", "wall_types", "dt", "units", "dim", "steps",
+                 "inertia"))
