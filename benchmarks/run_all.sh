@@ -23,6 +23,8 @@ echo "## reference DEM"
   --set R_o=0.0826 --set n_small=250 --set n_large=40 --set Omega=0.5 --set t_grow=1 \
   --set t_relax=1 --set t_end=1 --set t_dump_start=0 --set restart_dt=1
 "$BIN/python" "$ROOT/benchmarks/refdem.py" "$OUT/small/prepared.data"
+echo "## what each part of the paper scene costs (docs/scene.md)"
+sh "$ROOT/benchmarks/scene_parts.sh"
 echo "## end to end (simulate + average + analyze), the presets"
 "$BIN/python" "$ROOT/benchmarks/end_to_end.py" "$OUT/e2e-fast" fast
 "$BIN/python" "$ROOT/benchmarks/end_to_end.py" "$OUT/e2e-paper" paper 4 2

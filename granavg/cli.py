@@ -61,7 +61,8 @@ def _parser() -> argparse.ArgumentParser:
                      "50 s from a shipped sheared packing; --seeds 4 for the four), demo "
                      "(the same, 30 s), paper-rolling (no base friction, 250 s), fast "
                      "(paper-rolling with k_n 2.5, 60 s), paper-hooke (plain "
-                     "gran/hooke/history, grown, 500 s); docs/scene.md, docs/sweep/")
+                     "gran/hooke/history, grown, 500 s); docs/scene.md, docs/sweep/ (what each setting "
+                     "costs and how accurate it is)")
     sim.add_argument("--out", required=True, help="run directory to create (must be new)")
     sim.add_argument("--set", dest="overrides", action="append", default=[],
                      metavar="KEY=VALUE", help="change one scene value (SI units); repeatable")

@@ -24,6 +24,21 @@ def run_cli(*args, timeout=600, **kwargs):
                           capture_output=True, text=True, timeout=timeout, env=env, **kwargs)
 
 
+def dump_positions(run):
+    """The disks' (x, y) in every frame of a run's atom dump, ordered by id; shape
+    (frames, disks, 2)."""
+    import numpy as np
+
+    from granavg.io.reader import DumpReader
+
+    out = []
+    for frame in DumpReader(Path(run) / "atoms.dump.gz"):
+        a = frame.as_dict()
+        order = np.argsort(a["id"])
+        out.append(np.stack([a["x"][order], a["y"][order]], axis=1))
+    return np.asarray(out)
+
+
 def small_cell_args(out, *extra_sets, np=1):
     sets = [a for s in (*SMALL_CELL, *extra_sets) for a in ("--set", s)]
     return ["simulate", "--preset", SMALL_PRESET, "--out", out, "--no-progress", "--np", np, *sets]

@@ -195,13 +195,20 @@ def test_a_grid_over_the_pile_balances_its_interior_cells(tmp_path):
 
 def test_a_subset_of_quantities_gives_the_same_stress_and_boundary(small_run, tmp_path):
     """`--quantities sigma` reads the overlaps its branch vectors need (the same sigma
-    as with every quantity), and `--quantities boundary` alone works."""
+    as with every quantity), `--quantities boundary` alone works, and `--quantities nu,v`
+    (docs/scene.md: what leaving the rest out changes) gives the same nu and v."""
     args = ("average", small_run, "--bins", 6, "--t-min", 1, "--no-progress")
     for name, extra in (("all", ()), ("sigma", ("--quantities", "sigma")),
-                        ("boundary", ("--quantities", "boundary"))):
+                        ("boundary", ("--quantities", "boundary")),
+                        ("nuv", ("--quantities", "nu,v"))):
         proc = run_cli(*args, *extra, "--out", tmp_path / f"{name}.csv")
         assert proc.returncode == 0, proc.stderr
-    full, sig, bnd = (read_profiles(tmp_path / f"{n}.csv") for n in ("all", "sigma", "boundary"))
+    full, sig, bnd, nuv = (read_profiles(tmp_path / f"{n}.csv")
+                           for n in ("all", "sigma", "boundary", "nuv"))
+    for k in ("nu", "v_r", "v_phi"):
+        np.testing.assert_array_equal(nuv.values[k], full.values[k])
+        np.testing.assert_array_equal(nuv.sem[k], full.sem[k])
+    assert "sigma_rr" not in nuv.values
     np.testing.assert_array_equal(sig.values["sigma_rr"], full.values["sigma_rr"])
     np.testing.assert_array_equal(bnd.values["boundary_r"], full.values["boundary_r"])
     assert np.abs(full.values["boundary_r"][[0, -1]]).min() > 0     # both walls push

@@ -79,7 +79,7 @@ def test_a_run_from_a_shipped_packing_starts_exactly_there(tmp_path):
     assert manifest["preparation"].startswith(f"shipped sheared packing {SET}/seed20011")
     # the forecast from the speed/accuracy study, before LAMMPS starts (docs/sweep/)
     assert "expected wall time" in proc.stderr
-    assert manifest["forecast"]["accuracy_class"] == "5%"     # the study's base setting
+    assert manifest["forecast"]["accuracy_class"] == "5%"     # the first study's base setting
     start = read_data(packings.check(SET, 20011))
     with open_text(out / "atoms.dump.gz") as fh:
         lines = fh.readlines()

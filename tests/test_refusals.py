@@ -17,7 +17,7 @@ from .conftest import run_cli, small_cell_args
     (["--set", "R_o=0.05"], "R_i < R_o"),
     (["--set", "size_spread=0.4"], "size_spread must be in [0, 0.3]"),
     (["--set", "mu_base=-0.1"], "need mu_base >= 0 and v_base > 0"),
-    (["--set", "mu_base=0.5", "--set", "v_base=1e-5"], "too fast for dt"),
+    (["--set", "mu_base=0.5", "--set", "v_base=1e-5"], "integrated soundly only below 2 per step"),
     (["--np", "0"], "--np and --omp must be >= 1"),
 ])
 def test_bad_settings_are_refused_in_one_line(tmp_path, args, message):

@@ -87,7 +87,7 @@ def test_report_and_summary_hold_the_headline_numbers(report):
     walk(summary)
     assert not [t for t in strings if "/tmp" in t or t.startswith("/")], strings
     # the speed/accuracy study's forecast: the small test cell is not the study's scene
-    assert "accuracy class of the settings" in html and "not measured: the study measured one" in html
+    assert "accuracy class of the settings" in html and "not measured: the studies measured other scenes" in html
 
 
 def test_a_band_that_cannot_be_fitted_leaves_its_numbers_undefined(profiles, tmp_path):

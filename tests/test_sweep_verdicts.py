@@ -60,3 +60,36 @@ def test_a_difference_is_a_bias_only_beyond_twice_the_combined_error(value, err,
 def test_a_setting_outside_the_quasi_static_regime_fails_whatever_its_numbers():
     v = sweep.compare(_row(1.0, 0.001, dyn=0.2), _limit())
     assert not v["within_10"] and not v["quasi_static"]
+
+
+@pytest.mark.parametrize("values, flagged", [
+    ((0.76, 0.82, 0.80), True),     # one flagged alone, two not: together they are 21% off
+    ((0.76, 1.10, 0.97), False),    # scattered around the limit: the pool is no bias
+])
+def test_settings_at_one_k_n_are_judged_together(monkeypatch, values, flagged):
+    """A bias of the springs' softness is shared by every setting at that k_n, while which
+    of them crosses 2 combined errors is a matter of each one's noise: their pool (mean
+    value, mean error: not reduced, they start from the same packings) is judged like a
+    setting, and in the shipped study a setting's class is its pool's when that is
+    worse."""
+    names = ["base", "n_per_tc=25", "n_per_tc=100"]
+    monkeypatch.setattr(sweep, "OTHER_SCENE", ())
+    monkeypatch.setattr(sweep, "SIMULATED", {n: sweep.SIMULATED[n] for n in names})
+    rows = {n: {**_row(v, 0.1), **{c: 1.0 for c in sweep.COST_COLUMNS}}
+            for n, v in zip(names, values)}
+    singles = [sweep.compare(r, _limit(err=0.02))["within_10"] for r in rows.values()]
+    assert singles == [False, True, True]                  # 0.76 alone is flagged
+    (name, pool, members), = sweep.pooled(rows, _limit(err=0.02)).values()
+    assert members == names and name == "k_n=10: 3 settings pooled"
+    assert pool["within_10"] is (not flagged)
+    assert pool["v0"] == pytest.approx(np.mean(values)) and pool["v0_err"] == pytest.approx(0.1)
+
+
+def test_a_number_the_setting_could_not_measure_vouches_for_nothing():
+    """Rings too coarse for the band's fit leave v0 and s undefined (NaN): such a setting
+    is not in any class, whatever its other numbers."""
+    row = _row(1.0, 0.001)
+    row["v0"] = row["s"] = float("nan")
+    v = sweep.compare(row, _limit())
+    assert not v["within_10"] and not v["within_5"] and v["unjudged"] == "v0, s"
+    assert sweep.compare(_row(1.0, 0.001), _limit())["within_5"]

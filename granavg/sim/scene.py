@@ -26,8 +26,22 @@ MAX_AREA_FRACTION = 0.84
 MIN_STEPS_PER_CONTACT = 10.0
 #: gravity for the base-plate friction (m/s^2), as in the deck
 G = 9.81
-#: largest base-friction damping per step, mu_base g dt / v_base (explicit integration)
-MAX_BASE_DAMPING = 0.2
+#: bound of the base plate's damping per step, lambda dt = mu_base g dt / v_base: the
+#: explicit step of its linear part (v < v_base) is stable only below 2; above, each disk's
+#: half-step velocity flips sign every step (measured, docs/stability.md: 1.8 sound, 2.2
+#: jitters by 3e-8 m a step, or 6e-7 m with the coefficient renewed every 10 steps, 4
+#: blows up with it)
+MAX_BASE_DAMPING = 2.0
+#: bound of the contacts' dashpot per step, gamma_n dt = -2 ln(e_n) / n_per_tc: a disk
+#: damped by several contacts at once is integrated soundly only below it (measured in the
+#: paper packing, docs/stability.md: 0.51 sound, 0.55 the disks' energy grows 30-fold,
+#: 1.1 blows up, whatever e_n and n_per_tc give it); two disks alone allow more
+MAX_DASHPOT_DAMPING = 0.5
+#: the plate's coefficient renewed at most every this many contact times (base_every /
+#: n_per_tc): measured sound at 1 (the study's base_every = 50, docs/sweep); at 4 and 20
+#: the bulk pressure lies above the stiff limit by more than 5%, and past 10 steps a
+#: renewal saves nothing (docs/stability.md)
+MAX_RENEWAL_CONTACTS = 1.0
 
 
 @dataclass(frozen=True)
@@ -138,11 +152,29 @@ class Scene:
                 f"time step dt = t_c/{self.n_per_tc:g} = {dt:.3g} s is above the safe bound "
                 f"{dt_safe:.3g} s of the contact law (t_c = {coeffs.t_c:.3g} s); "
                 f"set n_per_tc >= {coeffs.t_c / dt_safe:.3g}")
-        if self.mu_base * G * dt / self.v_base > MAX_BASE_DAMPING:
+        if coeffs.gamma_n * dt >= MAX_DASHPOT_DAMPING:
             raise UserError(
-                f"base friction mu_base = {self.mu_base:g} acts as a damping rate mu_base g / "
-                f"v_base = {self.mu_base * G / self.v_base:.3g} 1/s, too fast for dt = "
-                f"{dt:.3g} s; set v_base >= {self.mu_base * G * dt / MAX_BASE_DAMPING:.3g} m/s")
+                f"restitution e_n = {self.law.e_n:.3g} damps each contact at gamma_n dt = "
+                f"{coeffs.gamma_n * dt:.3g} per step of dt = t_c/{self.n_per_tc:g}: a packing "
+                f"is integrated soundly only below {MAX_DASHPOT_DAMPING:g} per step (above, "
+                "the disks' energy grows or they blow up; docs/stability.md); set n_per_tc "
+                f"> {coeffs.gamma_n * coeffs.t_c / MAX_DASHPOT_DAMPING:.3g} or raise e_n")
+        if self.mu_base * G * dt / self.v_base >= MAX_BASE_DAMPING:
+            raise UserError(
+                f"base friction mu_base = {self.mu_base:g} with v_base = {self.v_base:.3g} m/s "
+                f"damps at mu_base g / v_base = {self.mu_base * G / self.v_base:.3g} 1/s, "
+                f"{self.mu_base * G * dt / self.v_base:.3g} per step of dt = {dt:.3g} s: the "
+                f"plate's law is integrated soundly only below {MAX_BASE_DAMPING:g} per step "
+                f"(above, the disks jitter or blow up; docs/stability.md); set v_base > "
+                f"{self.mu_base * G * dt / MAX_BASE_DAMPING:.3g} m/s or raise n_per_tc")
+        if self.mu_base > 0 and self.base_every > MAX_RENEWAL_CONTACTS * self.n_per_tc:
+            raise UserError(
+                f"base_every = {self.base_every} renews the plate's friction coefficient every "
+                f"{self.base_every / self.n_per_tc:.3g} contact times (t_c = "
+                f"{self.n_per_tc:g} steps): measured sound only up to "
+                f"{MAX_RENEWAL_CONTACTS:g} (beyond, the bulk pressure drifts above the stiff "
+                "limit and no time is saved; docs/stability.md); set base_every <= "
+                f"{math.floor(MAX_RENEWAL_CONTACTS * self.n_per_tc)}")
         n_shear = int(round(self.t_end / dt))
         dump_every = self.dump_every or max(1, int(round(self.dump_dt / dt)))
         return Derived(
@@ -305,7 +337,7 @@ docs/steady-state.md): the plain law plus rolling resistance (``pair granular``,
 250 s with this law (:mod:`granavg.sim.packings`); the first tenth of a rotation (6.3 s:
 the contact springs reload after the start from a data file) is left out of the
 averages. Jammed and quasi-static, but ageing: its bulk pressure falls by about 6% over
-the 250 s. The scene of the speed/accuracy study (with 50 s runs)."""
+the 250 s. The scene of the first speed/accuracy study (docs/sweep/paper-rolling)."""
 
 PAPER_STRONG_PLATE = dataclasses.replace(PAPER_ROLLING, mu_base=0.03,
                                          packing="rolling-base-sheared", t_end=50.0,
@@ -326,16 +358,18 @@ packing's slow ageing, and a cap a sixth of :data:`PAPER_STRONG_PLATE`'s in the 
 sheared 50 s (0.8 rotation, frames every second) from shipped packings already sheared
 250 s with rolling resistance, 100 s with the strong plate and 150 s with this one; the
 first tenth of a rotation (6.3 s) is left out; the friction's coefficient is renewed
-every 10 steps (``base_every``: 0.86 of the CPU time, the same state; docs/benchmarks.md).
-Jammed, quasi-static and steady; its band
-(s about 8 mm by the stated estimator) is still narrower than the paper's 12.7 mm. The
-precision comes from realisations (four seeds: the four shipped packings)."""
+every 10 steps (``base_every``: 0.81 of the CPU time of the law each step, the same
+fields; docs/sweep). Jammed, quasi-static and steady; its band (s about 8 mm by the
+stated estimator) is still narrower than the paper's 12.7 mm, and at its k_n = 10 N/m
+23 +- 11% narrower than for stiff disks on the same plate (the speed/accuracy study,
+docs/sweep: accuracy class "worse"; k_n = 100 is in the 5% class at 3 times the cost).
+The precision comes from realisations (four seeds: the four shipped packings)."""
 
 FAST = dataclasses.replace(PAPER_ROLLING, law=dataclasses.replace(PAPER_ROLLING.law, k_n=2.5),
                            t_end=60.0, dump_dt=0.5, restart_dt=15.0)
 """The cheapest scene within 10% of the stiff limit in the speed/accuracy study
-(docs/sweep/), which measured the rolling-resistance scene without base friction: springs
-four times softer than ``paper-rolling``'s (k_n = 2.5 N/m, same restitution: half the
+(docs/sweep/paper-rolling/), which measured the rolling-resistance scene without base
+friction: springs four times softer than ``paper-rolling``'s (k_n = 2.5 N/m, same restitution: half the
 steps per second of shear), 60 s from its shipped packings with frames every 0.5 s."""
 
 DEMO = dataclasses.replace(PAPER, t_end=30.0, dump_dt=0.5, restart_dt=15.0)

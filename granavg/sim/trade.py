@@ -1,14 +1,16 @@
-"""What a simulation will cost and how accurate it will be, from the measured study.
+"""What a simulation will cost and how accurate it will be, from the measured studies.
 
-The speed/accuracy study (``workflows/sweep.py``, docs/sweep/) measured, on a 2-core
-machine, the cost of LAMMPS steps and frames and, for the `paper-rolling` scene, how far each
-setting of (k_n, n = t_c/dt, Omega) lands from the stiff, fine-step limit. ``trade.json``
-beside this module holds what it measured (``sweep.py OUT --ship`` writes it).
-:func:`expectation` turns that into a forecast for a scene: the expected wall time of one
+The speed/accuracy studies (``workflows/sweep.py``, docs/sweep/) measured, on a 2-core
+machine, the cost of LAMMPS steps and frames and, for one scene each, how far each
+setting of the numerics (k_n, n = t_c/dt, Omega, and the base plate's v_base and
+``base_every``) lands from the stiff, fine-step limit. The ``trade*.json`` files beside
+this module hold what they measured (``sweep.py OUT --ship`` writes them): ``trade.json``
+the `paper` scene (rolling resistance, the plate near its Coulomb limit; issue 40),
+``trade-paper-rolling.json`` the `paper-rolling` scene without the plate (2026-11-23).
+:func:`expectation` turns them into a forecast for a scene: the expected wall time of one
 LAMMPS process and the accuracy class of its settings. It is a forecast, not a
-measurement: another machine scales the time, and the class holds only for the scene
-the study measured (``paper-rolling``'s geometry, disks, contact law and packings, without
-base-plate friction; anything else, the ``paper`` preset included, is "not measured").
+measurement: another machine scales the time, and a class holds only for the scene its
+study measured (geometry, disks, material, packings); any other scene is "not measured".
 """
 
 from __future__ import annotations
@@ -17,82 +19,150 @@ import json
 from functools import lru_cache
 from pathlib import Path
 
+import numpy as np
+
 from granavg.sim.scene import Scene
 
-STUDY = Path(__file__).with_name("trade.json")
-#: scene fields that must equal the study's for its accuracy classes to apply
+#: the studies, newest scene first
+STUDY_FILES = (Path(__file__).with_name("trade.json"),
+               Path(__file__).with_name("trade-paper-rolling.json"))
+#: scene fields that must equal a study's for its accuracy classes to apply
 SAME_SCENE = ("R_i", "R_o", "n_small", "n_large", "d_s", "d_l", "rho_p", "e_n", "mu",
-              "mu_wall", "mu_roll", "kt_over_kn", "size_spread", "packing", "mu_base", "v_base",
-              "base_every")
-#: what base-plate friction adds to a disk-step (the deck's atom-style variables,
-#: evaluated every step; the same whatever the contact law), in units of a disk-step of
-#: ``pair granular`` with rolling resistance: the paper cell two runs at a time took 2.03
-#: (1838 s against 907 s for 1.07 million steps) and 2.2 (1.88 against 0.85 ms per
-#: step) times as long with it (docs/steady-state.md)
-BASE_FRICTION_EXTRA = 1.1
-#: the same with the friction's coefficient renewed every ``base_every`` > 0 steps (two
-#: atom-style variables a step remain): measured at 10, the `paper` ensemble two runs at a
-#: time took 422 s of LAMMPS against 526 s with the friction in full each step, the same
-#: session (docs/steady-state.md, issue 28): (1 + 1.1) x 422 / 526 - 1
-BASE_FRICTION_EXTRA_RENEWED = 0.68
-CLASSES = {"5%": "no headline number showed a bias above 5% of the stiff limit (biases "
-                  "below the study's resolution, 12-27%, cannot be seen)",
+              "mu_wall", "mu_roll", "kt_over_kn", "size_spread", "packing", "mu_base")
+#: the numerics a study measured besides (k_n, n_per_tc, Omega): the plate's law
+PLATE_NUMERICS = ("v_base", "base_every")
+CLASSES = {"5%": "no headline number showed a bias above 5% of the stiff limit",
            "10%": "no headline number showed a bias above 10% of the stiff limit",
            "worse": "some headline number showed a bias above 10% of the stiff limit"}
 
 
 @lru_cache(maxsize=1)
-def study() -> dict | None:
-    """The measured study (``trade.json``), or None if this install has none."""
-    return json.loads(STUDY.read_text()) if STUDY.exists() else None
+def studies() -> tuple:
+    """The measured studies (``trade*.json``) this install has, newest scene first."""
+    return tuple(json.loads(p.read_text()) for p in STUDY_FILES if p.exists())
 
 
-def wall_time(n_steps: int, n_disks: int, n_frames: int, table: dict,
-              rolling: bool = True, base: bool = False, base_every: int = 0) -> float:
+def plate_mode(mu_base: float, base_every: int) -> str:
+    """The key of a plate law in a study's step costs: ``none`` (no plate), ``0`` (the law
+    in full each step) or ``N`` (its coefficient renewed every N steps)."""
+    return "none" if mu_base <= 0 else str(int(base_every))
+
+
+def seconds_per_disk_step(tables, rolling: bool, mode: str) -> float:
+    """Seconds of one disk-step for a contact law (``pair granular`` with rolling
+    resistance, or plain ``gran/hooke/history``) and a plate mode (:func:`plate_mode`).
+
+    A combination a study measured is its measured rate. Otherwise the rate is the law's
+    own rate without the plate plus what the plate adds (measured with rolling
+    resistance: the plate's cost does not depend on the contact law, the deck's
+    atom-style variables are evaluated per disk). A renewal interval not measured is
+    interpolated linearly in 1/N between the measured ones (clamped at their ends)."""
+    rates = {"rolling": {}, "plain": {}}
+    for t in tables:
+        for law, by_mode in t["seconds_per_disk_step"].items():
+            for k, v in by_mode.items():
+                rates[law].setdefault(k, v)
+    law = "rolling" if rolling else "plain"
+    if mode in rates[law]:
+        return rates[law][mode]
+    roll = rates["rolling"]
+    base_roll = roll.get("none", min(roll.values()))
+    extra = {k: v - base_roll for k, v in roll.items()}
+
+    def plate_extra(m):
+        if m in extra:
+            return extra[m]
+        if m == "none":
+            return 0.0
+        renewed = sorted((1.0 / int(k), e) for k, e in extra.items() if k not in ("none", "0"))
+        if not renewed:
+            return max(extra.values())
+        x, y = np.array(renewed).T
+        return float(np.interp(1.0 / max(int(m), 1), x, y))
+
+    own = rates[law] or roll
+    k0 = "none" if "none" in own else next(iter(own))
+    return own[k0] - plate_extra(k0) + plate_extra(mode)
+
+
+def wall_time(n_steps: int, n_disks: int, n_frames: int, tables, rolling: bool = True,
+              mu_base: float = 0.0, base_every: int = 0) -> float:
     """Expected wall time (s) of one single-threaded LAMMPS process: ``n_steps`` steps of
-    ``n_disks`` disks and ``n_frames`` frames taken (contact dump, in-situ averaging),
-    at the study's measured seconds per disk-step (of ``pair granular`` with rolling
-    resistance, or of the plain ``gran/hooke/history`` law, 3.5 times faster here; plus
-    :data:`BASE_FRICTION_EXTRA` rolling-law disk-steps with base-plate friction, or
-    :data:`BASE_FRICTION_EXTRA_RENEWED` with its coefficient renewed every ``base_every``
-    > 0 steps) and per disk-frame."""
-    step = table["seconds_per_disk_step"] if rolling else \
-        table.get("seconds_per_disk_step_plain_law", table["seconds_per_disk_step"])
-    extra = BASE_FRICTION_EXTRA_RENEWED if base_every else BASE_FRICTION_EXTRA
-    step += extra * table["seconds_per_disk_step"] if base else 0.0
-    return n_disks * (n_steps * step + n_frames * table["seconds_per_disk_frame"])
+    ``n_disks`` disks and ``n_frames`` frames taken (contact dump, in-situ averaging), at
+    the studies' measured rates (:func:`seconds_per_disk_step`; per disk-frame: the newest
+    study's)."""
+    step = seconds_per_disk_step(tables, rolling, plate_mode(mu_base, base_every))
+    return n_disks * (n_steps * step + n_frames * tables[0]["seconds_per_disk_frame"])
 
 
-def accuracy_class(scene: dict, table: dict) -> tuple[str, str]:
+def _differs(scene: dict, table: dict) -> list:
+    ref = {**Scene().to_dict(), **table["scene"]}   # keys added since the study: defaults
+    return [k for k in SAME_SCENE if scene.get(k) != ref.get(k)]
+
+
+def accuracy_class(scene: dict, tables) -> tuple[str, str]:
     """The accuracy class of ``scene``'s settings and why: (class, reason).
 
-    A measured setting has its own class. Otherwise a scene at least as stiff (k_n), fine (n) and slow (Omega) as a measured setting is
-    given that setting's class (the best such); one at most as stiff, fine and slow as a
-    setting measured "worse" is "worse"; anything else, or another scene, is "not
-    measured". The class is about the bias of the settings; the statistical error depends
-    on run length and realisations and comes with every number of the report."""
-    ref = {**Scene().to_dict(), **table["scene"]}   # keys added since the study: defaults
-    differs = [k for k in SAME_SCENE if scene.get(k) != ref.get(k)]
+    ``tables``: the studies (a study, or a sequence of them). The study of the same scene
+    decides. A measured setting has its own class. Otherwise, with the plate's numerics
+    (v_base, base_every) of some measured settings, a scene at least as stiff (k_n), fine
+    (n) and slow (Omega) as one of them is given that setting's class (the best such);
+    one at most as stiff, fine and slow as a setting measured "worse" is "worse";
+    anything else, or another scene, is "not measured". The class is about the bias of the
+    settings; the statistical error depends on run length and realisations and comes
+    with every number of the report."""
+    tables = [tables] if isinstance(tables, dict) else list(tables)
+    if not tables:
+        return "not measured", "no speed/accuracy study in this install"
+    nearest = min(tables, key=lambda t: len(_differs(scene, t)))
+    differs = _differs(scene, nearest)
     if differs:
-        return "not measured", (f"the study measured one scene, docs/sweep/'s (this scene "
-                                f"differs in {', '.join(differs)})")
-    k, n, om = scene["k_n"], scene["n_per_tc"], scene["Omega"]
-    for s in table["settings"]:
-        if (s["k_n"], s["n_per_tc"], s["Omega"]) == (k, n, om):
-            return s["class"], f"the measured setting '{s['name']}' ({CLASSES[s['class']]})"
+        return "not measured", (f"the studies measured other scenes (the nearest, "
+                                f"{nearest.get('preset', 'docs/sweep')}'s, differs in "
+                                f"{', '.join(differs)})")
+    table = nearest
+    plated = scene.get("mu_base", 0.0) > 0
+    ref = {**Scene().to_dict(), **table["scene"]}
+
+    def key(s):
+        plate = tuple(s.get(k, ref[k]) for k in PLATE_NUMERICS) if plated else ()
+        return (s["k_n"], s["n_per_tc"], s["Omega"]), plate
+
+    (k, n, om), plate = key(scene)
+    settings = [(s, *key(s)) for s in table["settings"]]
+    for s, knum, p in settings:
+        if (knum, p) == ((k, n, om), plate):
+            return s["class"], (f"the measured setting '{s['name']}' ({CLASSES[s['class']]}"
+                                f"{_resolved(s)})")
     rank = {"5%": 0, "10%": 1, "worse": 2}
-    better = [s for s in table["settings"]
-              if k >= s["k_n"] and n >= s["n_per_tc"] and om <= s["Omega"]]
+    alike = [(s, knum) for s, knum, p in settings if p == plate]
+    better = [s for s, (sk, sn, so) in alike if k >= sk and n >= sn and om <= so]
     if better:
         best = min(better, key=lambda s: rank[s["class"]])
         if best["class"] != "worse":
             return best["class"], (f"at least as stiff, fine and slow as the measured setting "
-                                   f"'{best['name']}' ({CLASSES[best['class']]})")
-    for s in table["settings"]:
-        if s["class"] == "worse" and k <= s["k_n"] and n <= s["n_per_tc"] and om >= s["Omega"]:
+                                   f"'{best['name']}' ({CLASSES[best['class']]}"
+                                   f"{_resolved(best)})")
+    for s, (sk, sn, so) in alike:
+        if s["class"] == "worse" and k <= sk and n <= sn and om >= so:
             return "worse", (f"at most as stiff, fine and slow as the measured setting "
                              f"'{s['name']}' ({CLASSES['worse']})")
-    return "not measured", "no measured setting brackets these k_n, n and Omega"
+    what = "k_n, n and Omega" + (" at this v_base and base_every" if plated else "")
+    return "not measured", f"no measured setting brackets these {what}"
+
+
+def _resolved(setting: dict) -> str:
+    """What a measured setting's class vouches for: a pass, no bias above the study's
+    resolution of that setting (the smallest bias its comparisons could show); and the
+    verdict of the settings at its k_n pooled, where the study judged one."""
+    text = ""
+    if setting["class"] != "worse":
+        res = setting.get("resolution")
+        text = ("; biases below the study's resolution cannot be seen" +
+                (f": {100 * res:.0f}% on its noisiest number" if res else ""))
+    if setting.get("pooled"):
+        text += f"; {setting['pooled']}"
+    return text
 
 
 def expectation(derived, *, prepared: bool, np_ranks: int = 1, omp_threads: int = 1) -> dict:
@@ -100,21 +170,21 @@ def expectation(derived, *, prepared: bool, np_ranks: int = 1, omp_threads: int 
     expected wall time (s, one process) and accuracy class, for the manifest and the log.
 
     ``prepared``: the run shears a given packing (no growth phase)."""
-    table = study()
-    if table is None:
-        return {"what": "no speed/accuracy study in this install (granavg/sim/trade.json)"}
+    tables = studies()
+    if not tables:
+        return {"what": "no speed/accuracy study in this install (granavg/sim/trade*.json)"}
     s = derived.scene
     steps = derived.n_shear + (0 if prepared else derived.n_grow + derived.n_relax)
     frames = derived.n_shear // derived.dump_every + 1 if derived.dump_every else 0
-    seconds = wall_time(steps, s.n_small + s.n_large, frames, table,
-                        rolling=derived.coeffs.mu_roll > 0, base=s.mu_base > 0,
+    seconds = wall_time(steps, s.n_small + s.n_large, frames, tables,
+                        rolling=derived.coeffs.mu_roll > 0, mu_base=s.mu_base,
                         base_every=s.base_every)
-    cls, why = accuracy_class(s.to_dict(), table)
+    cls, why = accuracy_class(s.to_dict(), tables)
     return {"wall_time_s": seconds, "accuracy_class": cls, "accuracy_reason": why,
             "parallel": np_ranks * omp_threads > 1,
-            "what": f"forecast from {table['measured']} ({table['machine']}); wall time of "
-                    "one single-threaded LAMMPS process, within about "
-                    f"{100 * table['time_spread']:.0f}% there"}
+            "what": f"forecast from {tables[0]['measured']} ({tables[0]['machine']}); wall "
+                    "time of one single-threaded LAMMPS process, within about "
+                    f"{100 * max(t['time_spread'] for t in tables):.0f}% there"}
 
 
 def describe(forecast: dict) -> str:
