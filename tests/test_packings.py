@@ -77,7 +77,8 @@ def test_a_run_from_a_shipped_packing_starts_exactly_there(tmp_path):
     assert proc.returncode == 0, proc.stderr
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["preparation"].startswith(f"shipped sheared packing {SET}/seed20011")
-    # the forecast from the speed/accuracy study, before LAMMPS starts (docs/sweep/)
+    # the forecast from the first speed/accuracy study, before LAMMPS starts
+    # (docs/sweep/paper-rolling/)
     assert "expected wall time" in proc.stderr
     assert manifest["forecast"]["accuracy_class"] == "5%"     # the first study's base setting
     start = read_data(packings.check(SET, 20011))

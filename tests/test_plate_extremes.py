@@ -94,7 +94,8 @@ def test_the_dashpot_is_sound_below_its_bound_and_heats_the_packing_above(tmp_pa
                                                                           monkeypatch):
     """gamma_n dt = -2 ln(e_n) / n: at 0.45 per step the sheared small cell is calmer than
     with e_n = 0.9 (measured 0.45 of its kinetic energy), at 0.65 its energy grows (36
-    times), at 1.1 it blows up: a disk damped by several contacts at once."""
+    times; measured besides: at 1.1 it blows up): a disk damped by several contacts at
+    once."""
     _lift_dt_bounds(monkeypatch)
     ke = {}
     for g in (None, 0.45, 0.65):

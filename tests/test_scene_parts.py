@@ -1,5 +1,6 @@
-"""What leaving out a part of the scene changes (docs/scene.md, "model only what a scene
-requires"): output never feeds back into the dynamics."""
+"""What leaving out contact output changes (docs/scene.md, "model only what a scene
+requires"): output never feeds back into the dynamics. (The other parts' effects are the
+speed/accuracy study's, docs/sweep; `--quantities`' is tests/test_balance.py's.)"""
 
 import numpy as np
 

@@ -70,8 +70,7 @@ def test_settings_at_one_k_n_are_judged_together(monkeypatch, values, flagged):
     """A bias of the springs' softness is shared by every setting at that k_n, while which
     of them crosses 2 combined errors is a matter of each one's noise: their pool (mean
     value, mean error: not reduced, they start from the same packings) is judged like a
-    setting, and in the shipped study a setting's class is its pool's when that is
-    worse."""
+    setting (``ship`` then gives a setting its pool's class when that is worse)."""
     names = ["base", "n_per_tc=25", "n_per_tc=100"]
     monkeypatch.setattr(sweep, "OTHER_SCENE", ())
     monkeypatch.setattr(sweep, "SIMULATED", {n: sweep.SIMULATED[n] for n in names})

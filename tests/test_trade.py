@@ -146,8 +146,26 @@ def test_the_shipped_study_names_its_pool_and_its_cheapest_accurate_stiffness():
     band's s is shared by them: docs/sweep); stiffer springs measured in the 5% class are
     forecast so, with the resolution the class vouches for."""
     f = trade.expectation(preset("demo").derive(), prepared=True)
-    assert f["accuracy_class"] == "worse" and "settings pooled: s " in f["accuracy_reason"]
+    assert f["accuracy_class"] == "5%" and "settings pooled: s " in f["accuracy_reason"]
     stiff = trade.expectation(preset("paper").with_overrides(["k_n=100"]).derive(),
                               prepared=True)
     assert stiff["accuracy_class"] == "5%" and "'k_n=100'" in stiff["accuracy_reason"]
     assert "resolution cannot be seen: " in stiff["accuracy_reason"]
+
+
+def test_step_costs_of_two_studies_are_never_subtracted_from_each_other():
+    """The newer study measured the plate but not the law without it, the older one the
+    law without the plate on a faster-stepping day: a combination neither measured comes
+    from one study's own rates, so the plate never costs less than nothing."""
+    new = table(preset("paper"), STUDY, {"rolling": {"0": 2.9e-7, "10": 2.3e-7,
+                                                     "50": 2.28e-7}, "plain": {"10": 1.04e-7}})
+    old = table(preset("paper-rolling"), STUDY, {"rolling": {"none": 3.0e-7},
+                                                 "plain": {"none": 9.5e-8}})
+    rate = trade.seconds_per_disk_step
+    assert rate([new, old], True, "none") == 3.0e-7                 # measured (older study)
+    assert rate([new, old], False, "none") == 9.5e-8
+    plain = [rate([new, old], False, m) for m in ("50", "20", "10", "1", "0")]
+    assert plain[2] == 1.04e-7
+    assert all(a <= b for a, b in zip(plain, plain[1:]))          # rarer renewal: cheaper
+    assert plain[0] == pytest.approx(1.04e-7 - 0.2e-8)            # within the new study
+    assert plain[-1] == pytest.approx(1.04e-7 + 0.6e-7)

@@ -269,11 +269,16 @@ def compare(row: dict, limit: pd.DataFrame) -> dict:
         ok5 &= bound5
     out["resolution"] = resolution
     out["quasi_static"] = row["dynamic_over_static"] < QUASI_STATIC_LIMIT
-    # a number the setting could not measure (a band too coarse to fit) vouches for nothing
-    out["unjudged"] = ", ".join(k for k in HEADLINES if not math.isfinite(row[k]))
+    # a number the setting (or the limit) could not measure, e.g. a band too coarse to
+    # fit, vouches for nothing
+    out["unjudged"] = ", ".join(k for k in HEADLINES if not all(math.isfinite(v) for v in (
+        row[k], row[f"{k}_err"], limit.loc[k, "value"], limit.loc[k, "err"])))
+    if out["unjudged"]:
+        out["resolution"] = float("nan")
     out["within_10"] = ok10 and out["quasi_static"] and not out["unjudged"]
     out["within_5"] = ok5 and out["quasi_static"] and not out["unjudged"]
-    out["max_relerr"] = max(abs(out[f"{k}_relerr"]) for k in HEADLINES if k != "eom_residual")
+    out["max_relerr"] = max((abs(out[f"{k}_relerr"]) for k in HEADLINES if k != "eom_residual"
+                             and math.isfinite(out[f"{k}_relerr"])), default=float("nan"))
     return out
 
 
@@ -284,15 +289,24 @@ def pooled(rows: dict, limit: pd.DataFrame) -> dict:
     one crosses 2 combined errors is then a matter of its noise; but a bias that comes from
     the springs' softness is shared by every setting at that k_n. The pool is the mean of
     the settings at one k_n (two or more) with the mean of their errors (not reduced by
-    the square root of their number: they start from the same packings). Returns
-    {k_n: (name, the pooled row with its verdicts, the settings pooled)}."""
+    the square root of their number: they start from the same packings). Only settings
+    granavg runs are pooled (not those it refuses, measured beyond a bound), and only
+    those that measured every headline number. Returns {k_n: (name, the pooled row with
+    its verdicts, the settings pooled)}."""
+    from granavg.errors import UserError
     from granavg.sim.scene import preset
 
     by_k = {}
     for name in SIMULATED:
-        if name not in OTHER_SCENE and name in rows:
-            k = preset(PRESET).with_overrides(SIMULATED[name]).law.k_n
-            by_k.setdefault(k, []).append(name)
+        if name in OTHER_SCENE or name not in rows or \
+                not all(math.isfinite(rows[name][h]) for h in HEADLINES):
+            continue
+        scene = preset(PRESET).with_overrides(WINDOW + SIMULATED[name])
+        try:
+            scene.derive()
+        except UserError:
+            continue
+        by_k.setdefault(scene.law.k_n, []).append(name)
     out = {}
     for k, names in by_k.items():
         if len(names) < 2:
@@ -306,10 +320,17 @@ def pooled(rows: dict, limit: pd.DataFrame) -> dict:
 
 
 def pool_note(name: str, row: dict) -> str:
-    """One sentence on a pool's verdict: its largest bias (the number and its error)."""
-    k = max((h for h in HEADLINES if h != "eom_residual"), key=lambda h: abs(row[f"{h}_relerr"]))
+    """One sentence on a pool's verdict: its largest flagged bias or, with none, its
+    largest difference (the number, its error, and how many combined errors)."""
+    heads = [h for h in HEADLINES if h != "eom_residual"]
+    flagged = [h for h in heads if not row[f"{h}_within_10"]]
+
+    def z(h):
+        return abs(row[f"{h}_relerr"]) / row[f"{h}_relerr_err"]
+    k = max(flagged or heads, key=lambda h: abs(row[f"{h}_relerr"]))
     return (f"{name}: {k} {100 * row[f'{k}_relerr']:+.0f} +- "
-            f"{100 * row[f'{k}_relerr_err']:.0f}% of the stiff limit")
+            f"{100 * row[f'{k}_relerr_err']:.0f}% of the stiff limit ({z(k):.2f} combined "
+            "errors)")
 
 
 def pareto_plot(table: pd.DataFrame, path: Path, ax=None):
@@ -499,6 +520,8 @@ def ship(out: Path, table: pd.DataFrame, pools: dict, path: Path) -> dict:
     settings = []
     for name in numerics:
         sc, r = scene_of(name), table.loc[name]
+        if isinstance(r.get("unjudged"), str) and r.unjudged:
+            continue                          # measured no class: not forecast from
         cls, extra = verdict(r), {}
         pool = pools.get(sc["k_n"])
         if pool is not None and name in pool[2]:       # the class of its k_n, if worse

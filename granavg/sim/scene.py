@@ -361,8 +361,9 @@ first tenth of a rotation (6.3 s) is left out; the friction's coefficient is ren
 every 10 steps (``base_every``: 0.81 of the CPU time of the law each step, the same
 fields; docs/sweep). Jammed, quasi-static and steady; its band (s about 8 mm by the
 stated estimator) is still narrower than the paper's 12.7 mm, and at its k_n = 10 N/m
-23 +- 11% narrower than for stiff disks on the same plate (the speed/accuracy study,
-docs/sweep: accuracy class "worse"; k_n = 100 is in the 5% class at 3 times the cost).
+probably narrower than for stiff disks on the same plate (the speed/accuracy study,
+docs/sweep: 23 +- 11%, at the edge of its 2-error rule; accuracy class 5%, resolved to
+34%; 9.3 mm at k_n = 100, 3 times the cost).
 The precision comes from realisations (four seeds: the four shipped packings)."""
 
 FAST = dataclasses.replace(PAPER_ROLLING, law=dataclasses.replace(PAPER_ROLLING.law, k_n=2.5),

@@ -52,20 +52,21 @@ def seconds_per_disk_step(tables, rolling: bool, mode: str) -> float:
     """Seconds of one disk-step for a contact law (``pair granular`` with rolling
     resistance, or plain ``gran/hooke/history``) and a plate mode (:func:`plate_mode`).
 
-    A combination a study measured is its measured rate. Otherwise the rate is the law's
-    own rate without the plate plus what the plate adds (measured with rolling
-    resistance: the plate's cost does not depend on the contact law, the deck's
-    atom-style variables are evaluated per disk). A renewal interval not measured is
-    interpolated linearly in 1/N between the measured ones (clamped at their ends)."""
-    rates = {"rolling": {}, "plain": {}}
-    for t in tables:
-        for law, by_mode in t["seconds_per_disk_step"].items():
-            for k, v in by_mode.items():
-                rates[law].setdefault(k, v)
+    A combination a study measured is its measured rate (the newest study's). Otherwise,
+    within the newest study that measured the law (rates of two studies, measured on other
+    days, are never subtracted), the rate is the law's own measured rate plus what the
+    plate adds between its modes with rolling resistance (the plate's cost does not depend
+    on the contact law: the deck's atom-style variables are evaluated per disk). A renewal
+    interval not measured is interpolated linearly in 1/N between the measured ones
+    (clamped at their ends)."""
     law = "rolling" if rolling else "plain"
-    if mode in rates[law]:
-        return rates[law][mode]
-    roll = rates["rolling"]
+    for t in tables:
+        rate = t["seconds_per_disk_step"].get(law, {}).get(mode)
+        if rate is not None:
+            return rate
+    rates = next((t["seconds_per_disk_step"] for t in tables
+                  if t["seconds_per_disk_step"].get(law)), tables[0]["seconds_per_disk_step"])
+    roll = rates.get("rolling") or rates[law]
     base_roll = roll.get("none", min(roll.values()))
     extra = {k: v - base_roll for k, v in roll.items()}
 
@@ -80,7 +81,7 @@ def seconds_per_disk_step(tables, rolling: bool, mode: str) -> float:
         x, y = np.array(renewed).T
         return float(np.interp(1.0 / max(int(m), 1), x, y))
 
-    own = rates[law] or roll
+    own = rates.get(law) or roll
     k0 = "none" if "none" in own else next(iter(own))
     return own[k0] - plate_extra(k0) + plate_extra(mode)
 
