@@ -98,14 +98,20 @@ class DumpReader:
         timestep - first a multiple of it) are parsed and yielded; the others are skipped
         by scanning for their end (how a dask worker reads its chunk, or a study thins
         the frames).
+    headers_only : bool, optional
+        List the frames without parsing their rows: each frame's header (timestep,
+        time, box) and an empty ``data`` of shape (n_rows, 0); the rows are only counted
+        (a newline scan), so a frame cut or short of rows is found as in a full read.
+        What a dask client needs to cut a dump into chunks.
     """
 
-    def __init__(self, path, columns=None, needed_by=None, steps=None):
+    def __init__(self, path, columns=None, needed_by=None, steps=None, headers_only=False):
         self.path = Path(path)
         self.files = series(self.path)
         self.columns = list(columns) if columns is not None else None
         self.needed_by = dict(needed_by or {})
         self.steps = steps
+        self.headers_only = headers_only
 
     def __iter__(self):
         if len(self.files) == 1:
@@ -345,7 +351,8 @@ class _Scanner:
         skip = window is not None and not (
             window[0] <= step <= window[1]
             and (len(window) < 3 or (step - window[0]) % window[2] == 0))
-        if end < len(self.buf) and not skip and (n == 0 or self.buf[end - 1] == 10):
+        if end < len(self.buf) and not skip and not self.reader.headers_only and \
+                (n == 0 or self.buf[end - 1] == 10):
             # a complete block (another header follows): parse it, and count its rows
             # only if it does not hold exactly n (the kernel stops at the first non-number)
             arr = np.frombuffer(self.buf, dtype=np.uint8)
@@ -358,6 +365,10 @@ class _Scanner:
         if skip and rows >= n:
             self.pos, self.line = end, self.line + rows
             return _SKIPPED
+        if self.reader.headers_only and rows == n and (n == 0 or self.buf[end - 1] == 10):
+            first = self.line
+            self.pos, self.line = end, self.line + rows
+            return self._made(head, [], np.empty((n, 0)), first)
         if rows < n or (n and self.buf[end - 1] != 10):
             if end >= len(self.buf) and self.eof:
                 self._truncated(step, self.line)

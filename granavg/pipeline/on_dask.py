@@ -142,7 +142,7 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
                                  "leave out {param}")
     base, frames = dump_averager(atoms, contacts, **options)    # checks; two frames read
     base.frames = ()                                  # (and stops its reader thread)
-    heads = list(DumpReader(atoms, []))
+    heads = list(DumpReader(atoms, [], headers_only=True))     # no row is parsed
     windows = cut_windows([f.timestep for f in heads], [frames.time(f) for f in heads],
                           base.t_min, base.block_time, chunks or 2 * workers)
     if not windows:
