@@ -3,6 +3,7 @@ the same file (issue: three dimensions at the scale of real 3D runs).
 
     python benchmarks/big_3d.py make DIR [--copies 36 37] [--frames 6]
     python benchmarks/big_3d.py time DIR [--ovito-python PY] [--grid 20 20 6]
+    python benchmarks/big_3d.py series DIR [--files 24] [-n 3]
 
 ``make`` runs the 3D pile of tests/decks/pile_3d_si.lmp (755 spheres at rest on a floor,
 periodic in x and y, SI units), tiles its last frame NX x NY times side by side and
@@ -19,6 +20,12 @@ process (start-up included), best of 3, with its peak memory:
   it that line is skipped with a message);
 - granavg's reader alone;
 - granavg average of the first two frames only (memory flat in the number of frames).
+
+``series`` writes DIR/series/dump.<step>.txt, ``--files`` files of one frame each (the
+frames of DIR/big.dump in turn, time steps and times continued), as LAMMPS' ``dump ...
+dump.*.txt`` writes them, and times ``granavg average 'DIR/series/dump.*.txt'`` (the same
+grid and quantities) with ``--workers 2`` against one process, whole processes in turn,
+``-n`` pairs: the median of the pairs' ratios one process / two workers.
 """
 
 from __future__ import annotations
@@ -32,6 +39,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from ovito_probe import ovito_version   # benchmarks/, beside this script
 
 ROOT = Path(__file__).resolve().parent.parent
 COLUMNS = ["id", "type", "diameter", "mass", "x", "y", "z", "vx", "vy", "vz", "omegax",
@@ -146,17 +155,55 @@ def timing(d: Path, ovito_python: str, grid) -> None:
           f"{size / ours[0]:.0f} | {ours[1]:.0f} |")
     print(f"| granavg reader alone | {reader[0]:.1f} | {size / reader[0]:.0f} | {reader[1]:.0f} |")
     print(f"| granavg average, first 2 frames | {small[0]:.1f} | - | {small[1]:.0f} |")
-    probe = subprocess.run([ovito_python, "-c", "import ovito; print(ovito.version_string)"],
-                           capture_output=True, text=True)
-    if probe.returncode != 0:
-        print(f"\nOVITO skipped: {ovito_python} has no ovito module (pip install ovito in a "
-              "separate environment and give --ovito-python)")
+    version = ovito_version(ovito_python)
+    if version is None:
         return
     theirs = best([ovito_python, "-c", OVITO, str(dump)])
-    print(f"| OVITO {probe.stdout.strip()} import_file + compute of every frame | "
+    print(f"| OVITO {version} import_file + compute of every frame | "
           f"{theirs[0]:.1f} | {size / theirs[0]:.0f} | {theirs[1]:.0f} |")
     print(f"\ngranavg average / OVITO reading: {ours[0] / theirs[0]:.2f} of its time "
           f"({theirs[0] / ours[0]:.2f}x its speed)")
+
+
+def write_series(d: Path, files: int) -> Path:
+    """DIR/series/dump.<step>.txt: ``files`` one-frame files from DIR/big.dump's frames."""
+    text = (d / "big.dump").read_text()
+    frames = ["ITEM: UNITS" + f for f in text.split("ITEM: UNITS")[1:]]
+    out = d / "series"
+    out.mkdir(exist_ok=True)
+    for k in range(files):
+        head, rest = frames[k % len(frames)].split("ITEM: NUMBER OF ATOMS", 1)
+        (out / f"dump.{100 * k}.txt").write_text(
+            f"ITEM: UNITS\nsi\nITEM: TIME\n{0.001 * k:g}\nITEM: TIMESTEP\n{100 * k}\n"
+            f"ITEM: NUMBER OF ATOMS{rest}")
+    print(f"{out}: {files} files, {sum(p.stat().st_size for p in out.iterdir()) / 1e6:.0f} MB")
+    return out
+
+
+def series_timing(d: Path, files: int, n: int, grid) -> None:
+    import statistics
+
+    out = d / "series"
+    if len(list(out.glob("dump.*.txt"))) != files:
+        write_series(d, files)
+    quantities = "nu,rho,v,omega,dsigma,dsigma_fluct"
+
+    def average(extra, dest):
+        return ["sh", "-c", f'rm -f {dest}*; exec "$@"', "sh", sys.executable, "-m", "granavg",
+                "average", "--atoms", str(out / "dump.*.txt"), "--grid", *map(str, grid),
+                "--z-range", "0", "0.03", "--quantities", quantities, "--out", str(dest),
+                "--no-progress", *extra]
+    with tempfile.TemporaryDirectory() as tmp:
+        one, two = average([], f"{tmp}/one.csv"), average(["--workers", "2"], f"{tmp}/two.csv")
+        run(one)                                               # the page cache warm
+        pairs = [(run(one)[0], run(two)[0]) for _ in range(n)]
+    a, b = zip(*pairs)
+    ratio = [x / y for x, y in pairs]
+    print(f"| {files} files | one process s | --workers 2 s | one / two workers |\n"
+          "|---|---|---|---|")
+    print(f"| median (range) | {statistics.median(a):.1f} ({min(a):.1f}-{max(a):.1f}) | "
+          f"{statistics.median(b):.1f} ({min(b):.1f}-{max(b):.1f}) | "
+          f"{statistics.median(ratio):.2f} ({min(ratio):.2f}-{max(ratio):.2f}) |")
 
 
 def main(argv=None):
@@ -170,9 +217,16 @@ def main(argv=None):
     tm.add_argument("dir", type=Path)
     tm.add_argument("--ovito-python", default=sys.executable)
     tm.add_argument("--grid", type=int, nargs=3, default=(20, 20, 6))
+    sr = sub.add_parser("series")
+    sr.add_argument("dir", type=Path)
+    sr.add_argument("--files", type=int, default=24)
+    sr.add_argument("-n", type=int, default=3)
+    sr.add_argument("--grid", type=int, nargs=3, default=(20, 20, 6))
     args = ap.parse_args(argv)
     if args.what == "make":
         make(args.dir, args.copies, args.frames)
+    elif args.what == "series":
+        series_timing(args.dir, args.files, args.n, args.grid)
     else:
         timing(args.dir, args.ovito_python, args.grid)
 

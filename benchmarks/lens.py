@@ -15,7 +15,7 @@ import time
 import numpy as np
 from numba import njit
 
-from granavg.engine.weights import _area_scalar, _segment
+from granavg.engine.weights import area as _area_scalar, segment as _segment
 
 
 @njit

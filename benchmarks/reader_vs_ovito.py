@@ -17,6 +17,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from ovito_probe import ovito_version   # benchmarks/, beside this script
+
 OVITO = """
 import sys, time
 from ovito.io import import_file
@@ -48,11 +50,8 @@ def main(argv=None):
     ap.add_argument("run", type=Path)
     ap.add_argument("--ovito-python", default=sys.executable)
     args = ap.parse_args(argv)
-    probe = subprocess.run([args.ovito_python, "-c", "import ovito; print(ovito.version_string)"],
-                           capture_output=True, text=True)
-    if probe.returncode != 0:
-        print(f"skipped: {args.ovito_python} has no ovito module (pip install ovito in a "
-              "separate environment and give --ovito-python)")
+    version = ovito_version(args.ovito_python)
+    if version is None:
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         plain = Path(tmp) / "atoms.dump"
@@ -63,7 +62,7 @@ def main(argv=None):
                                       capture_output=True, text=True, check=True).stdout)
     print(f"| reader ({size:.1f} MB plain per-atom dump) | MB/s |\n|---|---|")
     print(f"| granavg DumpReader, all columns | {size / ours:.0f} |")
-    print(f"| OVITO {probe.stdout.strip()} import_file + compute per frame | {size / theirs:.0f} |")
+    print(f"| OVITO {version} import_file + compute per frame | {size / theirs:.0f} |")
     print(f"\ngranavg / OVITO: {theirs / ours:.2f}x")
     return 0
 

@@ -123,6 +123,7 @@ def _parser() -> argparse.ArgumentParser:
                      "scheduler's workers (tcp://host:8786); they must see the run directory "
                      "or the dumps")
     avg.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    _threads(avg)
 
     scl = sub.add_parser("scales", help="a scale study: the same frames averaged with a "
                          "smoothing kernel at several widths, the fields and their errors "
@@ -144,6 +145,7 @@ def _parser() -> argparse.ArgumentParser:
                      "where each field stops depending on the width; <out>.png and .pdf "
                      "the figure")
     scl.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    _threads(scl)
 
 
     ana = sub.add_parser("analyze", help="figures 2-9, summary.json and report.html from "
@@ -267,6 +269,13 @@ def _branch_and_errors(avg):
         "sectors' correlation), a number from 4 to 48, or off (errors from time alone)"))
 
 
+def _threads(p):
+    """--threads (average, scales)."""
+    p.add_argument("--threads", metavar="N", help="threads of the engine: the chunks of a "
+                   "frame's particles summed on N cores (default: the cores available, or "
+                   "GRANAVG_THREADS; the same result for any N)")
+
+
 def _finite(text):
     """A float option: a finite number (nan and inf are refused where a length, a time
     or an acceleration is meant)."""
@@ -379,7 +388,8 @@ def argv_command(argv) -> str | None:
 def main(argv=None) -> int:
     """Entry point of the ``granavg`` command."""
     from granavg.pipeline.session import (configure_logging, interrupt_code, no_room,
-                                          outputs_written, signals_as_interrupts)
+                                          outputs_written, signals_as_interrupts,
+                                          use_threads)
 
     name_parameters(flag)
     with signals_as_interrupts():
@@ -389,6 +399,7 @@ def main(argv=None) -> int:
                        "analyze": _analyze,
                        "demo": _demo}[args.command]
             configure_logging(args.verbose)
+            use_threads(getattr(args, "threads", None))
             done = command(args)
             if args.command == "simulate":
                 logging.getLogger("granavg").info("run complete: %s", done)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from granavg.engine.weights import _cut, area_inside_circle, ring_weights
+from granavg.engine.weights import area_inside_circle, cut, ring_weights
 
 
 def test_special_cases_of_the_area_inside_a_circle():
@@ -79,7 +79,7 @@ def test_a_segment_keeps_1e_13_of_its_area_on_both_sides_of_the_series_threshold
         pytest.skip("no extended precision long double on this platform")
     x = 0.1
     chord = x * np.concatenate([np.linspace(0.02, 0.1, 400), np.linspace(0.1, 1.0, 100)])
-    mine = np.array([_cut(x * x + c * c, c, x) for c in chord])
+    mine = np.array([cut(x * x + c * c, c, x) for c in chord])
     c_, x_ = chord.astype(ld), ld(x)
     exact = (x_ * x_ + c_ * c_) * np.arctan2(c_, x_) - c_ * x_
     assert np.max(np.abs(mine - exact.astype(float)) / exact.astype(float)) < 1e-13

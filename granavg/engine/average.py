@@ -16,10 +16,12 @@ from __future__ import annotations
 import logging
 import numbers
 import sys
+import threading
 from typing import Protocol
 
 import numpy as np
 
+from granavg.engine import threads
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.cells.base import Cells, layout_of
 from granavg.engine.channels import CONTACT_BLOCKS
@@ -27,7 +29,6 @@ from granavg.engine.kernels import (BRANCHES, cell_sums, contact_rows, particle_
                                    sector_sums, wall_points)
 from granavg.engine.profiles import Profiles, flags, standard_errors, values
 from granavg.engine.quantities import MICROPOLAR, MICROPOLAR_CONVENTIONS, QUANTITIES
-from granavg.engine.smoothing.sums import smoothed_frame_sums
 from granavg.engine.stationarity import DRIFT_Z, stationarity
 from granavg.engine.uncertainty import structure
 from granavg.errors import ParameterError, named
@@ -283,10 +284,23 @@ def warn_if_drifting(judged: dict, t_min: float) -> list:
 CHUNK = 1 << 16
 
 
+_local = threading.local()
+
+
+def _buffer(rows: int, n: int) -> np.ndarray:
+    """This thread's buffer of at least (rows, n) channel values, kept from frame to
+    frame (its pages are not faulted in anew for each)."""
+    buf = getattr(_local, "buffer", None)
+    if buf is None or buf.shape[0] < rows or buf.shape[1] != n:
+        buf = _local.buffer = np.empty((rows, n))
+    return buf
+
+
 def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
                sectors: int = 0) -> np.ndarray:
     """Cell sums of one frame for any cells (:mod:`granavg.engine.cells`), the particles
-    taken :data:`CHUNK` at a time.
+    taken :data:`CHUNK` at a time, the chunks on the engine's threads
+    (:mod:`granavg.engine.threads`; the result does not depend on their number).
 
     Returns
     -------
@@ -296,6 +310,7 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     """
     layout = layout_of(cells.axes, blocks)
     if getattr(cells, "spreads_branches", False):     # a smoothing kernel's nodes
+        from granavg.engine.smoothing.sums import smoothed_frame_sums   # numba: on demand
         return smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout)
     a = frame.atoms
     contacts = frame.contacts
@@ -303,22 +318,27 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     rows = contact_rows(a, contacts) if contacts is not None and (
         {*CONTACT_BLOCKS, "wall"} & set(blocks)) else None
     n = cells.n * max(sectors, 1)
-    sums = np.zeros((n, layout.n))
-    buffer = np.empty((min(CHUNK, len(radius)), layout.n))
-    for lo in range(0, len(radius), CHUNK):
+    rows_needed = min(CHUNK, len(radius))
+
+    def chunk_sums(lo):
         part = slice(lo, lo + CHUNK)
         chunk = {k: v[part] for k, v in a.items()}
         pos = tuple(chunk[c] for c in cells.position_names)
         r = chunk["radius"]
         q = particle_channels(chunk, contacts, layout, cells.particle_volume(r),
                               cells.def_factor(r), rho_p, blocks, basis=cells.basis(pos),
-                              branch=branch, rows=rows, first=lo, out=buffer)
+                              branch=branch, rows=rows, first=lo,
+                              out=_buffer(rows_needed, layout.n))
         particle, cell, w = cells.weights(pos, r)
         if sectors:
             sector, share = cells.sector_shares(pos, r, sectors)
-            sums += sector_sums(particle, cell, w, sector, share, sectors, q, cells.n)
-        else:
-            sums += cell_sums(particle, cell, w, q, n)
+            return sector_sums(particle, cell, w, sector, share, sectors, q, cells.n)
+        return cell_sums(particle, cell, w, q, n)
+
+    # the chunks' sums added in chunk order: the same result on any number of threads
+    sums = np.zeros((n, layout.n))
+    for part in threads.map_ordered(chunk_sums, range(0, len(radius), CHUNK)):
+        sums += part
     if "wall" in blocks and frame.contacts is not None:
         points, forces = wall_points(a, contacts, cells.dim, branch, rows)
         at = tuple(points.T)

@@ -1,4 +1,5 @@
-"""Per-frame sums of the cell averages (Eqs. 1-7): pure numpy/numba kernels.
+"""Per-frame sums of the cell averages (Eqs. 1-7): numpy, and kernels compiled ahead of time
+(:mod:`granavg.engine._sums`).
 
 For every cell k and channel c a frame contributes ``S[k, c] = sum_p w_pk Q_pc`` with
 ``w_pk`` the particle's volume fraction in the cell (:mod:`granavg.engine.weights`) and Q
@@ -31,9 +32,9 @@ deformation.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
-from numba.extending import overload
 
+from granavg.engine._sums import (BLOCK_ORDER, accumulate_contacts, fill_particles,
+                                   scatter, scatter_sectors, table_rows)
 from granavg.engine.channels import BLOCKS, CONTACT_BLOCKS, Layout
 from granavg.errors import UserError
 
@@ -43,10 +44,8 @@ from granavg.errors import UserError
 #: ``paper`` is Eq. 5 as printed, l_p = a_p n, which reaches past the contact point by
 #: delta / 2 and makes sigma too large by about delta / d.
 BRANCHES = {"contact": 0.5, "paper": 0.0}
-#: Positions of the blocks in the kernels' offsets (Layout.offsets, in BLOCKS order).
-VOL, MASS, MOM, SPIN, NC, FAB, SIG, KIN, DEF, WALL, BODY = (
-    BLOCKS.index(b) for b in ("vol", "mass", "mom", "spin", "ncontact", "fab", "sig", "kin",
-                              "def", "wall", "body"))
+# the compiled kernels index Layout.offsets by these blocks' positions
+assert BLOCKS[:len(BLOCK_ORDER)] == BLOCK_ORDER, "granavg.engine._sums is stale"
 
 
 #: The contact blocks of the compiled pass, in the order of its ``keep`` flags (the
@@ -134,12 +133,12 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
     body = "body" in want
     spin_cols = ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"]
     zero = np.zeros((P, D))
-    _fill_particles(q, vol, mass,
-                    _stack(atoms, ["vx", "vy", "vz"][:D]) if moving else zero,
-                    _stack(atoms, spin_cols) if "spin" in want else zero[:, :len(spin_cols)],
-                    _stack(atoms, ["bx", "by", "bz"][:D]) if body else zero,
-                    E, moving, "kin" in want, "spin" in want, body, (0,) * D,
-                    layout.offsets)
+    fill_particles(
+        q, _f(vol, float), _f(mass, float),
+        _stack(atoms, ["vx", "vy", "vz"][:D]) if moving else zero,
+        _stack(atoms, spin_cols) if "spin" in want else _f(zero[:, :len(spin_cols)]),
+        _stack(atoms, ["bx", "by", "bz"][:D]) if body else zero,
+        E, moving, "kin" in want, "spin" in want, body, _offsets(layout))
     _spin_and_energy(q, layout, atoms, mass, E, want)
     if want & set(CONTACT_BLOCKS):
         if branch not in BRANCHES:
@@ -276,20 +275,28 @@ def _stack(columns, names):
     return np.column_stack([np.asarray(columns[c], float) for c in names])
 
 
+_f = np.ascontiguousarray
+
+
+def _offsets(layout: Layout) -> np.ndarray:
+    """The blocks' first channels as the compiled kernels take them."""
+    return np.asarray(layout.offsets, np.int64)
+
+
 def _contact_channels(q, layout, atoms, contacts, E, vol, dfac, want, shorten, rows, first):
     """Add each contact to both of its particles (only the particle of a wall contact)."""
     i1, i2 = rows
     D = layout.dim
     # columns the wanted channels do not need (e.g. forces for coordination alone) may be
     # absent: they enter only channels that are not kept
-    col = {k: np.asarray(contacts[k], float) if k in contacts else np.zeros(len(i1))
+    col = {k: _f(contacts[k], float) if k in contacts else np.zeros(len(i1))
            for k in ("fnx", "fny", "fnz", "ftx", "fty", "ftz", "nx", "ny", "nz", "overlap")}
     f = np.column_stack([col["fn" + x] + col["ft" + x] for x in "xyz"[:D]])
     n = np.column_stack([col["n" + x] for x in "xyz"[:D]])
-    keep = np.array([b in want for b in COMPILED_CONTACT_BLOCKS])
-    _accumulate_contacts(i1, i2, f, n, col["overlap"], E, np.asarray(atoms["radius"], float),
-                         vol, np.asarray(dfac, float), shorten, keep, q, first, (0,) * D,
-                         layout.offsets)
+    accumulate_contacts(_f(i1, np.int64), _f(i2, np.int64), f, n, col["overlap"], E,
+                              _f(atoms["radius"], float), _f(vol, float), _f(dfac, float),
+                              shorten, *(b in want for b in COMPILED_CONTACT_BLOCKS), q,
+                              first, _offsets(layout))
 
 
 def wall_points(atoms, contacts, dim=2, branch="contact", rows=None):
@@ -308,99 +315,6 @@ def wall_points(atoms, contacts, dim=2, branch="contact", rows=None):
     points = np.column_stack([atoms[x][p] + reach * contacts["n" + x][k] for x in xyz])
     forces = np.column_stack([contacts["fn" + x][k] + contacts["ft" + x][k] for x in xyz])
     return points, forces
-
-
-def project(x, c, E, p, s, dims):
-    """s (x[c] . e_i) for every axis i of the basis E[p], as a tuple of len(dims) (kept
-    in registers: an array here made the contact pass twice as slow); compiled only."""
-    raise NotImplementedError
-
-
-@overload(project, inline="always")
-def _project(x, c, E, p, s, dims):
-    if len(dims) == 2:
-        def project2(x, c, E, p, s, dims):
-            return (s * (x[c, 0] * E[p, 0, 0] + x[c, 1] * E[p, 0, 1]),
-                    s * (x[c, 0] * E[p, 1, 0] + x[c, 1] * E[p, 1, 1]))
-        return project2
-
-    def project3(x, c, E, p, s, dims):
-        return (s * (x[c, 0] * E[p, 0, 0] + x[c, 1] * E[p, 0, 1] + x[c, 2] * E[p, 0, 2]),
-                s * (x[c, 0] * E[p, 1, 0] + x[c, 1] * E[p, 1, 1] + x[c, 2] * E[p, 1, 2]),
-                s * (x[c, 0] * E[p, 2, 0] + x[c, 1] * E[p, 2, 1] + x[c, 2] * E[p, 2, 2]))
-    return project3
-
-
-@njit(cache=True, nogil=True)
-def _fill_particles(q, vol, mass, v, w, b, E, moving, kinetic, spin, body, dims, off):
-    """The particles' own channels in one pass: volume, mass, momentum, the kinetic
-    tensor m v (x) v, spin and body force, in the basis E (rows e_i); D = len(dims);
-    ``off`` the blocks' first channels (:attr:`~granavg.engine.channels.Layout.offsets`)."""
-    D = len(dims)
-    for p in range(q.shape[0]):
-        q[p, off[VOL]], q[p, off[MASS]] = vol[p], mass[p]
-        if moving:
-            vb = project(v, p, E, p, 1.0, dims)
-            if off[MOM] >= 0:                   # the kinetic tensor may come alone
-                for i in range(D):
-                    q[p, off[MOM] + i] = vol[p] * vb[i]
-            if kinetic:
-                m = mass[p]
-                for i in range(D):
-                    for j in range(D):
-                        q[p, off[KIN] + i * D + j] = m * vb[i] * vb[j]
-        if spin:
-            if D == 2:                                    # omega_z, a scalar
-                q[p, off[SPIN]] = vol[p] * w[p, 0]
-            else:
-                wb = project(w, p, E, p, 1.0, dims)
-                for i in range(D):
-                    q[p, off[SPIN] + i] = vol[p] * wb[i]
-        if body:
-            bb = project(b, p, E, p, 1.0, dims)
-            for i in range(D):
-                q[p, off[BODY] + i] = bb[i]
-
-
-@njit(cache=True, nogil=True)
-def _accumulate_contacts(i1, i2, f, n, overlap, E, a, vol, dfac, shorten, keep, q, lo, dims,
-                         off):
-    """Add to each particle's channels the sums over its contacts (side 2 sees -f and -n;
-    i2 < 0: wall contact), the ``keep``-ed ones of: V^p x count, V^p sum n (x) n,
-    sum f (x) l with l = (a - shorten overlap) n, (V^p / a^2) sum Delta (x) l with
-    Delta = -overlap n; tensors in the particle's basis E (rows e_i); D = len(dims).
-    Only the rows lo .. lo + len(q) of the frame's particles are this call's (q, E, a,
-    vol, dfac hold those rows); ``off`` the blocks' first channels."""
-    D = len(dims)
-    count, fabric, stress, deform = keep[0], keep[1], keep[2], keep[3]
-    hi = lo + q.shape[0]
-    for c in range(i1.shape[0]):
-        for side in range(2):
-            row = i1[c] if side == 0 else i2[c]
-            if row < 0:
-                break
-            if row < lo or row >= hi:
-                continue
-            p = row - lo
-            s = 1.0 if side == 0 else -1.0
-            nb, fb = project(n, c, E, p, s, dims), project(f, c, E, p, s, dims)
-            length = a[p] - shorten * overlap[c]
-            d = -dfac[p] * overlap[c] * length
-            v = vol[p]
-            if count:
-                q[p, off[NC]] += v
-            if fabric:
-                for i in range(D):
-                    for j in range(D):
-                        q[p, off[FAB] + i * D + j] += v * nb[i] * nb[j]
-            if stress:
-                for i in range(D):
-                    for j in range(D):
-                        q[p, off[SIG] + i * D + j] += length * fb[i] * nb[j]
-            if deform:
-                for i in range(D):
-                    for j in range(D):
-                        q[p, off[DEF] + i * D + j] += d * nb[i] * nb[j]
 
 
 def lookup(ids, wanted):
@@ -423,26 +337,12 @@ def lookup(ids, wanted):
         return np.zeros(len(wanted), np.int64), np.zeros(len(wanted), bool)
     top = int(ids.max())
     if ids.min() >= 0 and top < 8 * len(ids) + 1_000_000:         # a table: O(P + N)
-        rows = _table_rows(ids, wanted, top)
+        rows = table_rows(ids, wanted, top)
         return rows, rows >= 0
     ids, wanted = ids.astype(np.int64), wanted.astype(np.int64)   # sparse: sort and search
     order = np.argsort(ids, kind="stable")
     rows = order[np.minimum(np.searchsorted(ids[order], wanted), len(ids) - 1)]
     return rows, ids[rows] == wanted
-
-
-@njit(cache=True, nogil=True)
-def _table_rows(ids, wanted, top):
-    """Row of each wanted id through a table indexed by id (0 <= ids <= top, integers
-    or floats holding them, truncated as astype does); -1 if unknown."""
-    table = np.full(top + 1, -1, np.int64)
-    for p in range(ids.shape[0]):
-        table[int(ids[p])] = p
-    rows = np.full(wanted.shape[0], -1, np.int64)
-    for c in range(wanted.shape[0]):
-        if 0 <= wanted[c] < top + 1:
-            rows[c] = table[int(wanted[c])]
-    return rows
 
 
 def rows_of(ids, wanted):
@@ -456,29 +356,8 @@ def rows_of(ids, wanted):
 def cell_sums(particle, ring, w, q, n_rings):
     """S[k, c] = sum_p w_pk q[p, c]; shape (n_cells, n_channels)."""
     out = np.zeros((n_rings, q.shape[1]))
-    _scatter(particle, ring, w, np.ascontiguousarray(q), out)
+    scatter(_f(particle, np.int64), _f(ring, np.int64), _f(w, float), _f(q, float), out)
     return out
-
-
-@njit(cache=True, nogil=True)
-def _scatter(particle, ring, w, q, out):
-    for t in range(particle.shape[0]):
-        p, k, wt = particle[t], ring[t], w[t]
-        for c in range(q.shape[1]):
-            out[k, c] += wt * q[p, c]
-
-
-@njit(cache=True, nogil=True)
-def _scatter_sectors(particle, cell, w, sector, share, k, q, out):
-    for t in range(particle.shape[0]):
-        p = particle[t]
-        for j in range(3):
-            f = share[p, j]
-            if f > 0.0:
-                row = cell[t] * k + sector[p, j]
-                wt = w[t] * f
-                for c in range(q.shape[1]):
-                    out[row, c] += wt * q[p, c]
 
 
 def sector_sums(particle, cell, w, sector, share, k, q, n_cells):
@@ -487,5 +366,6 @@ def sector_sums(particle, cell, w, sector, share, k, q, n_cells):
     (n_cells * k, n_channels); the sectors of a cell add up to its sums (the shares of a
     particle sum to 1)."""
     out = np.zeros((n_cells * int(k), q.shape[1]))
-    _scatter_sectors(particle, cell, w, sector, share, int(k), np.ascontiguousarray(q), out)
+    scatter_sectors(_f(particle, np.int64), _f(cell, np.int64), _f(w, float),
+                          _f(sector, np.int64), _f(share, float), int(k), _f(q, float), out)
     return out

@@ -345,12 +345,18 @@ class _Scanner:
     def _rows(self, head, names):
         n, step = head["n"], head["timestep"]
         want, target = self._targets(names)
-        end = self._block_end()
         self.last_step = step
         window = self.reader.steps
         skip = window is not None and not (
             window[0] <= step <= window[1]
             and (len(window) < 3 or (step - window[0]) % window[2] == 0))
+        if not skip and not self.reader.headers_only and n:
+            data = self._rows_to_header(n, len(names), target)
+            if data is not None:
+                first = self.line
+                self.line += n
+                return self._made(head, want, data, first)
+        end = self._block_end()
         if end < len(self.buf) and not skip and not self.reader.headers_only and \
                 (n == 0 or self.buf[end - 1] == 10):
             # a complete block (another header follows): parse it, and count its rows
@@ -386,6 +392,26 @@ class _Scanner:
         first = self.line
         self.line += rows
         return self._made(head, want, data, first)
+
+    def _rows_to_header(self, n, ncol, target):
+        """The block's n rows parsed in one pass, without searching for its end first:
+        taken when they end exactly where the next header starts (or at the end of the
+        file), else None (and nothing consumed): the careful path then finds the
+        block's end, counts its rows and says what is wrong."""
+        limit = self.buf.rfind(b"\n") + 1              # the rows the buffer holds whole
+        if limit <= self.pos:
+            return None
+        arr = np.frombuffer(self.buf, dtype=np.uint8)
+        data, status, _, end = parse_block(arr, self.pos, n, ncol, target, limit)
+        if status != OK:
+            return None
+        if end >= len(self.buf):
+            if not (isinstance(self.buf, mmap.mmap) or self.eof):
+                return None                     # more rows may follow in the next chunk
+        elif self.buf[end:end + 5] != b"ITEM:":
+            return None
+        self.pos = end
+        return data
 
     def _made(self, head, columns, data, line):
         return DumpFrame(head["timestep"], head["time"], columns, data, head["box"], line,

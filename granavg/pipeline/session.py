@@ -99,6 +99,14 @@ def configure_logging(verbose: bool) -> None:
         sys.modules["dask"].config.set({"logging.distributed": quiet})
 
 
+def use_threads(n) -> None:
+    """The engine's thread count for this command (``--threads``; None: the default,
+    :func:`granavg.engine.threads.count`)."""
+    if n is not None:
+        from granavg.engine import threads
+        threads.set_count(n)
+
+
 @contextmanager
 def signals_as_interrupts():
     """Within the block, SIGTERM and SIGINT raise :class:`Terminated` or

@@ -19,9 +19,9 @@ outer.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from granavg.engine.kernels import contact_rows, wall_points
+from granavg.sim._contact_state import contact_state
 
 ZONES = {"in": (0.0, 0.2), "bulk": (0.3, 0.8), "out": (0.85, 1.0)}
 #: The quantities whose steadiness is judged (when present).
@@ -75,8 +75,10 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
     fn = ((contacts["fnx"] + contacts["ftx"]) * contacts["nx"] +
           (contacts["fny"] + contacts["fty"]) * contacts["ny"]) if "fnx" in contacts \
         else np.zeros(len(i1))
-    count, trace, bonds, re6, im6 = _contact_state(i1, i2, np.asarray(fn, float),
-                                                   np.asarray(a, float), x, y, n)
+    f = np.ascontiguousarray
+    count, trace, bonds, re6, im6 = contact_state(f(i1, np.int64), f(i2, np.int64),
+                                                  f(fn, float), f(a, float), f(x, float),
+                                                  f(y, float), n)
     out.update(_hexatic(bonds, re6, im6, zone["bulk"]))
     out["C"] = float(count.mean()) if n else np.nan
     for k, m in zone.items():
@@ -93,37 +95,6 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
     if "fnx" in contacts and "overlap" in contacts:
         out.update(wall_torques(atoms, contacts, (i1, i2)))
     return out
-
-
-@njit(cache=True, nogil=True)
-def _contact_state(i1, i2, fn, a, x, y, n):
-    """One pass over the contacts: each disk's contact count, its sum a f.n (the trace of
-    its stress sum) and the sums cos 6 theta, sin 6 theta over its disk-disk bonds
-    (theta the bond's angle; the reverse bond has the same)."""
-    count, trace, bonds = np.zeros(n), np.zeros(n), np.zeros(n)
-    re6, im6 = np.zeros(n), np.zeros(n)
-    for c in range(i1.shape[0]):
-        p, q = i1[c], i2[c]
-        count[p] += 1.0
-        trace[p] += a[p] * fn[c]
-        if q < 0:
-            continue
-        count[q] += 1.0
-        trace[q] += a[q] * fn[c]
-        dx, dy = x[q] - x[p], y[q] - y[p]
-        r2 = dx * dx + dy * dy
-        if r2 > 0.0:
-            u, v = dx * dx / r2, dy * dy / r2            # cos^2, sin^2
-            cs = dx * dy / r2                              # cos sin
-            c6 = u * u * u - 15.0 * u * u * v + 15.0 * u * v * v - v * v * v
-            s6 = cs * (6.0 * u * u - 20.0 * u * v + 6.0 * v * v)
-            bonds[p] += 1.0
-            bonds[q] += 1.0
-            re6[p] += c6
-            im6[p] += s6
-            re6[q] += c6
-            im6[q] += s6
-    return count, trace, bonds, re6, im6
 
 
 def wall_torques(atoms, contacts, rows) -> dict:
@@ -146,7 +117,7 @@ def wall_torques(atoms, contacts, rows) -> dict:
 def _hexatic(bonds, re6, im6, bulk):
     """Mean |psi_6| of the bulk disks with at least 3 bonds and the share above 0.8, over
     the bonds of the contact network: psi_6 = <exp(6 i theta)> over a disk's disk-disk
-    contacts (the sums from :func:`_contact_state`). Disks with fewer bonds are left out:
+    contacts (the sums from :func:`~granavg.sim._contact_state.contact_state`). Disks with fewer bonds are left out:
     one bond alone gives |psi_6| = 1, two often more than 0.8."""
     keep = bulk & (bonds >= 3)
     if keep.sum() < 3:

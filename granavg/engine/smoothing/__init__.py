@@ -33,8 +33,6 @@ def smooth(cells, kernel: str | None, width: float | None):
     """``cells`` as the nodes of ``kernel`` of width ``width`` (the cells themselves for
     no kernel or ``exact``); one-line refusals of a width without a kernel, a kernel
     without a width, or a width that is not a finite number > 0."""
-    from granavg.engine.smoothing.smoothed import Smoothed
-
     if kernel in (None, "exact"):
         if width is not None:
             raise ParameterError("width", "{param} is the width of a smoothing kernel: "
@@ -43,6 +41,7 @@ def smooth(cells, kernel: str | None, width: float | None):
     if width is None:
         raise ParameterError("width", f"{{kernel}} {kernel} needs {{param}} W, the kernel's "
                              "width in the dumps' length unit (e.g. a particle diameter)")
+    from granavg.engine.smoothing.smoothed import Smoothed    # numba's kernels: on demand
     return Smoothed(cells, get(kernel), float(width))
 
 

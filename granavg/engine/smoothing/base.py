@@ -20,7 +20,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 
 
 @dataclass(frozen=True)
@@ -76,6 +75,7 @@ class Kernel:
 
     def g(self, q: float) -> float:
         """The profile at q (numpy-free, for tests and checks)."""
+        from granavg.engine.smoothing.points import profile    # numba's: on demand
         return profile(self.packed, min(q, 1.0))[0] if q < 1.0 else 0.0
 
     def value(self, r, width: float, dim: int):
@@ -84,23 +84,3 @@ class Kernel:
         q = np.asarray(r, float) / c
         g = np.array([self.g(x) for x in np.ravel(q)]).reshape(q.shape)
         return self.norms[dim] / c ** dim * g
-
-
-@njit(cache=True, nogil=True, inline="always")
-def profile(K, q):
-    """(g, dg/dq) at q of the kernel packed in K (:attr:`Kernel.packed`: pieces,
-    row length, a, b, then per piece its start and coefficients)."""
-    pieces, row = int(K[0]), int(K[1])
-    p = 0
-    while p + 1 < pieces and q >= K[4 + (p + 1) * row]:
-        p += 1
-    base = 4 + p * row
-    g, dg = 0.0, 0.0
-    for k in range(row - 1, 0, -1):              # Horner, with the derivative
-        dg = dg * q + g
-        g = g * q + K[base + k]
-    if K[2] != 0.0:
-        e = K[2] * np.exp(-K[3] * q * q)
-        g += e
-        dg -= 2.0 * K[3] * q * e
-    return g, dg

@@ -20,11 +20,30 @@ import math
 
 from numba import njit
 
-from granavg.engine.smoothing.base import profile
 from granavg.engine.smoothing.quadrature import SW, SX
 
 #: Below this share of the support radius the line passes through the node.
 _THROUGH = 1e-9
+
+
+@njit(cache=True, nogil=True, inline="always")
+def profile(K, q):
+    """(g, dg/dq) at q of the kernel packed in K (:attr:`Kernel.packed`: pieces,
+    row length, a, b, then per piece its start and coefficients)."""
+    pieces, row = int(K[0]), int(K[1])
+    p = 0
+    while p + 1 < pieces and q >= K[4 + (p + 1) * row]:
+        p += 1
+    base = 4 + p * row
+    g, dg = 0.0, 0.0
+    for k in range(row - 1, 0, -1):              # Horner, with the derivative
+        dg = dg * q + g
+        g = g * q + K[base + k]
+    if K[2] != 0.0:
+        e = K[2] * math.exp(-K[3] * q * q)
+        g += e
+        dg -= 2.0 * K[3] * q * e
+    return g, dg
 
 
 @njit(cache=True, nogil=True, inline="always")

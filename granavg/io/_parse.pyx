@@ -1,0 +1,226 @@
+# cython: language_level=3, boundscheck=False, wraparound=False, cdivision=True, initializedcheck=False
+"""The row parser of :mod:`granavg.io.parse`, compiled ahead of time (C, at install).
+
+Every scan stops at a newline and a row may not start at or beyond ``limit``, so a block
+of newline-terminated rows is never read beyond; within a row no byte is bounds-checked.
+"""
+
+from libc.math cimport INFINITY
+
+OK, MALFORMED, NOT_FINITE = 0, 1, 2
+cdef int _OK = 0, _MALFORMED = 1, _NOT_FINITE = 2
+cdef double _POW10[23]
+for _k in range(23):
+    _POW10[_k] = 10.0 ** _k
+
+
+cdef inline bint _blank(unsigned char c) noexcept nogil:
+    return c == 32 or c == 9 or c == 13
+
+
+cdef inline bint _end(unsigned char c) noexcept nogil:
+    return c == 32 or c == 9 or c == 13 or c == 10
+
+
+cdef inline Py_ssize_t _digits(const unsigned char[::1] buf, Py_ssize_t q,
+                               unsigned long long *mant) noexcept nogil:
+    """Append the decimal digits at ``buf[q:]`` to ``mant``; returns their end."""
+    cdef unsigned long long d
+    while True:
+        d = <unsigned long long>buf[q] - 48
+        if d > 9:
+            return q
+        mant[0] = mant[0] * 10 + d
+        q += 1
+
+
+cdef bint _non_finite_word(const unsigned char[::1] buf, Py_ssize_t pos) noexcept nogil:
+    """Whether ``buf[pos:]`` holds nan, inf or infinity (any case) up to a blank or
+    newline: how C's printf writes a non-finite number. Other words (``none``) are not
+    numbers at all."""
+    cdef int n = 0, k
+    cdef unsigned char lower[9]
+    cdef unsigned char c
+    cdef const char *word = b"infinity"
+    while not _end(buf[pos + n]) and n < 9:
+        n += 1
+    if not _end(buf[pos + n]):
+        return False
+    for k in range(n):
+        c = buf[pos + k]
+        lower[k] = c + 32 if 65 <= c <= 90 else c
+    if n == 3:
+        return ((lower[0] == 110 and lower[1] == 97 and lower[2] == 110) or
+                (lower[0] == 105 and lower[1] == 110 and lower[2] == 102))
+    if n == 8:
+        for k in range(8):
+            if lower[k] != <unsigned char>word[k]:
+                return False
+        return True
+    return False
+
+
+cdef int _long_number(const unsigned char[::1] buf, Py_ssize_t pos, double *value,
+                      Py_ssize_t *end) noexcept nogil:
+    """A number of more than 17 digits (or a huge exponent): its status, value and end."""
+    cdef bint neg = buf[pos] == 45, eneg
+    cdef long long mant = 0, sig = 0, exp10 = 0, e
+    if neg or buf[pos] == 43:
+        pos += 1
+    while 48 <= buf[pos] <= 57:
+        if sig < 18:
+            mant = mant * 10 + (buf[pos] - 48)
+            sig += mant > 0
+        else:
+            exp10 += 1
+        pos += 1
+    if buf[pos] == 46:
+        pos += 1
+        while 48 <= buf[pos] <= 57:
+            if sig < 18:
+                mant = mant * 10 + (buf[pos] - 48)
+                sig += mant > 0
+                exp10 -= 1
+            pos += 1
+    if buf[pos] == 101 or buf[pos] == 69:
+        pos += 1
+        eneg = buf[pos] == 45
+        if eneg or buf[pos] == 43:
+            pos += 1
+        e = 0
+        while 48 <= buf[pos] <= 57:
+            e = min(e * 10 + (buf[pos] - 48), 100000)
+            pos += 1
+        exp10 += -e if eneg else e
+    cdef double v = <double>mant * 10.0 ** <double>exp10
+    end[0] = pos
+    if v == INFINITY:
+        value[0] = 0.0
+        return _NOT_FINITE
+    value[0] = -v if neg else v
+    return _OK
+
+
+def parse_rows(const unsigned char[::1] buf, Py_ssize_t pos, Py_ssize_t nrows,
+               Py_ssize_t ncol, const long long[::1] target, double[:, ::1] out,
+               Py_ssize_t limit):
+    """Parse ``nrows`` rows of ``ncol`` numbers from ``buf[pos:]`` (the GIL released).
+
+    Parameters
+    ----------
+    buf : ndarray of uint8
+        Bytes holding the rows, each ending with ``\\n``.
+    pos : int
+        Offset of the first row.
+    nrows, ncol : int
+        Rows to read; numbers per row.
+    target : ndarray of int64, shape (ncol,)
+        Output column of each input column, or -1 to skip it.
+    out : ndarray of float64, shape (n_out, nrows)
+        Filled in place, a column per row of ``out`` (so that each column is contiguous).
+    limit : int
+        Where the block ends: a row starting there is not one of its rows (MALFORMED),
+        so a block holding fewer rows than ``nrows`` is never read beyond.
+
+    Returns
+    -------
+    status, row, col : int
+        ``OK`` (row = nrows, col = offset after the block); otherwise ``MALFORMED`` or
+        ``NOT_FINITE`` with the 0-based row and column of the first bad value
+        (col = ncol: too many values in the row).
+    """
+    cdef Py_ssize_t row = 0, col = 0
+    cdef int status
+    with nogil:
+        status = _parse(buf, &pos, nrows, ncol, target, out, limit, &row, &col)
+    if status == _OK:
+        return OK, nrows, pos
+    return status, row, col
+
+
+cdef int _parse(const unsigned char[::1] buf, Py_ssize_t *at, Py_ssize_t nrows,
+                Py_ssize_t ncol, const long long[::1] target, double[:, ::1] out,
+                Py_ssize_t limit, Py_ssize_t *bad_row, Py_ssize_t *bad_col) noexcept nogil:
+    cdef Py_ssize_t pos = at[0], row, col, start, q, f, ndig, edig
+    cdef long long dst, exp10
+    cdef unsigned long long mant, e
+    cdef unsigned char c
+    cdef bint neg, eneg
+    cdef int status
+    cdef double value
+    for row in range(nrows):
+        bad_row[0] = row
+        if pos >= limit:
+            bad_col[0] = 0
+            return _MALFORMED
+        for col in range(ncol):
+            bad_col[0] = col
+            while _blank(buf[pos]):
+                pos += 1
+            c = buf[pos]
+            if c == 10:
+                return _MALFORMED
+            dst = target[col]
+            if dst < 0:
+                while not _end(buf[pos]):
+                    pos += 1
+                continue
+            start = pos
+            neg = c == 45
+            if neg or c == 43:
+                pos += 1
+            mant = 0
+            q = _digits(buf, pos, &mant)
+            ndig = q - pos
+            exp10 = 0
+            if buf[q] == 46:
+                f = q + 1
+                q = _digits(buf, f, &mant)
+                exp10 = f - q
+                ndig += q - f
+            if ndig == 0:
+                if _non_finite_word(buf, pos):
+                    return _NOT_FINITE
+                return _MALFORMED
+            if buf[q] == 101 or buf[q] == 69:
+                q += 1
+                eneg = buf[q] == 45
+                if eneg or buf[q] == 43:
+                    q += 1
+                f = q
+                e = 0
+                q = _digits(buf, f, &e)
+                edig = q - f
+                if edig == 0:
+                    return _MALFORMED
+                exp10 += (-1 if eneg else 1) * (<long long>e if edig <= 5 else 100)
+            if not _end(buf[q]):
+                return _MALFORMED
+            if ndig > 17 or exp10 > 22 or exp10 < -22:
+                status = _long_number(buf, start, &value, &q)
+                if status != _OK:
+                    return status
+                out[dst, row] = value
+            else:
+                value = <double>mant
+                value = value / _POW10[-exp10] if exp10 < 0 else value * _POW10[exp10]
+                out[dst, row] = -value if neg else value
+            pos = q
+        bad_col[0] = ncol
+        while _blank(buf[pos]):
+            pos += 1
+        if buf[pos] != 10:
+            return _MALFORMED
+        pos += 1
+    at[0] = pos
+    return _OK
+
+
+def count_newlines(const unsigned char[::1] buf, Py_ssize_t start, Py_ssize_t end):
+    """Newlines in buf[start:end] (uint8), counted in place (the GIL released): a mapped
+    file's block is not copied to be counted."""
+    cdef Py_ssize_t i, n = 0
+    with nogil:
+        for i in range(start, end):
+            n += buf[i] == 10
+    return n
