@@ -27,16 +27,21 @@ POLL = 0.05
 CLOSE_TIMEOUT = 5
 
 
-def local_cluster(workers: int):
+def local_cluster(workers: int, threads_each: int | None = None):
     """A local dask cluster of ``workers`` single-threaded processes. glibc's default
     malloc trim threshold is kept (dask lowers it to 64 kB, which made a worker's frames
     1.2x slower here: the reader's 8 MB buffers went back to the OS every time). The
-    workers log only dask's errors (a job cancelled by a signal is not one)."""
+    workers log only dask's errors (a job cancelled by a signal is not one).
+    ``threads_each``: the engine threads of each worker (``GRANAVG_THREADS`` in its
+    environment), so that the workers together do not oversubscribe the cores."""
     import dask
     from dask.distributed import LocalCluster
 
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_":
-                          128 << 20}):
+    environ = {k: v for k, v in dask.config.get("distributed.nanny.pre-spawn-environ").items()
+               if k != "MALLOC_TRIM_THRESHOLD_"}
+    if threads_each is not None:
+        environ["GRANAVG_THREADS"] = str(int(threads_each))
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                             dashboard_address=None)
 
@@ -119,17 +124,18 @@ class Cluster:
 
 
 @contextmanager
-def cluster_client(workers: int = 2, scheduler: str | None = None):
+def cluster_client(workers: int = 2, scheduler: str | None = None,
+                   threads_each: int | None = None):
     """A :class:`Cluster` on ``scheduler``, or on a new local cluster of ``workers``
-    processes closed after the block; SIGINT and SIGTERM deferred within it (module
-    docstring)."""
+    processes (:func:`local_cluster`) closed after the block; SIGINT and SIGTERM deferred
+    within it (module docstring)."""
     from dask.distributed import Client
 
     with deferred() as received:
         cluster = client = None
         failed = False
         try:
-            cluster = None if scheduler else local_cluster(workers)
+            cluster = None if scheduler else local_cluster(workers, threads_each)
             client = _connect(Client, scheduler, cluster)
             if cluster is not None:
                 client.run(_quiet_worker)

@@ -1,4 +1,4 @@
-"""Frames read ahead in a thread (granavg.pipeline.prefetch): same frames, same order,
+"""Frames read ahead in a thread (granavg.io.prefetch): same frames, same order,
 the reader's errors where the frame would have come, a clean stop."""
 
 import threading
@@ -7,7 +7,7 @@ import time
 import pytest
 
 from granavg.errors import UserError
-from granavg.pipeline.prefetch import Prefetched
+from granavg.io.prefetch import Prefetched
 
 
 class Source:

@@ -78,6 +78,34 @@ def test_chunked_sums_equal_one_pass_over_all_particles_to_round_off(monkeypatch
                      frame_sums(frame, cells, 2500.0, own))
 
 
+def test_contacts_across_chunks_count_for_both_of_their_particles(monkeypatch,
+                                                                   restore_threads):
+    # contacts between random rows (each chunk sees only the contacts of its own
+    # particles), wall contacts among them, couples and powers too: chunked = one pass
+    frame = random_spheres(6000, seed=4)
+    rng = np.random.default_rng(5)
+    c = len(frame.contacts["id1"])
+    ids = frame.atoms["id"]
+    contacts = dict(frame.contacts, id1=rng.choice(ids, c), id2=rng.choice(ids, c),
+                    wall=(rng.uniform(size=c) < 0.1).astype(float),
+                    **{f"m{x}": rng.normal(size=c) for x in "xyz"})
+    contacts["id2"] = np.where(contacts["wall"] > 0, 0.0, contacts["id2"])
+    frame = Frame(0, 0.0, frame.atoms, contacts)
+    cells = Boxes(np.linspace(0, 1, 5), np.linspace(0, 1, 5), np.linspace(0, 0.3, 3))
+    want = BLOCKS + ["cst", "lever", "cnet", "wcpl", "ppow", "wpow", "lpow"]
+    whole = frame_sums(frame, cells, 2500.0, want)
+    monkeypatch.setattr(average_module, "CHUNK", 1024)             # six chunks
+    got = []
+    for k in (1, 2):
+        threads.set_count(k)
+        got.append(frame_sums(frame, cells, 2500.0, want))
+    assert np.array_equal(got[0], got[1])
+    assert agree(got[0], whole)
+    # the check can fail: the contacts of one chunk alone are far off
+    part = {k: v[:c // 6] for k, v in contacts.items()}
+    assert not agree(frame_sums(Frame(0, 0.0, frame.atoms, part), cells, 2500.0, want), whole)
+
+
 def test_sectors_sums_of_rings_are_bit_identical_across_thread_counts(monkeypatch,
                                                                       restore_threads):
     rng = np.random.default_rng(3)

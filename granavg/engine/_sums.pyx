@@ -27,6 +27,16 @@ cdef inline void _project(const double[:, ::1] x, Py_ssize_t c, const double[:, 
         out[i] = s * acc
 
 
+cdef inline Py_ssize_t _side_row(const int64_t[::1] i1, const int64_t[::1] i2, Py_ssize_t c,
+                                   int side, Py_ssize_t lo, Py_ssize_t hi) noexcept nogil:
+    """The chunk row (row - lo) of contact c's particle on ``side`` (0: i1, 1: i2); -1 when
+    there is none (a wall's side 1, i2 < 0) or it lies outside the chunk [lo, hi)."""
+    cdef Py_ssize_t row = i1[c] if side == 0 else i2[c]
+    if row < lo or row >= hi:
+        return -1
+    return row - lo
+
+
 def fill_particles(double[:, ::1] q, const double[::1] vol, const double[::1] mass,
                    const double[:, ::1] v, const double[:, ::1] w, const double[:, ::1] b,
                    const double[:, :, ::1] E, bint moving, bint kinetic, bint spin,
@@ -79,19 +89,16 @@ def accumulate_contacts(const int64_t[::1] i1, const int64_t[::1] i2, const doub
     lo .. lo + len(q) of the frame's particles are this call's (q, E, a, vol, dfac hold
     those rows); ``off`` the blocks' first channels."""
     cdef int D = E.shape[1], i, j, side
-    cdef Py_ssize_t c, row, p, hi = lo + q.shape[0]
+    cdef Py_ssize_t c, p, hi = lo + q.shape[0]
     cdef double nb[3]
     cdef double fb[3]
     cdef double s, length, d, v
     with nogil:
         for c in range(i1.shape[0]):
             for side in range(2):
-                row = i1[c] if side == 0 else i2[c]
-                if row < 0:
-                    break
-                if row < lo or row >= hi:
+                p = _side_row(i1, i2, c, side, lo, hi)
+                if p < 0:
                     continue
-                p = row - lo
                 s = 1.0 if side == 0 else -1.0
                 _project(n, c, E, p, s, D, nb)
                 _project(f, c, E, p, s, D, fb)
@@ -174,3 +181,104 @@ def scatter_sectors(const int64_t[::1] particle, const int64_t[::1] cell, const 
                     wt = w[t] * fr
                     for c in range(q.shape[1]):
                         out[row, c] += wt * q[p, c]
+
+
+cdef inline void _cross(const double *a, const double *b, int D, double *out) noexcept nogil:
+    """a x b: the z component (out[0]) of two 2D vectors, the vector in 3D."""
+    if D == 2:
+        out[0] = a[0] * b[1] - a[1] * b[0]
+    else:
+        out[0] = a[1] * b[2] - a[2] * b[1]
+        out[1] = a[2] * b[0] - a[0] * b[2]
+        out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+def couple_channels(const int64_t[::1] i1, const int64_t[::1] i2, const double[:, ::1] n,
+                    const double[:, ::1] f, const double[:, ::1] m,
+                    const double[::1] overlap, const double[:, :, ::1] E,
+                    const double[::1] a, const double[:, ::1] v, const double[:, ::1] w,
+                    double shorten, double[:, ::1] q, Py_ssize_t lo,
+                    const int64_t[::1] off):
+    """The contacts' couple and power channels, each contact on both of its particles
+    (side 2 sees -n, -f, -m; i2 < 0: a wall contact, on its particle alone). ``off``:
+    the first channels of cst, lever, cnet, wcpl, ppow, wpow, lpow (-1: not kept).
+    sum_c l (x) m (cst, l = (a - shorten overlap) n, in the basis E), the lever moment
+    (overlap / 2) n x f (lever), sum_c m (cnet; wcpl: of wall contacts), the power
+    f . (v + omega x l) + m . omega of the particles' contacts (ppow) and of the walls'
+    (wpow), and the lever moment's power (lpow); vectors in the basis E (rows e_i) in 3D,
+    2D moments scalars. Only the rows lo .. lo + len(q) of the frame's particles are
+    this call's (q, E, a, v, w hold those rows; v and w in the lab frame)."""
+    cdef int D = n.shape[1], S = m.shape[1], i, j, side
+    cdef Py_ssize_t c, p, hi = lo + q.shape[0]
+    cdef Py_ssize_t CST = off[0], LEVER = off[1], CNET = off[2], WCPL = off[3]
+    cdef Py_ssize_t PPOW = off[4], WPOW = off[5], LPOW = off[6]
+    cdef bint powers = PPOW >= 0 or WPOW >= 0 or LPOW >= 0
+    cdef double nc[3]
+    cdef double fc[3]
+    cdef double arm[3]
+    cdef double lv[3]
+    cdef double wl[3]
+    cdef double nb[3]
+    cdef double mb[3]
+    cdef double ab[3]
+    cdef double s, length, power, lpower, acc
+    cdef bint wall
+    with nogil:
+        for c in range(i1.shape[0]):
+            for i in range(D):
+                nc[i], fc[i] = n[c, i], f[c, i]
+            _cross(nc, fc, D, arm)
+            for i in range(S):
+                arm[i] = 0.5 * overlap[c] * arm[i]
+            wall = i2[c] < 0
+            for side in range(2):
+                p = _side_row(i1, i2, c, side, lo, hi)
+                if p < 0:
+                    continue
+                s = 1.0 if side == 0 else -1.0
+                length = a[p] - shorten * overlap[c]
+                if powers:                   # in the lab frame: scalars need no basis
+                    for i in range(D):
+                        lv[i] = s * length * nc[i]
+                    if D == 2:               # omega z x l
+                        wl[0], wl[1] = -w[p, 0] * lv[1], w[p, 0] * lv[0]
+                    else:
+                        _cross(&w[p, 0], lv, 3, wl)
+                    power = 0.0
+                    for i in range(D):
+                        power = power + s * fc[i] * (v[p, i] + wl[i])
+                    lpower = 0.0
+                    for i in range(S):
+                        power = power + s * m[c, i] * w[p, i]
+                        lpower = lpower + arm[i] * w[p, i]
+                    if wall and WPOW >= 0:
+                        q[p, WPOW] += power
+                    elif not wall and PPOW >= 0:
+                        q[p, PPOW] += power
+                    if LPOW >= 0:
+                        q[p, LPOW] += lpower
+                if CST >= 0 or CNET >= 0 or WCPL >= 0:
+                    if D == 2:
+                        mb[0] = s * m[c, 0]
+                    else:
+                        _project(m, c, E, p, s, 3, mb)
+                    if CST >= 0:
+                        _project(n, c, E, p, s, D, nb)
+                        for i in range(D):
+                            for j in range(S):
+                                q[p, CST + i * S + j] += length * nb[i] * mb[j]
+                    if CNET >= 0:
+                        for j in range(S):
+                            q[p, CNET + j] += mb[j]
+                    if WCPL >= 0 and wall:
+                        for j in range(S):
+                            q[p, WCPL + j] += mb[j]
+                if LEVER >= 0:
+                    if D == 2:
+                        q[p, LEVER] += arm[0]
+                    else:
+                        for i in range(3):
+                            acc = 0.0
+                            for j in range(3):
+                                acc = acc + arm[j] * E[p, i, j]
+                            q[p, LEVER + i] += acc

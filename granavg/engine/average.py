@@ -296,6 +296,15 @@ def _buffer(rows: int, n: int) -> np.ndarray:
     return buf
 
 
+def _chunk_contacts(contacts, rows, lo: int, hi: int):
+    """The contacts with a particle among the frame's rows lo .. hi - 1 (a chunk's), and
+    their rows, in the frame's order: each particle's contact sums add up in the same
+    order as over all contacts, and each contact is read by at most two chunks."""
+    i1, i2 = rows
+    sel = np.flatnonzero(((i1 >= lo) & (i1 < hi)) | ((i2 >= lo) & (i2 < hi)))
+    return {k: np.asarray(v)[sel] for k, v in contacts.items()}, (i1[sel], i2[sel])
+
+
 def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
                sectors: int = 0) -> np.ndarray:
     """Cell sums of one frame for any cells (:mod:`granavg.engine.cells`), the particles
@@ -320,14 +329,19 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     n = cells.n * max(sectors, 1)
     rows_needed = min(CHUNK, len(radius))
 
+    starts = range(0, len(radius), CHUNK)
+
     def chunk_sums(lo):
         part = slice(lo, lo + CHUNK)
         chunk = {k: v[part] for k, v in a.items()}
         pos = tuple(chunk[c] for c in cells.position_names)
         r = chunk["radius"]
-        q = particle_channels(chunk, contacts, layout, cells.particle_volume(r),
+        mine, mine_rows = contacts, rows
+        if rows is not None and len(starts) > 1:
+            mine, mine_rows = _chunk_contacts(contacts, rows, lo, lo + CHUNK)
+        q = particle_channels(chunk, mine, layout, cells.particle_volume(r),
                               cells.def_factor(r), rho_p, blocks, basis=cells.basis(pos),
-                              branch=branch, rows=rows, first=lo,
+                              branch=branch, rows=mine_rows, first=lo,
                               out=_buffer(rows_needed, layout.n))
         particle, cell, w = cells.weights(pos, r)
         if sectors:
@@ -337,7 +351,7 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
 
     # the chunks' sums added in chunk order: the same result on any number of threads
     sums = np.zeros((n, layout.n))
-    for part in threads.map_ordered(chunk_sums, range(0, len(radius), CHUNK)):
+    for part in threads.map_ordered(chunk_sums, starts):
         sums += part
     if "wall" in blocks and frame.contacts is not None:
         points, forces = wall_points(a, contacts, cells.dim, branch, rows)

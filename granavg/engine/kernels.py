@@ -33,8 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from granavg.engine._sums import (BLOCK_ORDER, accumulate_contacts, fill_particles,
-                                   scatter, scatter_sectors, table_rows)
+from granavg.engine._sums import (BLOCK_ORDER, accumulate_contacts, couple_channels,
+                                   fill_particles, scatter, scatter_sectors, table_rows)
 from granavg.engine.channels import BLOCKS, CONTACT_BLOCKS, Layout
 from granavg.errors import UserError
 
@@ -48,8 +48,8 @@ BRANCHES = {"contact": 0.5, "paper": 0.0}
 assert BLOCKS[:len(BLOCK_ORDER)] == BLOCK_ORDER, "granavg.engine._sums is stale"
 
 
-#: The contact blocks of the compiled pass, in the order of its ``keep`` flags (the
-#: couple blocks are numpy's, :func:`_couple_channels`).
+#: The contact blocks of the first compiled pass, in the order of its flags (the couple
+#: and power blocks are :func:`_couple_channels`').
 COMPILED_CONTACT_BLOCKS = ("ncontact", "fab", "sig", "def")
 
 _last_rows = (None, None)               # (the arrays looked up, their rows), replaced whole
@@ -133,13 +133,14 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
     body = "body" in want
     spin_cols = ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"]
     zero = np.zeros((P, D))
+    stack = _stacker(atoms)
     fill_particles(
         q, _f(vol, float), _f(mass, float),
-        _stack(atoms, ["vx", "vy", "vz"][:D]) if moving else zero,
-        _stack(atoms, spin_cols) if "spin" in want else _f(zero[:, :len(spin_cols)]),
-        _stack(atoms, ["bx", "by", "bz"][:D]) if body else zero,
+        stack(["vx", "vy", "vz"][:D]) if moving else zero,
+        stack(spin_cols) if "spin" in want else _f(zero[:, :len(spin_cols)]),
+        stack(["bx", "by", "bz"][:D]) if body else zero,
         E, moving, "kin" in want, "spin" in want, body, _offsets(layout))
-    _spin_and_energy(q, layout, atoms, mass, E, want)
+    _spin_and_energy(q, layout, atoms, stack, mass, E, want)
     if want & set(CONTACT_BLOCKS):
         if branch not in BRANCHES:
             raise UserError(f"branch {branch!r}: choose from {', '.join(BRANCHES)}")
@@ -147,11 +148,14 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
             if first:
                 raise ValueError("a chunk of the particles needs the frame's contact rows")
             rows = contact_rows(atoms, contacts)
-        _contact_channels(q, layout, atoms, contacts, E, vol, dfac, want, BRANCHES[branch],
-                          rows, first)
-        if want & set(NUMPY_CONTACT_BLOCKS):
-            _couple_channels(q, layout, atoms, contacts, E, want, BRANCHES[branch], rows,
-                             first)
+        f, n, overlap = _contact_vectors(contacts, D, len(rows[0]))
+        accumulate_contacts(_f(rows[0], np.int64), _f(rows[1], np.int64), f, n, overlap, E,
+                            _f(atoms["radius"], float), _f(vol, float), _f(dfac, float),
+                            BRANCHES[branch], *(b in want for b in COMPILED_CONTACT_BLOCKS), q,
+                            first, _offsets(layout))
+        if want & set(COUPLE_BLOCKS):
+            _couple_channels(q, layout, atoms, stack, contacts, f, n, overlap, E, want,
+                             BRANCHES[branch], rows, first)
     return q
 
 
@@ -159,14 +163,14 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
 INERTIA = {2: 0.5, 3: 0.4}
 
 
-def _spin_and_energy(q, layout, atoms, mass, E, want):
+def _spin_and_energy(q, layout, atoms, stack, mass, E, want):
     """The micropolar and energy channels of the particles (numpy): I omega, I,
     I |omega|^2 / 2, m |v|^2 / 2, the spin's flux v (x) I omega, in the basis E, and the
     body force's power b . v."""
     D = layout.dim
     if "bpow" in want:
-        q[:, layout.first("bpow")] = np.sum(_stack(atoms, ["bx", "by", "bz"][:D]) *
-                                            _stack(atoms, ["vx", "vy", "vz"][:D]), axis=1)
+        q[:, layout.first("bpow")] = np.sum(stack(["bx", "by", "bz"][:D]) *
+                                            stack(["vx", "vy", "vz"][:D]), axis=1)
     if not want & {"ispin", "inertia", "erot", "ekin", "kcpl"}:
         return
     inertia = np.asarray(atoms["inertia"], float) if "inertia" in atoms else \
@@ -174,13 +178,13 @@ def _spin_and_energy(q, layout, atoms, mass, E, want):
     if "inertia" in want:
         q[:, layout.first("inertia")] = inertia
     spin_cols = ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"]
-    w = _stack(atoms, spin_cols) if want & {"ispin", "erot", "kcpl"} else None
+    w = stack(spin_cols) if want & {"ispin", "erot", "kcpl"} else None
     wb = w if D == 2 or w is None else np.einsum("pij,pj->pi", E, w)
     if "ispin" in want:
         layout.block(q, "ispin")[:] = inertia[:, None] * wb
     if "erot" in want:
         q[:, layout.first("erot")] = 0.5 * inertia * np.sum(w * w, axis=1)
-    v = _stack(atoms, ["vx", "vy", "vz"][:D]) if want & {"ekin", "kcpl"} else None
+    v = stack(["vx", "vy", "vz"][:D]) if want & {"ekin", "kcpl"} else None
     if "ekin" in want:
         q[:, layout.first("ekin")] = 0.5 * mass * np.sum(v * v, axis=1)
     if "kcpl" in want:
@@ -189,90 +193,51 @@ def _spin_and_energy(q, layout, atoms, mass, E, want):
         layout.block(q, "kcpl")[:] = flux.reshape(len(v), D * wb.shape[1])
 
 
-def _cross(a, b):
-    """a x b per row: the z component, shape (n, 1), of 2D vectors (a 2D vector crossed
-    with a z spin, shape (n, 1), gives the in-plane vector); the vector in 3D."""
-    if a.shape[1] == 3:
-        return np.cross(a, b)
-    if b.shape[1] == 1:                                  # (x, y) x (0, 0, w)
-        return np.column_stack([a[:, 1] * b[:, 0], -a[:, 0] * b[:, 0]])
-    return (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])[:, None]
-
-
 #: The blocks of :func:`_couple_channels`.
-NUMPY_CONTACT_BLOCKS = ("cst", "lever", "cnet", "wcpl", "ppow", "wpow", "lpow")
+COUPLE_BLOCKS = ("cst", "lever", "cnet", "wcpl", "ppow", "wpow", "lpow")
 
 
-def _couple_channels(q, layout, atoms, contacts, E, want, shorten, rows, first):
-    """The contacts' couple and power channels (numpy), each contact on both of its
-    particles (side 2 sees -n, -f, -m; a wall contact on its particle alone):
-    sum_c l (x) m (``cst``), the moment (delta / 2) n x f that a lever arm to the surface
-    adds to one to the contact point (``lever``), sum_c m (``cnet``), the power the
-    contacts deliver to the particle, f . (v + omega x l) + m . omega (``ppow``: of the
-    particles' contacts, ``wpow``: of the walls'), and that of the lever moment
-    (``lpow``). Vectors in the basis E (rows e_i); powers are scalars."""
+def _couple_channels(q, layout, atoms, stack, contacts, f, n, overlap, E, want, shorten,
+                     rows, first):
+    """The contacts' couple and power channels, each contact on both of its particles
+    (side 2 sees -n, -f, -m; a wall contact on its particle alone): sum_c l (x) m
+    (``cst``), the moment (delta / 2) n x f that a lever arm to the surface adds to one
+    to the contact point (``lever``), sum_c m (``cnet``; ``wcpl``: of the walls'), the
+    power the contacts deliver to the particle, f . (v + omega x l) + m . omega
+    (``ppow``: of the particles' contacts, ``wpow``: of the walls'), and that of the
+    lever moment (``lpow``): :func:`granavg.engine._sums.couple_channels` (f, n,
+    overlap: :func:`_contact_vectors`)."""
     D = layout.dim
     i1, i2 = rows
-    n = np.column_stack([np.asarray(contacts["n" + x], float) for x in "xyz"[:D]])
-    overlap = np.asarray(contacts["overlap"], float)
     names = ["mz"] if D == 2 else ["mx", "my", "mz"]
-    m = np.column_stack([np.asarray(contacts[k], float) if k in contacts else
-                         np.zeros(len(i1)) for k in names])
-    powers = want & {"ppow", "wpow", "lpow"}
-    f = np.column_stack([np.asarray(contacts["fn" + x], float) +
-                         np.asarray(contacts.get("ft" + x, 0.0), float)
-                         for x in "xyz"[:D]]) if powers or "lever" in want else None
-    arm = 0.5 * overlap[:, None] * _cross(n, f) if f is not None else None
-    if powers:
-        v = _stack(atoms, ["vx", "vy", "vz"][:D])
-        w = _stack(atoms, ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"])
-    a = np.asarray(atoms["radius"], float)
-    wall = i2 < 0
-    hi = first + q.shape[0]
-    for side, row in enumerate((i1, i2)):
-        s = 1.0 if side == 0 else -1.0
-        mine = (row >= first) & (row < hi)
-        p = row[mine] - first
-        Ep = E[p]
-        nb = s * np.einsum("hij,hj->hi", Ep, n[mine])
-        length = a[p] - shorten * overlap[mine]
-        if powers:                          # in the lab frame: scalars need no basis
-            lv = s * length[:, None] * n[mine]
-            fs, ms, wp = s * f[mine], s * m[mine], w[p]
-            moving = v[p] + (_cross(wp, lv) if D == 3 else -_cross(lv, wp))  # v + w x l
-            power = np.sum(fs * moving, axis=1) + np.sum(ms * wp, axis=1)
-            for block, which in (("ppow", ~wall[mine]), ("wpow", wall[mine])):
-                if block in want:
-                    q[:, layout.first(block)] += np.bincount(p[which], power[which],
-                                                             minlength=q.shape[0])
-            if "lpow" in want:
-                q[:, layout.first("lpow")] += np.bincount(
-                    p, np.sum(arm[mine] * wp, axis=1), minlength=q.shape[0])
-        if "cst" in want:
-            mb = s * (m[mine] if D == 2 else np.einsum("hij,hj->hi", Ep, m[mine]))
-            flux = (length[:, None] * nb)[:, :, None] * mb[:, None, :]    # l_i m_j
-            _add_rows(layout.block(q, "cst"), p, flux.reshape(len(p), D * mb.shape[1]))
-        if "lever" in want:
-            ab = arm[mine] if D == 2 else np.einsum("hij,hj->hi", Ep, arm[mine])
-            _add_rows(layout.block(q, "lever"), p, ab)
-        if want & {"cnet", "wcpl"}:
-            mb = s * (m[mine] if D == 2 else np.einsum("hij,hj->hi", Ep, m[mine]))
-            if "cnet" in want:
-                _add_rows(layout.block(q, "cnet"), p, mb)
-            if "wcpl" in want:
-                at_wall = wall[mine]
-                _add_rows(layout.block(q, "wcpl"), p[at_wall], mb[at_wall])
-
-
-def _add_rows(block, rows, values):
-    """block[rows] += values, rows repeated (one column at a time)."""
-    for k in range(block.shape[1]):
-        block[:, k] += np.bincount(rows, values[:, k], minlength=block.shape[0])
+    m = np.column_stack([_f(contacts[k], float) if k in contacts else np.zeros(len(i1))
+                         for k in names])
+    powers = bool(want & {"ppow", "wpow", "lpow"})
+    P = q.shape[0]
+    v = stack(["vx", "vy", "vz"][:D]) if powers else np.zeros((P, D))
+    spins = ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"]
+    w = stack(spins) if powers else np.zeros((P, len(spins)))
+    off = np.array([layout.first(b) if b in want else -1 for b in COUPLE_BLOCKS],
+                   np.int64)
+    couple_channels(_f(i1, np.int64), _f(i2, np.int64), n, f, m, overlap, E,
+                    _f(atoms["radius"], float), v, w, shorten, q, first, off)
 
 
 def _stack(columns, names):
     """Columns as one array, shape (P, len(names))."""
     return np.column_stack([np.asarray(columns[c], float) for c in names])
+
+
+def _stacker(columns):
+    """:func:`_stack` of ``columns``, each set of names stacked once."""
+    done = {}
+
+    def stack(names):
+        key = tuple(names)
+        if key not in done:
+            done[key] = _stack(columns, names)
+        return done[key]
+    return stack
 
 
 _f = np.ascontiguousarray
@@ -283,20 +248,15 @@ def _offsets(layout: Layout) -> np.ndarray:
     return np.asarray(layout.offsets, np.int64)
 
 
-def _contact_channels(q, layout, atoms, contacts, E, vol, dfac, want, shorten, rows, first):
-    """Add each contact to both of its particles (only the particle of a wall contact)."""
-    i1, i2 = rows
-    D = layout.dim
-    # columns the wanted channels do not need (e.g. forces for coordination alone) may be
-    # absent: they enter only channels that are not kept
-    col = {k: _f(contacts[k], float) if k in contacts else np.zeros(len(i1))
+def _contact_vectors(contacts, D: int, n_contacts: int):
+    """The contacts' total force f = f_n + f_t and normal n, shape (C, D) each, and their
+    overlaps (C,). Columns the wanted channels do not need (forces for coordination
+    alone) may be absent: zeros, which enter only channels that are not kept."""
+    col = {k: _f(contacts[k], float) if k in contacts else np.zeros(n_contacts)
            for k in ("fnx", "fny", "fnz", "ftx", "fty", "ftz", "nx", "ny", "nz", "overlap")}
     f = np.column_stack([col["fn" + x] + col["ft" + x] for x in "xyz"[:D]])
     n = np.column_stack([col["n" + x] for x in "xyz"[:D]])
-    accumulate_contacts(_f(i1, np.int64), _f(i2, np.int64), f, n, col["overlap"], E,
-                              _f(atoms["radius"], float), _f(vol, float), _f(dfac, float),
-                              shorten, *(b in want for b in COMPILED_CONTACT_BLOCKS), q,
-                              first, _offsets(layout))
+    return f, n, col["overlap"]
 
 
 def wall_points(atoms, contacts, dim=2, branch="contact", rows=None):

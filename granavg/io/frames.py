@@ -16,6 +16,7 @@ import numpy as np
 
 from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError, literal
+from granavg.io.prefetch import Prefetched
 
 log = logging.getLogger(__name__)
 
@@ -184,7 +185,16 @@ class PairedDumps:
         self.dropped = {"contacts_not_touching": 0}
 
     def __iter__(self):
-        c_iter = iter(self.contacts) if self.contacts is not None else None
+        # the contact dump is read ahead on a thread of its own: the two files'
+        # decompression and parsing (both GIL-free) overlap
+        c_iter = iter(Prefetched(self.contacts)) if self.contacts is not None else None
+        try:
+            yield from self._paired(c_iter)
+        finally:
+            if c_iter is not None:
+                c_iter.close()
+
+    def _paired(self, c_iter):
         for k, fa in enumerate(self.atoms):
             fc = None
             if c_iter is not None:

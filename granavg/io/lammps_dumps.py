@@ -263,6 +263,9 @@ class LammpsDumps(PairedDumps):
         The dimension (default from the dump: :func:`dimension`).
     steps : (int, int), optional
         Only the frames with first <= timestep <= last (a dask worker's chunk).
+    named_steps : bool, optional
+        With ``steps``, on ``dump.*`` series: only the files whose names put them in the
+        window are opened (:class:`~granavg.io.reader.DumpReader`).
     inertia : {"disk", "sphere"}, optional
         The particles' moment of inertia, m a^2 / 2 or 2/5 m a^2 (the spin fields). 3D:
         spheres. 2D, not given: spheres where the mass column scales as a^3 (sphere
@@ -279,7 +282,8 @@ class LammpsDumps(PairedDumps):
     """
 
     def __init__(self, atoms, contacts=None, *, atom_map=None, contact_map=None,
-                 wall_types=(), dt=None, units=None, dim=None, steps=None, inertia=None):
+                 wall_types=(), dt=None, units=None, dim=None, steps=None, inertia=None,
+                 named_steps=False):
         unit_system = choose_units(dump_header(atoms)[1], units)
         if contacts is not None and (said := dump_header(contacts)[1]) is not None:
             if choose_units(said, None).style != unit_system.style:
@@ -301,8 +305,9 @@ class LammpsDumps(PairedDumps):
             raise ParameterError("inertia", f"{{param}} {inertia}: give disk or sphere "
                                  "(3D: sphere)")
         self.inertia = (inertia, "given") if inertia else None
-        super().__init__(DumpReader(atoms, sorted(set(self.amap.values())), steps=steps),
-                         DumpReader(contacts, sorted(set(self.cmap.values())), steps=steps)
+        window = dict(steps=steps, named_steps=named_steps)
+        super().__init__(DumpReader(atoms, sorted(set(self.amap.values())), **window),
+                         DumpReader(contacts, sorted(set(self.cmap.values())), **window)
                          if self.cmap is not None else None, dt, unit_system)
 
     format_name = "lammps"
@@ -510,4 +515,4 @@ def _claims(path) -> bool:
 FORMAT = Format("lammps", "LAMMPS text dumps: dump custom (atoms) and dump local (contacts: "
                 "pair/local + property/local, or granavg's own columns)", _claims, LammpsDumps,
                 ("atom_map", "contact_map", "wall_types", "dt", "units", "dim", "steps",
-                 "inertia"))
+                 "inertia", "named_steps"))

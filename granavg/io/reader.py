@@ -29,6 +29,7 @@ from isal import igzip, isal_zlib
 from granavg.errors import UserError
 from granavg.io.dumpfile import gzip_chunks
 from granavg.io.parse import MALFORMED, NOT_FINITE, OK, count_newlines, parse_block
+from granavg.io.prefetch import ReadAhead
 
 log = logging.getLogger(__name__)
 
@@ -103,22 +104,51 @@ class DumpReader:
         time, box) and an empty ``data`` of shape (n_rows, 0); the rows are only counted
         (a newline scan), so a frame cut or short of rows is found as in a full read.
         What a dask client needs to cut a dump into chunks.
+    named_steps : bool, optional
+        With ``steps``, on a ``dump.*`` series: open only the files whose frames can lie
+        in the window, the number in each file's name being its first time step (as
+        LAMMPS names them; a dask client checks it against each file's first header,
+        :meth:`first_header`), so that a worker reads its own files alone.
     """
 
-    def __init__(self, path, columns=None, needed_by=None, steps=None, headers_only=False):
+    def __init__(self, path, columns=None, needed_by=None, steps=None, headers_only=False,
+                 named_steps=False):
         self.path = Path(path)
-        self.files = series(self.path)
+        self.numbered = numbered_series(self.path)
+        self.files = [p for _, p in self.numbered]
         self.columns = list(columns) if columns is not None else None
         self.needed_by = dict(needed_by or {})
         self.steps = steps
         self.headers_only = headers_only
+        self.named_steps = named_steps
+        self._first_only = False
+
+    def first_header(self, path=None):
+        """The first frame of ``path`` (default the first file) with its header alone and
+        an empty ``data`` of shape (n_rows, 0): its rows neither parsed nor counted (what
+        a dask client needs of each file of a ``dump.*`` series); None if it holds none."""
+        reader = DumpReader.__new__(DumpReader)
+        reader.__dict__.update(self.__dict__, _first_only=True, steps=None)
+        scanner = _Scanner(reader, Path(path) if path is not None else self.files[0])
+        return next(iter(scanner.frames(must_hold=False)), None)
+
+    def _own_files(self) -> list:
+        """The files to open: all; or, with ``named_steps`` and a ``steps`` window, only
+        those whose frames can lie in it, the number in each name being its first time
+        step (as LAMMPS writes ``dump.*``; the caller has checked it)."""
+        if not (self.named_steps and self.steps is not None):
+            return self.files
+        lo, hi = self.steps[0], self.steps[1]
+        numbers = [n for n, _ in self.numbered]
+        return [p for k, (n, p) in enumerate(self.numbered)
+                if n <= hi and (k + 1 == len(numbers) or numbers[k + 1] > lo)]
 
     def __iter__(self):
         if len(self.files) == 1:
             yield from _Scanner(self, self.files[0]).frames()
             return
         last = None
-        for path in self.files:
+        for path in self._own_files():
             scanner = _Scanner(self, path)
             for frame in scanner.frames(must_hold=False):
                 if last is not None and frame.timestep <= last[0]:
@@ -136,11 +166,17 @@ class DumpReader:
 def series(path) -> list:
     """The files of ``path``: itself, or for a name with a ``*`` every file matching it,
     ordered by the number that stands for the ``*`` (one-line refusal if none)."""
+    return [p for _, p in numbered_series(path)]
+
+
+def numbered_series(path) -> list:
+    """(number, file) of :func:`series`: the number that stands for the ``*`` (-1 for a
+    single file)."""
     path = Path(path)
     if "*" not in path.name:
         if not path.exists():
             raise UserError(f"{path}: no such file")
-        return [path]
+        return [(-1, path)]
     head, tail = path.name.split("*", 1)
     pattern = re.compile(re.escape(head) + r"(\d+)" + re.escape(tail).replace(r"\*", r"\d+") + "$")
     found = []
@@ -151,7 +187,7 @@ def series(path) -> list:
     if not found:
         raise UserError(f"{path}: no file matches (the * stands for the time step, as in "
                         "LAMMPS' dump.*.txt); give an existing file or pattern")
-    return [p for _, p in sorted(found)]
+    return sorted(found)
 
 
 class _Scanner:
@@ -181,9 +217,14 @@ class _Scanner:
                 # directly, with no copy into a buffer of its own
                 self.buf = mmap.mmap(self.fh.fileno(), 0, access=mmap.ACCESS_READ)
                 self.delivered, self.eof = len(self.buf), True
+            elif self.gzip:
+                # the next chunks are decompressed while this one is parsed
+                self.fh = ReadAhead(self.fh, CHUNK)
             try:
                 yield from self._frames()
             finally:
+                if isinstance(self.fh, ReadAhead):
+                    self.fh.close()
                 if isinstance(self.buf, mmap.mmap):
                     try:
                         self.buf.close()
@@ -344,6 +385,8 @@ class _Scanner:
 
     def _rows(self, head, names):
         n, step = head["n"], head["timestep"]
+        if self.reader._first_only:
+            return self._made(head, [], np.empty((n, 0)), self.line)
         want, target = self._targets(names)
         self.last_step = step
         window = self.reader.steps

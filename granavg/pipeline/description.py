@@ -21,7 +21,7 @@ from granavg.engine.quantities import catalogue, needs_body
 from granavg.engine.smoothing import smooth
 from granavg.engine.unit_system import SI
 from granavg.io.frames import Frame
-from granavg.pipeline.prefetch import Prefetched
+from granavg.io.prefetch import Prefetched
 from granavg.sim.couette_state import CouetteState
 
 def quantity_catalogue() -> str:

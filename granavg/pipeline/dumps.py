@@ -15,7 +15,7 @@ from granavg.engine.smoothing import smooth
 from granavg.errors import ParameterError
 from granavg.io import formats, validate
 from granavg.pipeline.description import WithBodyForces
-from granavg.pipeline.prefetch import Prefetched
+from granavg.io.prefetch import Prefetched
 
 log = logging.getLogger(__name__)
 

@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import logging
 import resource
+import sys
 from contextlib import contextmanager
 
 import numpy as np
 
+from granavg.engine import threads
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.profiles import Profiles
 from granavg.dask_cluster import Cluster, cluster_client, refusal_safe
@@ -82,7 +84,7 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     """
     base = run_averager(run_dir, **options)          # validates; reads no frame
     windows = chunk_windows(base.meta["run_manifest"], base.t_min, base.block_time, chunks or 2 * workers)
-    with cluster_client(workers, scheduler) if client is None else \
+    with cluster_client(workers, scheduler, _threads_each(workers)) if client is None else \
             _given(client) as dask_jobs:
         futures = [dask_jobs.client.submit(_chunk, str(run_dir), w, options, pure=False)
                    for w in windows]
@@ -95,6 +97,7 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     base.series.rows.sort(key=lambda row: row["step"])
     profiles = base.conclude()
     profiles.meta["dask"] = {"chunks": [list(w) for w in windows], "workers": workers_used,
+                             "listed_by": "manifest",
                              "peak_rss_bytes_per_chunk": [int(r) for _, r, _ in results]}
     return profiles
 
@@ -104,6 +107,38 @@ def _given(client):
     """A :class:`~granavg.dask_cluster.Cluster` of a client the caller owns (not closed
     here; no signals deferred)."""
     yield Cluster(client, [])
+
+
+def _threads_each(workers: int) -> int:
+    """Engine threads per local worker: this command's threads shared among them."""
+    return max(1, threads.count() // max(int(workers or 1), 1))
+
+
+def series_windows(atoms, contacts, time_of, t_min: float, block_time: float,
+                   n_chunks: int) -> list | None:
+    """Windows ``(first, last)`` of time steps that split a ``dump.*`` series into runs
+    of whole files, from each file's first header alone (no row read): the number in
+    each name must be that frame's time step, as LAMMPS names them (and the contact
+    series' numbers the atom series'); None where it is not, or for a single file (then
+    the frames are listed by a scan). A window reaches to the step before the next
+    one's first file, so files of several frames stay whole."""
+    from granavg.io.reader import DumpReader, numbered_series
+
+    numbered = numbered_series(atoms)
+    if len(numbered) < 2 or (contacts is not None and
+                             [n for n, _ in numbered_series(contacts)] != [n for n, _ in numbered]):
+        return None
+    reader = DumpReader(atoms, [])
+    heads = [reader.first_header(path) for _, path in numbered]
+    if any(h is None or h.timestep != n for h, (n, _) in zip(heads, numbered)):
+        log.info("%s: the numbers in the file names are not their time steps; the frames "
+                 "are listed by a scan", atoms)
+        return None
+    steps = [h.timestep for h in heads]
+    windows = cut_windows(steps, [time_of(h) for h in heads], t_min, block_time, n_chunks)
+    starts = [w[0] for w in windows[1:]]
+    return [(lo, nxt - 1) for (lo, _), nxt in zip(windows, starts)] + \
+        [(windows[-1][0], sys.maxsize)] if windows else []
 
 
 @refusal_safe
@@ -142,15 +177,23 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
                                  "leave out {param}")
     base, frames = dump_averager(atoms, contacts, **options)    # checks; two frames read
     base.frames = ()                                  # (and stops its reader thread)
-    heads = list(DumpReader(atoms, [], headers_only=True))     # no row is parsed
-    windows = cut_windows([f.timestep for f in heads], [frames.time(f) for f in heads],
-                          base.t_min, base.block_time, chunks or 2 * workers)
+    n_chunks = chunks or 2 * workers
+    by_file = series_windows(atoms, contacts, frames.time, base.t_min, base.block_time,
+                             n_chunks)
+    listed_by = "file names" if by_file is not None else "header scan"
+    if by_file is not None:                  # each worker opens its own files alone
+        windows, named = by_file, {"named_steps": True}
+    else:
+        heads = list(DumpReader(atoms, [], headers_only=True))     # no row is parsed
+        windows = cut_windows([f.timestep for f in heads], [frames.time(f) for f in heads],
+                              base.t_min, base.block_time, n_chunks)
+        named = {}
     if not windows:
         raise ParameterError("t_min", f"no frame at t >= {base.t_min:g}, the start of the "
                              "average ({param}); lower it")
     fixed = dict(options, quantities=base.groups, block_time=base.block_time,
-                 check_cells=None)                    # checked above
-    with cluster_client(workers, scheduler) as dask_jobs:
+                 check_cells=None, **named)           # checked above
+    with cluster_client(workers, scheduler, _threads_each(workers)) as dask_jobs:
         futures = [dask_jobs.client.submit(_dump_chunk, str(atoms),
                                            str(contacts) if contacts else None, w, fixed,
                                            pure=False) for w in windows]
@@ -166,5 +209,6 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
     if any(dropped.values()):
         profiles.meta["dropped"] = dropped
     profiles.meta["dask"] = {"chunks": [list(w) for w in windows], "workers": workers_used,
+                             "listed_by": listed_by,
                              "peak_rss_bytes_per_chunk": [int(r) for _, r, _ in results]}
     return profiles
