@@ -77,7 +77,7 @@ def engine_rows(run: Path, m):
                                               DumpReader(run / "contacts.dump.gz"),
                                               dt=m["derived"]["dt_s"]), 40))
     rows = []
-    every = [b for b in BLOCKS if b != "body"]            # no body forces in the dumps
+    every = [b for b in BLOCKS if b not in ("body", "bpow")]            # no body forces in the dumps
     for n in (20, 60):
         rings = Rings.count(n, scene["R_i"], scene["R_o"], scene["h"])
         for label, channels in (("all quantities", every),

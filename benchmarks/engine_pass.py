@@ -30,7 +30,7 @@ def main(run):
                                             DumpReader(run / "contacts.dump.gz"),
                                             dt=m["derived"]["dt_s"]), 40))
     rings = Rings.count(20, s["R_i"], s["R_o"], s["h"])
-    every = [b for b in BLOCKS if b != "body"]
+    every = [b for b in BLOCKS if b not in ("body", "bpow")]     # no body force here
     best = {FINE_SECTORS: float("inf"), 0: float("inf")}
     for _ in range(8):                  # the two settings in turn; the first round warms up
         for sectors in best:

@@ -36,7 +36,7 @@ def main(run, long, n=300):
     s, dt = (m := read_manifest(run))["scene"], m["derived"]["dt_s"]
     frames = list(frames_of(run, dt, 40))
     rings = Rings.count(20, s["R_i"], s["R_o"], s["h"])
-    every = [b for b in BLOCKS if b != "body"]
+    every = [b for b in BLOCKS if b not in ("body", "bpow")]
 
     def engine(k):
         for j in range(k):

@@ -18,6 +18,14 @@ echo "## the whole average against reading (the demo run and a long run made of 
 "$BIN/python" "$ROOT/benchmarks/long_run.py" "$OUT/demo" "$OUT/long" 20
 sh "$ROOT/benchmarks/whole_average.sh" "$OUT/demo" "$OUT/long"
 echo "## dask"; "$BIN/python" "$ROOT/benchmarks/parallel.py" "$OUT/demo" 1 2
+echo "## against OVITO, all cores, a million spheres, the cost model"
+"$BIN/python" "$ROOT/benchmarks/ovito_job.py" "$OUT/demo" ${OVITO_PYTHON:+--ovito-python "$OVITO_PYTHON"} --frames 60 600
+"$BIN/python" "$ROOT/benchmarks/startup_floor.py" "$OUT/demo"
+"$BIN/python" "$ROOT/benchmarks/cost_model.py"
+"$BIN/python" "$ROOT/benchmarks/big_3d.py" make "$OUT/big3d"
+"$BIN/python" "$ROOT/benchmarks/big_3d.py" time "$OUT/big3d" ${OVITO_PYTHON:+--ovito-python "$OVITO_PYTHON"}
+"$BIN/python" "$ROOT/benchmarks/engine_threads.py" "$OUT/big3d/big.dump"
+"$BIN/python" "$ROOT/benchmarks/big_3d.py" series "$OUT/big3d"
 echo "## reference DEM"
 "$BIN/granavg" simulate --preset paper-hooke --out "$OUT/small" --no-progress --set R_i=0.04 \
   --set R_o=0.0826 --set n_small=250 --set n_large=40 --set Omega=0.5 --set t_grow=1 \

@@ -1,6 +1,7 @@
 #!/bin/sh
 # The whole `granavg average` against reading its dumps, zcat, and itself with fewer
-# quantities; cold and warm numba caches (issue: averaging at the speed of reading).
+# quantities; a cold numba cache against a warm one (numba is off the path of an average
+# without a smoothing kernel: about 1) (issue: averaging at the speed of reading).
 #   sh benchmarks/whole_average.sh RUN [LONG]     (from the repo root; .venv from make test)
 # RUN: a paper-cell run directory (granavg simulate --preset paper ...); LONG: a long run
 # made from it (python benchmarks/long_run.py RUN LONG 20: ~1000 frames). Every figure is

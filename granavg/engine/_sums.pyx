@@ -76,6 +76,55 @@ def fill_particles(double[:, ::1] q, const double[::1] vol, const double[::1] ma
                     q[p, off[BODY] + i] = bb[i]
 
 
+def spin_energy(double[:, ::1] q, const double[::1] mass, const double[::1] inertia,
+                const double[:, ::1] v, const double[:, ::1] w, const double[:, ::1] b,
+                const double[:, :, ::1] E, const int64_t[::1] off):
+    """The particles' micropolar and energy channels in one pass: I (``inertia``),
+    I omega (``ispin``), I |omega|^2 / 2 (``erot``), m |v|^2 / 2 (``ekin``), the spin's flux
+    v (x) I omega (``kcpl``, row-major D x S) and the body force's power b . v (``bpow``);
+    vectors in the basis E (rows e_i), 2D spins scalars, the energies and powers from the
+    lab-frame v, omega and b. ``off``: the first channels of ispin, inertia, erot, ekin,
+    kcpl, bpow (-1: not kept)."""
+    cdef int D = E.shape[1], S = w.shape[1], i, j
+    cdef Py_ssize_t p
+    cdef double vb[3]
+    cdef double wb[3]
+    cdef double acc, I
+    with nogil:
+        for p in range(q.shape[0]):
+            I = inertia[p]
+            if off[1] >= 0:
+                q[p, off[1]] = I
+            if off[0] >= 0 or off[4] >= 0:
+                if S == 1:
+                    wb[0] = w[p, 0]
+                else:
+                    _project(w, p, E, p, 1.0, D, wb)
+            if off[0] >= 0:
+                for i in range(S):
+                    q[p, off[0] + i] = I * wb[i]
+            if off[2] >= 0:
+                acc = 0.0
+                for i in range(S):
+                    acc = acc + w[p, i] * w[p, i]
+                q[p, off[2]] = 0.5 * I * acc
+            if off[3] >= 0:
+                acc = 0.0
+                for i in range(D):
+                    acc = acc + v[p, i] * v[p, i]
+                q[p, off[3]] = 0.5 * mass[p] * acc
+            if off[4] >= 0:
+                _project(v, p, E, p, 1.0, D, vb)
+                for i in range(D):
+                    for j in range(S):
+                        q[p, off[4] + i * S + j] = vb[i] * (I * wb[j])
+            if off[5] >= 0:
+                acc = 0.0
+                for i in range(D):
+                    acc = acc + b[p, i] * v[p, i]
+                q[p, off[5]] = acc
+
+
 def accumulate_contacts(const int64_t[::1] i1, const int64_t[::1] i2, const double[:, ::1] f,
                         const double[:, ::1] n, const double[::1] overlap,
                         const double[:, :, ::1] E, const double[::1] a,

@@ -34,7 +34,8 @@ from __future__ import annotations
 import numpy as np
 
 from granavg.engine._sums import (BLOCK_ORDER, accumulate_contacts, couple_channels,
-                                   fill_particles, scatter, scatter_sectors, table_rows)
+                                   fill_particles, scatter, scatter_sectors, spin_energy,
+                                   table_rows)
 from granavg.engine.channels import BLOCKS, CONTACT_BLOCKS, Layout
 from granavg.errors import UserError
 
@@ -163,34 +164,27 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
 INERTIA = {2: 0.5, 3: 0.4}
 
 
+#: The blocks of :func:`granavg.engine._sums.spin_energy`, in its ``off`` order.
+SPIN_ENERGY_BLOCKS = ("ispin", "inertia", "erot", "ekin", "kcpl", "bpow")
+
+
 def _spin_and_energy(q, layout, atoms, stack, mass, E, want):
-    """The micropolar and energy channels of the particles (numpy): I omega, I,
-    I |omega|^2 / 2, m |v|^2 / 2, the spin's flux v (x) I omega, in the basis E, and the
-    body force's power b . v."""
-    D = layout.dim
-    if "bpow" in want:
-        q[:, layout.first("bpow")] = np.sum(stack(["bx", "by", "bz"][:D]) *
-                                            stack(["vx", "vy", "vz"][:D]), axis=1)
-    if not want & {"ispin", "inertia", "erot", "ekin", "kcpl"}:
+    """The micropolar and energy channels of the particles: I omega, I, I |omega|^2 / 2,
+    m |v|^2 / 2, the spin's flux v (x) I omega, in the basis E, and the body force's power
+    b . v (:func:`granavg.engine._sums.spin_energy`; I = k m a^2 unless the atoms carry
+    ``inertia``)."""
+    if not want & set(SPIN_ENERGY_BLOCKS):
         return
-    inertia = np.asarray(atoms["inertia"], float) if "inertia" in atoms else \
+    D, P = layout.dim, q.shape[0]
+    inertia = _f(atoms["inertia"], float) if "inertia" in atoms else \
         INERTIA[D] * mass * np.asarray(atoms["radius"], float) ** 2
-    if "inertia" in want:
-        q[:, layout.first("inertia")] = inertia
-    spin_cols = ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"]
-    w = stack(spin_cols) if want & {"ispin", "erot", "kcpl"} else None
-    wb = w if D == 2 or w is None else np.einsum("pij,pj->pi", E, w)
-    if "ispin" in want:
-        layout.block(q, "ispin")[:] = inertia[:, None] * wb
-    if "erot" in want:
-        q[:, layout.first("erot")] = 0.5 * inertia * np.sum(w * w, axis=1)
-    v = stack(["vx", "vy", "vz"][:D]) if want & {"ekin", "kcpl"} else None
-    if "ekin" in want:
-        q[:, layout.first("ekin")] = 0.5 * mass * np.sum(v * v, axis=1)
-    if "kcpl" in want:
-        vb = np.einsum("pij,pj->pi", E, v)
-        flux = vb[:, :, None] * (inertia[:, None] * wb)[:, None, :]   # v_i I omega_j
-        layout.block(q, "kcpl")[:] = flux.reshape(len(v), D * wb.shape[1])
+    spins = ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"]
+    w = stack(spins) if want & {"ispin", "erot", "kcpl"} else np.zeros((P, len(spins)))
+    v = stack(["vx", "vy", "vz"][:D]) if want & {"ekin", "kcpl", "bpow"} else np.zeros((P, D))
+    b = stack(["bx", "by", "bz"][:D]) if "bpow" in want else np.zeros((P, D))
+    off = np.array([layout.first(k) if k in want else -1 for k in SPIN_ENERGY_BLOCKS],
+                   np.int64)
+    spin_energy(q, _f(mass, float), _f(inertia, float), v, w, b, E, off)
 
 
 #: The blocks of :func:`_couple_channels`.

@@ -336,10 +336,11 @@ class LammpsDumps(PairedDumps):
         return Box.of(self.first()).tilt
 
     def first(self):
-        """The atom dump's first frame (its box and boundary), read once."""
+        """The atom dump's first frame (its box and boundary; its header alone, the rows
+        left to the frames' reading), read once."""
         path, frame = self._head
         if frame is None:
-            frame = next(iter(DumpReader(path, [])), None)
+            frame = DumpReader(path, []).first_header()
             if frame is None:
                 raise UserError(f"{self.atoms.path}: holds no frame")
             self._head = (path, frame)
