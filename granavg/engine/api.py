@@ -148,6 +148,9 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
     """
     it = iter(frames)
     head = list(itertools.islice(it, 2))
+    if not head and t_min > 0:          # a source may have scanned past the frames before
+        raise ParameterError("t_min", f"no frame at t >= {t_min:g}, the start of the "
+                             "average ({param}); lower it")
     if not head:
         raise UserError("no frame to average")
     has_contacts = head[0].contacts is not None

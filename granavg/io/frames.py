@@ -9,7 +9,9 @@ that make them from files.
 
 from __future__ import annotations
 
+import itertools
 import logging
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -185,17 +187,27 @@ class PairedDumps:
         self.dropped = {"contacts_not_touching": 0}
 
     def __iter__(self):
+        atoms = iter(self.atoms)
+        skipping = getattr(self.atoms, "steps", None) is not None or \
+            getattr(self.atoms, "from_time", None) is not None
+        if self.contacts is not None and skipping and getattr(self.contacts, "steps", 0) is None:
+            # the atom dump's early frames are scanned past: the contact dump's up to its
+            # first frame kept
+            first = next(atoms, None)
+            if first is not None:
+                self.contacts.steps = (first.timestep, sys.maxsize)
+                atoms = itertools.chain([first], atoms)
         # the contact dump is read ahead on a thread of its own: the two files'
         # decompression and parsing (both GIL-free) overlap
         c_iter = iter(Prefetched(self.contacts)) if self.contacts is not None else None
         try:
-            yield from self._paired(c_iter)
+            yield from self._paired(atoms, c_iter)
         finally:
             if c_iter is not None:
                 c_iter.close()
 
-    def _paired(self, c_iter):
-        for k, fa in enumerate(self.atoms):
+    def _paired(self, atoms, c_iter):
+        for k, fa in enumerate(atoms):
             fc = None
             if c_iter is not None:
                 fc = next(c_iter, None)

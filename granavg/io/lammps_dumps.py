@@ -36,6 +36,8 @@ of contacts into the frames the engine averages (in the dumps' own units):
 from __future__ import annotations
 
 import logging
+import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -291,6 +293,7 @@ class LammpsDumps(PairedDumps):
                                 f"atom dump's units are {unit_system.style}; use the dumps "
                                 "of one run")
         self._head = (atoms, None)
+        self.skipped_before = None
         self.dim, self.dim_reason = dimension(atoms, atom_map or {}, dim)
         self.amap = resolve_atoms(atoms, atom_map or {}, self.dim)
         self.cmap = resolve_contacts(contacts, contact_map or {}, self.dim) \
@@ -312,11 +315,37 @@ class LammpsDumps(PairedDumps):
 
     format_name = "lammps"
 
+    def skip_before(self, t_min: float) -> bool:
+        """Pass over the frames before ``t_min`` by scanning, their rows not parsed: the
+        frames the averaging would leave out, no more. By their ``ITEM: TIME`` where the
+        first frame has one, else from the first time step s with s dt >= t_min (the
+        averaging's own test); the contact dump from the first atom frame kept
+        (:class:`~granavg.io.frames.PairedDumps`). Not where a window of steps is set (a
+        dask worker's) or no time is known; returns whether frames are skipped."""
+        if not t_min > 0 or self.atoms.steps is not None:
+            return False
+        if self.first().time is not None:
+            self.atoms.from_time = t_min
+        elif self.dt is not None:
+            s = max(math.ceil(t_min / self.dt), 0)
+            while s > 0 and (s - 1) * self.dt >= t_min:
+                s -= 1
+            while s * self.dt < t_min:
+                s += 1
+            self.atoms.steps = (s, sys.maxsize)
+        else:
+            return False
+        self.skipped_before = t_min
+        return True
+
     def describe(self) -> dict:
         """The options the frames were read with, for the sidecar."""
         shape, why = self.inertia or (("sphere", "3D") if self.dim == 3 else
                                       ("disk", "no frame read"))
         return {"atom_columns": self.amap, "contact_columns": self.cmap,
+                **({"scanned_past": f"the frames before t = {self.skipped_before:g}, "
+                                    "rows not parsed"}
+                   if self.skipped_before is not None else {}),
                 "wall_types": [int(t) for t in self.wall_types], "dt": self.dt,
                 "dim": self.dim, "inertia": {"shape": shape, "I": INERTIA_TEXT[shape],
                                              "why": why}}

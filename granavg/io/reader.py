@@ -19,6 +19,7 @@ from __future__ import annotations
 import logging
 import mmap
 import re
+import sys
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,7 +29,8 @@ from isal import igzip, isal_zlib
 
 from granavg.errors import UserError
 from granavg.io.dumpfile import gzip_chunks
-from granavg.io.parse import MALFORMED, NOT_FINITE, OK, count_newlines, parse_block
+from granavg.io.parse import MALFORMED, NOT_FINITE, OK, count_newlines, parse_block, \
+    skip_rows
 from granavg.io.prefetch import ReadAhead
 
 log = logging.getLogger(__name__)
@@ -121,6 +123,8 @@ class DumpReader:
         self.steps = steps
         self.headers_only = headers_only
         self.named_steps = named_steps
+        #: frames whose ``ITEM: TIME`` is below this are scanned past, their rows not parsed
+        self.from_time = None
         self._first_only = False
 
     def first_header(self, path=None):
@@ -128,7 +132,7 @@ class DumpReader:
         an empty ``data`` of shape (n_rows, 0): its rows neither parsed nor counted (what
         a dask client needs of each file of a ``dump.*`` series); None if it holds none."""
         reader = DumpReader.__new__(DumpReader)
-        reader.__dict__.update(self.__dict__, _first_only=True, steps=None)
+        reader.__dict__.update(self.__dict__, _first_only=True, steps=None, from_time=None)
         scanner = _Scanner(reader, Path(path) if path is not None else self.files[0])
         return next(iter(scanner.frames(must_hold=False)), None)
 
@@ -230,7 +234,9 @@ class _Scanner:
                         self.buf.close()
                     except BufferError:   # a view in an error's traceback: closed with it
                         pass
-        if self.seen == 0 and self.reader.steps is None and must_hold:
+        # a window open to the end (frames skipped up to a step) still needs a frame
+        if self.seen == 0 and must_hold and (self.reader.steps is None or
+                                             self.reader.steps[1] == sys.maxsize):
             raise UserError(f"{self.path}: holds no complete frame (the file is empty or "
                             "damaged); give a dump written by LAMMPS' dump command")
 
@@ -392,13 +398,18 @@ class _Scanner:
         window = self.reader.steps
         skip = window is not None and not (
             window[0] <= step <= window[1]
-            and (len(window) < 3 or (step - window[0]) % window[2] == 0))
+            and (len(window) < 3 or (step - window[0]) % window[2] == 0)) or (
+            self.reader.from_time is not None and head["time"] is not None
+            and head["time"] < self.reader.from_time)
         if not skip and not self.reader.headers_only and n:
             data = self._rows_to_header(n, len(names), target)
             if data is not None:
                 first = self.line
                 self.line += n
                 return self._made(head, want, data, first)
+        elif (skip or self.reader.headers_only) and self._past_rows(n):
+            first = self.line - n
+            return _SKIPPED if skip else self._made(head, [], np.empty((n, 0)), first)
         end = self._block_end()
         if end < len(self.buf) and not skip and not self.reader.headers_only and \
                 (n == 0 or self.buf[end - 1] == 10):
@@ -455,6 +466,22 @@ class _Scanner:
             return None
         self.pos = end
         return data
+
+    def _past_rows(self, n) -> bool:
+        """Pass over the block's n rows in one walk, nothing parsed, when they end exactly
+        where the next header starts (or at the end of the file); else False (nothing
+        consumed: the careful path finds the block's end and counts its rows)."""
+        limit = len(self.buf)
+        end = skip_rows(np.frombuffer(self.buf, dtype=np.uint8), self.pos, n, limit)
+        if end < 0:
+            return False
+        if end >= limit:
+            if not (isinstance(self.buf, mmap.mmap) or self.eof):
+                return False                    # more rows may follow in the next chunk
+        elif self.buf[end:end + 5] != b"ITEM:":
+            return False
+        self.pos, self.line = end, self.line + n
+        return True
 
     def _made(self, head, columns, data, line):
         return DumpFrame(head["timestep"], head["time"], columns, data, head["box"], line,

@@ -33,7 +33,7 @@ def average_dumps(atoms, contacts=None, *, progress=None, **options) -> Profiles
 def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
                   quantities=None, t_min=None, block_time=None, gravity=None,
                   branch="contact", sectors="auto", check_cells=None, kernel=None,
-                  width=None, **source_options):
+                  width=None, scan_early=True, **source_options):
     """The averager of anyone's dumps (:func:`granavg.engine.api.averager`) and the
     frame source it reads (whose ``dropped`` counts rows left out).
 
@@ -65,6 +65,10 @@ def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     check_cells : callable, optional
         Called with the cells before any frame is averaged (e.g. that an output can hold
         them); raises to refuse.
+    scan_early : bool
+        Pass over the frames before ``t_min`` by scanning, their rows not parsed, where
+        the format can (LAMMPS dumps whose times are time step x dt); False reads them
+        (a dask client, which needs only the first two frames).
     **source_options
         Options of the format (e.g. ``atom_map``, ``contact_map``, ``wall_types``,
         ``dt``, ``units`` for LAMMPS dumps; ``steps``, a time-step window, for a dask
@@ -78,6 +82,8 @@ def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
         raise ParameterError("contact_map", "{param} maps the columns of a contact dump: "
                              "give it ({contacts}), or leave the map out")
     frames = formats.open_frames(atoms, contacts, fmt=fmt, **source_options)
+    if scan_early and t_min and hasattr(frames, "skip_before"):
+        frames.skip_before(t_min)
     dim = getattr(frames, "dim", 2)
     space = Space(dim, frames.box, getattr(frames, "periodic", None) or (lambda: (False,) * 3),
                   getattr(frames, "tilt", None) or (lambda: (0.0, 0.0, 0.0)),

@@ -83,7 +83,8 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     The profiles' ``meta["dask"]`` records the chunks and each worker's peak memory (B).
     """
     base = run_averager(run_dir, **options)          # validates; reads no frame
-    windows = chunk_windows(base.meta["run_manifest"], base.t_min, base.block_time, chunks or 2 * workers)
+    windows = chunk_windows(base.meta["run_manifest"], base.t_min, base.block_time,
+                            chunks or 2 * workers)
     with cluster_client(workers, scheduler, _threads_each(workers)) if client is None else \
             _given(client) as dask_jobs:
         futures = [dask_jobs.client.submit(_chunk, str(run_dir), w, options, pure=False)
@@ -125,8 +126,9 @@ def series_windows(atoms, contacts, time_of, t_min: float, block_time: float,
     from granavg.io.reader import DumpReader, numbered_series
 
     numbered = numbered_series(atoms)
+    steps = [n for n, _ in numbered]
     if len(numbered) < 2 or (contacts is not None and
-                             [n for n, _ in numbered_series(contacts)] != [n for n, _ in numbered]):
+                             [n for n, _ in numbered_series(contacts)] != steps):
         return None
     reader = DumpReader(atoms, [])
     heads = [reader.first_header(path) for _, path in numbered]
@@ -134,7 +136,6 @@ def series_windows(atoms, contacts, time_of, t_min: float, block_time: float,
         log.info("%s: the numbers in the file names are not their time steps; the frames "
                  "are listed by a scan", atoms)
         return None
-    steps = [h.timestep for h in heads]
     windows = cut_windows(steps, [time_of(h) for h in heads], t_min, block_time, n_chunks)
     starts = [w[0] for w in windows[1:]]
     return [(lo, nxt - 1) for (lo, _), nxt in zip(windows, starts)] + \
@@ -175,7 +176,8 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
                                  "that only one process can decompress, so {param} cannot "
                                  "help; give a dump.* series or an uncompressed dump, or "
                                  "leave out {param}")
-    base, frames = dump_averager(atoms, contacts, **options)    # checks; two frames read
+    base, frames = dump_averager(atoms, contacts, scan_early=False, **options)  # checks;
+    # the first two frames read
     base.frames = ()                                  # (and stops its reader thread)
     n_chunks = chunks or 2 * workers
     by_file = series_windows(atoms, contacts, frames.time, base.t_min, base.block_time,
