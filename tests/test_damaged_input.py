@@ -519,3 +519,15 @@ def test_frames_skipped_by_a_step_window_keep_the_line_numbers_after_them(tmp_pa
     for steps in ((30, 30), None):
         with pytest.raises(UserError, match=rf"{path}:47: malformed row"):
             list(DumpReader(path, ["x", "y"], steps=steps))
+
+
+def test_the_integer_check_finds_the_first_bad_row_and_the_first_huge_id():
+    from granavg.io.parse import not_integers
+    v = np.array([1.0, 2.0, 2.5, np.nan, 2.0 ** 53, 7.0])
+    assert not_integers(v, False, 2.0 ** 53) == (2, -1)          # ids off: no huge row
+    assert not_integers(v, True, 2.0 ** 53) == (2, 4)
+    assert not_integers(np.array([np.nan, 1.0]), False, 2.0 ** 53) == (0, -1)
+    assert not_integers(np.arange(6.0)[::2], True, 2.0 ** 53) == (-1, -1)   # a strided view
+    long = np.arange(200001.0)
+    long[150000] = 0.5                                    # the path that releases the GIL
+    assert not_integers(long, True, 2.0 ** 53) == (150000, -1)

@@ -18,6 +18,7 @@ import numpy as np
 
 from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError, literal
+from granavg.io.parse import not_integers
 from granavg.io.prefetch import Prefetched
 
 log = logging.getLogger(__name__)
@@ -63,18 +64,16 @@ def check_integers(path, frame, cols, names):
     and an id too large to be read exactly (:data:`EXACT_IDS`)."""
     for name in names:
         if name in cols:
-            v = cols[name]
-            if name in IDS:
-                huge = np.flatnonzero(np.abs(v) >= EXACT_IDS)
-                if len(huge):
-                    raise UserError(
-                        f"{path}:{frame.line + huge[0]}: {name} {v[huge[0]]:.17g} is 2^53 "
-                        f"or more (timestep {frame.timestep}); ids that large are not read "
-                        "exactly (two may read as one): renumber the atoms (LAMMPS: "
-                        "reset_atoms id) and dump again")
-            bad = np.flatnonzero(v != np.round(v))
-            if len(bad):
-                raise UserError(f"{path}:{frame.line + bad[0]}: {name} {v[bad[0]]:g} is not "
+            v = np.asarray(cols[name], float)
+            bad, huge = not_integers(v, name in IDS, EXACT_IDS)       # one compiled pass
+            if huge >= 0:
+                raise UserError(
+                    f"{path}:{frame.line + huge}: {name} {v[huge]:.17g} is 2^53 "
+                    f"or more (timestep {frame.timestep}); ids that large are not read "
+                    "exactly (two may read as one): renumber the atoms (LAMMPS: "
+                    "reset_atoms id) and dump again")
+            if bad >= 0:
+                raise UserError(f"{path}:{frame.line + bad}: {name} {v[bad]:g} is not "
                                 f"an integer (timestep {frame.timestep}); the dump is "
                                 "damaged, or the column map names the wrong column")
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from granavg.engine.kernels import contact_rows, wall_points
-from granavg.sim._contact_state import contact_state
+from granavg.sim._contact_state import contact_state, disk_state
 
 ZONES = {"in": (0.0, 0.2), "bulk": (0.3, 0.8), "out": (0.85, 1.0)}
 #: The quantities whose steadiness is judged (when present).
@@ -55,37 +55,44 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
         contact network's bonds, disks with at least 3 bonds) and ``psi6_bulk_ordered``
         (share with |psi_6| > 0.8).
     """
-    x, y, a = atoms["x"], atoms["y"], atoms["radius"]
-    r = np.hypot(x, y)
-    frac = (r - R_i) / (R_o - R_i)
-    zone = {k: (frac >= lo) & ((frac < hi) | (hi == 1.0)) for k, (lo, hi) in ZONES.items()}
-    zone_area = {k: np.pi * ((R_i + hi * (R_o - R_i)) ** 2 - (R_i + lo * (R_o - R_i)) ** 2)
+    f = np.ascontiguousarray
+    x, y, a = f(atoms["x"], float), f(atoms["y"], float), f(atoms["radius"], float)
+    n = len(x)
+    gap = R_o - R_i
+    zone_area = {k: np.pi * ((R_i + hi * gap) ** 2 - (R_i + lo * gap) ** 2)
                  for k, (lo, hi) in ZONES.items()}
-    out = {"nu_bulk": float(np.sum(np.pi * a[zone["bulk"]] ** 2) / zone_area["bulk"])}
+    out = {}
     mass = rho_p * h * np.pi * a * a
     if "vx" in atoms:
         ke = 0.5 * mass * (atoms["vx"] ** 2 + atoms["vy"] ** 2)
         if "omegaz" in atoms:
             ke = ke + 0.25 * mass * a * a * atoms["omegaz"] ** 2       # I = m a^2 / 2
         out["ke_J"] = float(np.sum(ke))
-    if contacts is None or "id" not in atoms:
+    with_contacts = contacts is not None and "id" in atoms
+    if with_contacts:
+        i1, i2 = contact_rows(atoms, contacts)
+        fn = ((contacts["fnx"] + contacts["ftx"]) * contacts["nx"] +
+              (contacts["fny"] + contacts["fty"]) * contacts["ny"]) if "fnx" in contacts \
+            else np.zeros(len(i1))
+        per_disk = contact_state(f(i1, np.int64), f(i2, np.int64), f(fn, float), a, x, y, n)
+    else:
+        per_disk = (np.zeros(0),) * 5
+    names = list(ZONES)
+    sums = disk_state(x, y, a, *per_disk, R_i, R_o, np.array(list(ZONES.values()), float),
+                      names.index("bulk"))
+    zone = {k: sums[4 * i:4 * i + 4] for i, k in enumerate(names)}   # n, contacts, area, trace
+    kept, psi, ordered, contacts_all, rattlers = sums[4 * len(names):]
+    out = {"nu_bulk": float(zone["bulk"][2] / zone_area["bulk"]), **out}
+    if not with_contacts:
         return out
-    i1, i2 = contact_rows(atoms, contacts)
-    n = len(x)
-    fn = ((contacts["fnx"] + contacts["ftx"]) * contacts["nx"] +
-          (contacts["fny"] + contacts["fty"]) * contacts["ny"]) if "fnx" in contacts \
-        else np.zeros(len(i1))
-    f = np.ascontiguousarray
-    count, trace, bonds, re6, im6 = contact_state(f(i1, np.int64), f(i2, np.int64),
-                                                  f(fn, float), f(a, float), f(x, float),
-                                                  f(y, float), n)
-    out.update(_hexatic(bonds, re6, im6, zone["bulk"]))
-    out["C"] = float(count.mean()) if n else np.nan
-    for k, m in zone.items():
-        out[f"C_{k}"] = float(count[m].mean()) if m.any() else np.nan
-    out["rattler_fraction"] = float(np.mean(count < 2)) if n else np.nan
+    if kept >= 3:
+        out.update(psi6_bulk=float(psi / kept), psi6_bulk_ordered=float(ordered / kept))
+    out["C"] = float(contacts_all / n) if n else np.nan
+    for k, (m, c, _, _) in zone.items():
+        out[f"C_{k}"] = float(c / m) if m else np.nan
+    out["rattler_fraction"] = float(rattlers / n) if n else np.nan
     if "fnx" in contacts:
-        out["P_bulk_Pa"] = float(-0.5 * trace[zone["bulk"]].sum() / (zone_area["bulk"] * h))
+        out["P_bulk_Pa"] = float(-0.5 * zone["bulk"][3] / (zone_area["bulk"] * h))
     if "overlap" in contacts:
         ov = contacts["overlap"] / d_ref
         out["overlap_mean_over_d"] = float(ov.mean()) if len(ov) else 0.0
@@ -112,18 +119,6 @@ def wall_torques(atoms, contacts, rows) -> dict:
         torque = torque - np.asarray(contacts["mz"], float)[walls]
     return {name: float(np.sum(torque[code == c]))
             for name, c in (("torque_in_Nm", INNER), ("torque_out_Nm", OUTER))}
-
-
-def _hexatic(bonds, re6, im6, bulk):
-    """Mean |psi_6| of the bulk disks with at least 3 bonds and the share above 0.8, over
-    the bonds of the contact network: psi_6 = <exp(6 i theta)> over a disk's disk-disk
-    contacts (the sums from :func:`~granavg.sim._contact_state.contact_state`). Disks with fewer bonds are left out:
-    one bond alone gives |psi_6| = 1, two often more than 0.8."""
-    keep = bulk & (bonds >= 3)
-    if keep.sum() < 3:
-        return {}
-    psi = np.hypot(re6[keep], im6[keep]) / bonds[keep]
-    return {"psi6_bulk": float(psi.mean()), "psi6_bulk_ordered": float(np.mean(psi > 0.8))}
 
 
 class CouetteState:
