@@ -522,7 +522,7 @@ def test_frames_skipped_by_a_step_window_keep_the_line_numbers_after_them(tmp_pa
 
 
 def test_the_integer_check_finds_the_first_bad_row_and_the_first_huge_id():
-    from granavg.io.parse import not_integers
+    from granavg.io._checks import not_integers
     v = np.array([1.0, 2.0, 2.5, np.nan, 2.0 ** 53, 7.0])
     assert not_integers(v, False, 2.0 ** 53) == (2, -1)          # ids off: no huge row
     assert not_integers(v, True, 2.0 ** 53) == (2, 4)
@@ -531,3 +531,22 @@ def test_the_integer_check_finds_the_first_bad_row_and_the_first_huge_id():
     long = np.arange(200001.0)
     long[150000] = 0.5                                    # the path that releases the GIL
     assert not_integers(long, True, 2.0 ** 53) == (150000, -1)
+
+
+def test_the_contact_rows_check_finds_each_fault_in_one_pass():
+    from granavg.io._checks import contact_rows_checked
+    id1, id2 = np.array([1.0, 2.0, 3.0, 4.0]), np.array([2.0, 2.0, 0.0, 5.0])
+    wall = np.array([0.0, 0.0, 1.0, 3.0])
+    nx, ny = np.array([1.0, 0.6, 0.0, 0.0]), np.array([0.0, 0.8, 1.0, 1.1])
+    code, itself, norm, worst, off = contact_rows_checked(4, id1, id2, wall, nx, ny, None)
+    assert (code, itself, worst) == (3, 1, 3) and np.isclose(off, 0.1)
+    assert np.array_equal(norm, np.hypot(nx, ny))
+    # a wall row of an atom with its own id is no self-contact; no wall column: none read
+    _, itself, _, _, _ = contact_rows_checked(4, id1, np.array([9.0, 9.0, 3.0, 9.0]),
+                                              wall, None, None, None)
+    assert itself == -1
+    code, itself, norm, worst, _ = contact_rows_checked(4, id1, id2, None, None, None, None)
+    assert (code, itself, worst, len(norm)) == (-1, 1, -1, 0)
+    nz = np.array([0.0, 0.0, 0.0, 2.0])                          # 3D: |n| with nz
+    *_, worst, off = contact_rows_checked(4, None, None, None, nx, ny, nz)
+    assert worst == 3 and np.isclose(off, np.sqrt(1.21 + 4.0) - 1.0)

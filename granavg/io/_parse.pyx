@@ -5,7 +5,7 @@ Every scan stops at a newline and a row may not start at or beyond ``limit``, so
 of newline-terminated rows is never read beyond; within a row no byte is bounds-checked.
 """
 
-from libc.math cimport INFINITY, fabs, floor
+from libc.math cimport INFINITY
 from libc.string cimport memchr
 
 OK, MALFORMED, NOT_FINITE = 0, 1, 2
@@ -237,34 +237,6 @@ def skip_rows(const unsigned char[::1] buf, Py_ssize_t start, Py_ssize_t n,
             pos = at - base + 1
             k += 1
     return pos if k == n else -1
-
-
-cdef void _not_integers(const double[:] v, bint ids, double exact, Py_ssize_t *bad,
-                        Py_ssize_t *huge) noexcept nogil:
-    cdef Py_ssize_t i
-    cdef double x
-    for i in range(v.shape[0]):
-        x = v[i]
-        if bad[0] < 0 and x != floor(x):
-            bad[0] = i
-        if ids and huge[0] < 0 and fabs(x) >= exact:
-            huge[0] = i
-        if bad[0] >= 0 and (huge[0] >= 0 or not ids):
-            break
-
-
-def not_integers(const double[:] v, bint ids, double exact):
-    """The first row whose value is not an integer (NaN included), and, for ids, the first
-    whose magnitude is ``exact`` or more; -1 where there is none. One pass; the GIL is
-    released for long columns only (a short pass would wait longer to get it back from
-    another thread than it runs)."""
-    cdef Py_ssize_t bad = -1, huge = -1
-    if v.shape[0] > 100000:
-        with nogil:
-            _not_integers(v, ids, exact, &bad, &huge)
-    else:
-        _not_integers(v, ids, exact, &bad, &huge)
-    return bad, huge
 
 
 def count_newlines(const unsigned char[::1] buf, Py_ssize_t start, Py_ssize_t end):

@@ -18,7 +18,7 @@ import numpy as np
 
 from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError, literal
-from granavg.io.parse import not_integers
+from granavg.io._checks import contact_rows_checked, not_integers
 from granavg.io.prefetch import Prefetched
 
 log = logging.getLogger(__name__)
@@ -123,28 +123,24 @@ def check_contacts(path, frame) -> dict:
         raise UserError(f"{path}:{frame.line + row}: {what} (timestep {frame.timestep}); "
                         "the contact dump is damaged or not in granavg's format")
     check_integers(path, frame, cols, ("id1", "id2", "wall"))
-    if "wall" in cols:
-        bad = np.flatnonzero(~np.isin(cols["wall"], (0, 1, 2)))
-        if len(bad):
-            fail(bad[0], f"wall code {cols['wall'][bad[0]]:g} is not 0, 1 or 2")
-    if "id1" in cols and "id2" in cols:
-        same = (cols["id1"] == cols["id2"])
-        if "wall" in cols:
-            same &= cols["wall"] == 0
-        if same.any():
-            fail(np.flatnonzero(same)[0], f"atom {int(cols['id1'][same][0])} is in contact "
-                 "with itself")
-    if "nx" in cols and "ny" in cols:
-        axes = [n for n in ("nx", "ny", "nz") if n in cols]
-        norm = np.hypot(cols["nx"], cols["ny"]) if len(axes) == 2 else \
-            np.sqrt(cols["nx"] ** 2 + cols["ny"] ** 2 + cols["nz"] ** 2)
-        off = np.abs(norm - 1.0)
-        if np.any(off > CONSISTENCY):
-            k = int(np.argmax(off))
-            shown = ", ".join(f"{cols[n][k]:g}" for n in axes)
-            fail(k, f"the contact normal ({shown}) is not a unit vector (|n| - 1 = "
-                 f"{norm[k] - 1:.2g}, more than printing's rounding)")
-        cols = {**cols, **{n: cols[n] / norm for n in axes}}
+    n = len(next(iter(cols.values()))) if cols else 0
+    axes = [a for a in ("nx", "ny", "nz") if a in cols] if "nx" in cols and "ny" in cols \
+        else []
+    column = {k: np.asarray(cols[k], float) if k in cols else None
+              for k in ("id1", "id2", "wall", "nx", "ny", "nz")}
+    if not axes:
+        column["nx"] = column["ny"] = column["nz"] = None
+    code, itself, norm, worst, off = contact_rows_checked(n, *column.values())  # one pass
+    if code >= 0:
+        fail(code, f"wall code {cols['wall'][code]:g} is not 0, 1 or 2")
+    if itself >= 0:
+        fail(itself, f"atom {int(cols['id1'][itself])} is in contact with itself")
+    if axes:
+        if off > CONSISTENCY:
+            shown = ", ".join(f"{cols[a][worst]:g}" for a in axes)
+            fail(worst, f"the contact normal ({shown}) is not a unit vector (|n| - 1 = "
+                 f"{norm[worst] - 1:.2g}, more than printing's rounding)")
+        cols = {**cols, **{a: cols[a] / norm for a in axes}}
     return cols
 
 
