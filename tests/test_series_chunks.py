@@ -97,15 +97,30 @@ class Chunks:
 
 
 def test_read_ahead_hands_out_the_bytes_in_order_and_an_error_after_them():
-    ahead = ReadAhead(Chunks([b"abc", b"defg", b"h"]), 4)
-    assert ahead.read(2) == b"ab" and ahead.read(5) == b"cdefg" and ahead.read(4) == b"h"
-    assert ahead.read(4) == b""
+    pieces = [b"abc", b"defg", b"h"]
+    ahead = ReadAhead(Chunks(pieces), 4)
+    first = ahead.read(2)                       # whole chunks: at least n, never cut
+    assert first is pieces[0]                   # one chunk is handed on uncopied
+    assert ahead.read(5) == b"defgh" and ahead.read(4) == b""
+    ahead.close()
+    ahead = ReadAhead(Chunks([b"ab", b"c", b"defg"]), 4)
+    assert ahead.read(3) == b"abc" and ahead.read(1) == b"defg" and ahead.read(1) == b""
     ahead.close()
     ahead = ReadAhead(Chunks([b"abc"], EOFError("cut")), 4)
     assert ahead.read(8) == b"abc"                                  # the data first
     with pytest.raises(EOFError, match="cut"):
         ahead.read(8)
     ahead.close()
+
+
+def test_the_buffer_join_is_the_rest_and_the_chunk_in_order():
+    from granavg.io.parse import joined
+    rest, chunk = b"ITEM: TIMESTEP\n10\n1 2", b" 3\n4 5 6\n"
+    assert joined(rest, 15, chunk) == rest[15:] + chunk
+    assert joined(rest, 0, chunk) == rest + chunk and joined(rest, len(rest), chunk) == chunk
+    assert joined(rest, len(rest) + 3, b"") == b"" and joined(b"", 0, chunk) == chunk
+    big = np.random.default_rng(1).integers(0, 255, 9 << 20, dtype=np.uint8).tobytes()
+    assert joined(big, 12345, big[:4 << 20]) == big[12345:] + big[:4 << 20]
 
 
 def test_a_gzip_dump_reads_the_same_with_its_chunks_decompressed_ahead(many, tmp_path,

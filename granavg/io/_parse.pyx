@@ -6,7 +6,8 @@ of newline-terminated rows is never read beyond; within a row no byte is bounds-
 """
 
 from libc.math cimport INFINITY
-from libc.string cimport memchr
+from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize
+from libc.string cimport memchr, memcpy
 
 OK, MALFORMED, NOT_FINITE = 0, 1, 2
 cdef int _OK = 0, _MALFORMED = 1, _NOT_FINITE = 2
@@ -247,3 +248,19 @@ def count_newlines(const unsigned char[::1] buf, Py_ssize_t start, Py_ssize_t en
         for i in range(start, end):
             n += buf[i] == 10
     return n
+
+
+def joined(const unsigned char[::1] head, Py_ssize_t start, const unsigned char[::1] tail):
+    """``head[start:] + tail`` as a new bytes object, copied with the GIL released: a
+    decompressed chunk appended to a buffer's unread rest while other threads run Python
+    (a plain ``+`` holds the GIL for the whole copy, page faults included)."""
+    cdef Py_ssize_t n_head = head.shape[0] - start if head.shape[0] > start else 0
+    cdef Py_ssize_t n_tail = tail.shape[0]
+    out = PyBytes_FromStringAndSize(NULL, n_head + n_tail)
+    cdef char *dst = PyBytes_AS_STRING(out)
+    with nogil:
+        if n_head:
+            memcpy(dst, &head[start], n_head)
+        if n_tail:
+            memcpy(dst + n_head, &tail[0], n_tail)
+    return out

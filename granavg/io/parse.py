@@ -17,10 +17,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from granavg.io._parse import MALFORMED, NOT_FINITE, OK, count_newlines, parse_rows, skip_rows
+from granavg.io._parse import MALFORMED, NOT_FINITE, OK, count_newlines, joined, parse_rows, \
+    skip_rows
 
-__all__ = ["MALFORMED", "NOT_FINITE", "OK", "count_newlines", "parse_block", "parse_rows",
-           "skip_rows"]
+__all__ = ["MALFORMED", "NOT_FINITE", "OK", "count_newlines", "joined", "parse_block",
+           "parse_rows", "skip_rows"]
 
 
 def parse_block(buf: np.ndarray, start: int, nrows: int, ncol: int, target: np.ndarray,

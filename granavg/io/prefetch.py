@@ -69,7 +69,8 @@ class ReadAhead:
     """A binary file's ``read`` with the next chunks read on a thread of their own: a
     gzip stream is decompressed (GIL-free in ISA-L) while the chunk before is parsed.
 
-    ``read(n)`` returns at least ``n`` bytes (fewer only at the end), in the file's order;
+    ``read(n)`` returns at least ``n`` bytes (fewer only at the end; whole chunks, so often
+    more, never copied when one suffices), in the file's order;
     an error of the underlying read is raised after the data that came before it, where
     a plain read would have raised it. ``close()`` stops the thread.
     """
@@ -77,8 +78,8 @@ class ReadAhead:
     def __init__(self, fh, chunk: int, depth: int = 2):
         self._q: queue.Queue = queue.Queue(depth)
         self._stop = threading.Event()
-        self._rest = b""
         self._done = False
+        self._error = None
 
         def run():
             try:
@@ -102,25 +103,25 @@ class ReadAhead:
                 continue
 
     def read(self, n: int) -> bytes:
-        parts, size = [self._rest], len(self._rest)
+        parts, size = [], 0
         while size < n and not self._done:
             data, error = self._q.get()
             if error is not None:
                 self._done = True
                 if size:                     # the data before the error first
-                    self._rest, self._error = b"", error
+                    self._error = error
                     return b"".join(parts)
                 raise error
             if not data:
                 self._done = True
+                break
             parts.append(data)
             size += len(data)
-        out = b"".join(parts)
-        if getattr(self, "_error", None) is not None and not out:
+        if not parts and self._error is not None:
             error, self._error = self._error, None
             raise error
-        self._rest = out[n:] if len(out) > n else b""
-        return out[:n] if len(out) > n else out
+        # whole chunks, not cut to n: one chunk is handed on as it came, uncopied
+        return parts[0] if len(parts) == 1 else b"".join(parts)
 
     def close(self) -> None:
         self._stop.set()

@@ -29,8 +29,8 @@ from isal import igzip, isal_zlib
 
 from granavg.errors import UserError
 from granavg.io.dumpfile import gzip_chunks
-from granavg.io.parse import MALFORMED, NOT_FINITE, OK, count_newlines, parse_block, \
-    skip_rows
+from granavg.io.parse import MALFORMED, NOT_FINITE, OK, count_newlines, joined, \
+    parse_block, skip_rows
 from granavg.io.prefetch import ReadAhead
 
 log = logging.getLogger(__name__)
@@ -281,7 +281,8 @@ class _Scanner:
             self.eof = True
             return False
         self.delivered += len(more)
-        self.buf = self.buf[self.pos:] + more
+        # the unread rest and the chunk copied with the GIL released (the engine runs on)
+        self.buf = more if self.pos >= len(self.buf) else joined(self.buf, self.pos, more)
         self.pos = 0
         return True
 
