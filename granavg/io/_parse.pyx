@@ -5,15 +5,21 @@ Every scan stops at a newline and a row may not start at or beyond ``limit``, so
 of newline-terminated rows is never read beyond; within a row no byte is bounds-checked.
 """
 
-from libc.math cimport INFINITY
+from libc.math cimport INFINITY, isinf
+from libc.stdlib cimport strtod
 from cpython.bytes cimport PyBytes_AS_STRING, PyBytes_FromStringAndSize
 from libc.string cimport memchr, memcpy
 
 OK, MALFORMED, NOT_FINITE = 0, 1, 2
 cdef int _OK = 0, _MALFORMED = 1, _NOT_FINITE = 2
 cdef double _POW10[23]
+#: The largest mantissa a double holds exactly (Clinger's fast path needs it exact).
+cdef unsigned long long _EXACT = 1ULL << 53
 for _k in range(23):
     _POW10[_k] = 10.0 ** _k
+import sys
+#: Digits eight at a time (:func:`_eight_value` reads the bytes as a little-endian word).
+cdef bint _SWAR = sys.byteorder == "little"
 
 
 cdef inline bint _blank(unsigned char c) noexcept nogil:
@@ -22,6 +28,22 @@ cdef inline bint _blank(unsigned char c) noexcept nogil:
 
 cdef inline bint _end(unsigned char c) noexcept nogil:
     return c == 32 or c == 9 or c == 13 or c == 10
+
+
+cdef inline bint _eight_digits(unsigned long long v) noexcept nogil:
+    """Whether the 8 bytes in ``v`` (little-endian, as loaded) are all ASCII digits."""
+    return ((v & 0xF0F0F0F0F0F0F0F0ULL) |
+            (((v + 0x0606060606060606ULL) & 0xF0F0F0F0F0F0F0F0ULL) >> 4)) == \
+        0x3333333333333333ULL
+
+
+cdef inline unsigned long long _eight_value(unsigned long long v) noexcept nogil:
+    """The number that 8 ASCII digits (the first byte the leading digit) spell: three
+    multiplications for the eight, pairs then quadruples (SWAR)."""
+    v -= 0x3030303030303030ULL
+    v = (v * 10) + (v >> 8)
+    return (((v & 0x000000FF000000FFULL) * (100 + (1000000ULL << 32))) +
+            (((v >> 16) & 0x000000FF000000FFULL) * (1 + (10000ULL << 32)))) >> 32
 
 
 cdef inline Py_ssize_t _digits(const unsigned char[::1] buf, Py_ssize_t q,
@@ -34,6 +56,22 @@ cdef inline Py_ssize_t _digits(const unsigned char[::1] buf, Py_ssize_t q,
             return q
         mant[0] = mant[0] * 10 + d
         q += 1
+
+
+cdef inline Py_ssize_t _fraction_digits(const unsigned char[::1] buf, Py_ssize_t q,
+                                        unsigned long long *mant) noexcept nogil:
+    """:func:`_digits` for a fraction, whose runs are long (``%g`` prints six or more
+    significant digits): eight at a time while eight bytes lie within the buffer (never
+    read beyond it), then one by one."""
+    cdef unsigned long long v
+    cdef Py_ssize_t size = buf.shape[0]
+    while _SWAR and q + 8 <= size:
+        memcpy(&v, &buf[q], 8)
+        if not _eight_digits(v):
+            break
+        mant[0] = mant[0] * 100000000ULL + _eight_value(v)
+        q += 8
+    return _digits(buf, q, mant)
 
 
 cdef bint _non_finite_word(const unsigned char[::1] buf, Py_ssize_t pos) noexcept nogil:
@@ -62,9 +100,26 @@ cdef bint _non_finite_word(const unsigned char[::1] buf, Py_ssize_t pos) noexcep
     return False
 
 
+cdef int _slow_number(const unsigned char[::1] buf, Py_ssize_t start, Py_ssize_t end,
+                      double *value) noexcept nogil:
+    """A number off the fast path (a mantissa beyond 2^53, a power of ten beyond 10^22):
+    the C library's strtod, correctly rounded, over ``buf[start:end]``, which the caller
+    has checked is a decimal number; NOT_FINITE where it overflows. Where strtod stops
+    elsewhere (a locale whose decimal point is not '.'), :func:`_long_number`."""
+    cdef char *stop
+    value[0] = strtod(<const char *>&buf[start], &stop)
+    if stop != <const char *>&buf[end]:
+        return _long_number(buf, start, value, &end)
+    if isinf(value[0]):
+        value[0] = 0.0
+        return _NOT_FINITE
+    return _OK
+
+
 cdef int _long_number(const unsigned char[::1] buf, Py_ssize_t pos, double *value,
                       Py_ssize_t *end) noexcept nogil:
-    """A number of more than 17 digits (or a huge exponent): its status, value and end."""
+    """A number of more than 17 digits (or a huge exponent), to within a few units in the
+    last place: its status, value and end."""
     cdef bint neg = buf[pos] == 45, eneg
     cdef long long mant = 0, sig = 0, exp10 = 0, e
     if neg or buf[pos] == 43:
@@ -177,7 +232,7 @@ cdef int _parse(const unsigned char[::1] buf, Py_ssize_t *at, Py_ssize_t nrows,
             exp10 = 0
             if buf[q] == 46:
                 f = q + 1
-                q = _digits(buf, f, &mant)
+                q = _fraction_digits(buf, f, &mant)
                 exp10 = f - q
                 ndig += q - f
             if ndig == 0:
@@ -198,8 +253,8 @@ cdef int _parse(const unsigned char[::1] buf, Py_ssize_t *at, Py_ssize_t nrows,
                 exp10 += (-1 if eneg else 1) * (<long long>e if edig <= 5 else 100)
             if not _end(buf[q]):
                 return _MALFORMED
-            if ndig > 17 or exp10 > 22 or exp10 < -22:
-                status = _long_number(buf, start, &value, &q)
+            if ndig > 19 or mant > _EXACT or exp10 > 22 or exp10 < -22:
+                status = _slow_number(buf, start, q, &value)
                 if status != _OK:
                     return status
                 out[dst, row] = value

@@ -2,10 +2,12 @@
 (C, at install: :mod:`granavg.io._parse`) and its wrapper.
 
 The kernel walks the bytes of a frame's row block once: it skips the columns nobody asked
-for and converts the others with Clinger's fast path (an integer mantissa of at most 17
-digits times an exact power of ten, |exponent| <= 22), which is correctly rounded, so the
-values equal Python's ``float()`` of the same text. LAMMPS' ``%g``-style numbers always
-take that path; longer numbers go through a slower loop that may differ in the last bit.
+for and converts the others with Clinger's fast path (an integer mantissa of at most 2^53,
+its fraction's digits taken eight at a time, times an exact power of ten, |exponent| <=
+22), which is correctly rounded; other numbers (17 significant digits, magnitudes beyond
+1e+-22) go through the C library's ``strtod``, also correctly rounded. So the values equal
+Python's ``float()`` of the same text (tests/test_parse_kernel.py). LAMMPS' ``%g``-style
+numbers nearly always take the fast path.
 
 Every scan in the kernel stops at a newline, and a row may not start at or beyond the
 block's end (``limit``), so a block of newline-terminated rows is never read beyond,
