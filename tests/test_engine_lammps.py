@@ -198,3 +198,46 @@ def test_the_base_plate_force_is_what_lammps_applied(tmp_path):
     assert np.allclose(gx, fbx[disk], rtol=1e-12, atol=1e-12 * scale)
     assert np.allclose(gy, fby[disk], rtol=1e-12, atol=1e-12 * scale)
     assert np.allclose(scene.rho_p * np.pi * scene.h * rad[disk] ** 2, mass[disk], rtol=1e-12)
+
+
+def test_the_readers_contact_rows_are_the_engines(small_run, tmp_path):
+    """The rows the run's reader looks up while it checks the ids (``Frame.rows``) are
+    the ones the engine would look up itself, wall contacts and the dropped non-touching
+    rows included, and a frame's sums are the same bits with them or without."""
+    from dataclasses import replace
+
+    from granavg.engine.average import frame_sums
+    from granavg.engine.channels import BLOCKS
+    from granavg.engine.kernels import lookup
+
+    import gzip
+    m = json.loads((small_run / "manifest.json").read_text())
+    lines = gzip.open(small_run / "contacts.dump.gz", "rt").read().splitlines()
+    head = next(k for k, line in enumerate(lines) if line.startswith("ITEM: ENTRIES"))
+    at = lines[head].split()[2:].index("overlap")        # every 5th row: not touching
+    for k in range(head + 1, len(lines), 5):
+        words = lines[k].split()
+        if len(words) > at and not words[0].startswith("ITEM"):
+            words[at] = "0"
+            lines[k] = " ".join(words)
+    (tmp_path / "contacts.dump").write_text("\n".join(lines) + "\n")
+    source = RunDumps(DumpReader(small_run / "atoms.dump.gz"),
+                      DumpReader(tmp_path / "contacts.dump"), dt=m["derived"]["dt_s"])
+    frames = list(source)[-3:]
+    assert source.dropped["contacts_not_touching"] > 0
+    walls = 0
+    for frame in frames:
+        ids, c = frame.atoms["id"], frame.contacts
+        i1, i2 = frame.rows
+        pair = c["wall"] == 0
+        assert np.array_equal(i1, lookup(ids, c["id1"])[0])
+        assert np.array_equal(i2[pair], lookup(ids, c["id2"])[0][pair])
+        assert np.all(i2[~pair] == -1) and np.array_equal(ids[i1], c["id1"])
+        walls += int(np.sum(~pair))
+        h = m["scene"]["h"]
+        blocks = [b for b in BLOCKS if b not in ("body", "bpow")]
+        with_rows = frame_sums(frame, covering_rings(frame, h), 1060.0, blocks)
+        without = frame_sums(replace(frame, rows=None), covering_rings(frame, h), 1060.0,
+                             blocks)
+        assert np.array_equal(with_rows, without)
+    assert walls > 0                        # wall contacts were among them

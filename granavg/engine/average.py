@@ -25,7 +25,7 @@ from granavg.engine import threads
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.cells.base import Cells, layout_of
 from granavg.engine.channels import CONTACT_BLOCKS
-from granavg.engine.kernels import (BRANCHES, cell_sums, contact_rows, particle_channels,
+from granavg.engine.kernels import (BRANCHES, cell_sums, frame_rows, particle_channels,
                                    sector_sums, wall_points)
 from granavg.engine.profiles import Profiles, flags, standard_errors, values
 from granavg.engine.quantities import MICROPOLAR, MICROPOLAR_CONVENTIONS, QUANTITIES
@@ -324,7 +324,7 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     a = frame.atoms
     contacts = frame.contacts
     radius = a["radius"]
-    rows = contact_rows(a, contacts) if contacts is not None and (
+    rows = frame_rows(frame) if contacts is not None and (
         {*CONTACT_BLOCKS, "wall"} & set(blocks)) else None
     n = cells.n * max(sectors, 1)
     rows_needed = min(CHUNK, len(radius))

@@ -76,6 +76,13 @@ def contact_rows(atoms, contacts):
     return i1, i2
 
 
+def frame_rows(frame):
+    """The contact rows of a frame (:func:`contact_rows`): the reader's, if it looked
+    them up (``frame.rows``), else looked up here."""
+    rows = getattr(frame, "rows", None)
+    return rows if rows is not None else contact_rows(frame.atoms, frame.contacts)
+
+
 def _unknown(atom_id):
     raise UserError(f"the contact dump names atom id {int(atom_id)}, which is not in the "
                     "atom dump of the same time step; use dumps of the same run")

@@ -36,12 +36,17 @@ class Frame:
         ``x y radius`` and, as available, ``vx vy omegaz id mass``.
     contacts : dict of str -> ndarray, shape (C,), or None
         ``id1 id2 wall fnx fny ftx fty nx ny overlap`` (:mod:`granavg.io.contacts`).
+    rows : tuple of ndarray, shape (C,) each, or None
+        (i1, i2): each contact's rows among the atoms, i2 = -1 for a wall contact, where
+        the reader has looked them up (it checks the ids); else None, and the engine
+        looks them up (:func:`granavg.engine.kernels.contact_rows`).
     """
 
     timestep: int
     time: float
     atoms: dict
     contacts: dict | None
+    rows: tuple | None = None
 
 
 #: Largest relative disagreement accepted between numbers of one row that are equal in

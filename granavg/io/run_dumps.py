@@ -16,20 +16,27 @@ class RunDumps(PairedDumps):
 
     def frame(self, fa, fc) -> Frame:
         atoms = check_atoms(self.atoms.path, fa)
-        contacts = self._contacts(fc, atoms) if fc is not None else None
-        return Frame(fa.timestep, self.time(fa), atoms, contacts)
+        contacts, rows = self._contacts(fc, atoms) if fc is not None else (None, None)
+        return Frame(fa.timestep, self.time(fa), atoms, contacts, rows)
 
-    def _contacts(self, fc, atoms) -> dict:
-        rows = check_contacts(self.contacts.path, fc)
-        if "id" in atoms and "id1" in rows:
-            _, known = lookup(atoms["id"], rows["id1"])
-            if "id2" in rows and "wall" in rows:
-                _, found2 = lookup(atoms["id"], rows["id2"])
-                known &= found2 | (rows["wall"] != 0)
-            self.unknown_ids(fc, rows, known)
-        keep = rows["overlap"] > 0 if "overlap" in rows else None
+    def _contacts(self, fc, atoms) -> tuple:
+        """The contact columns and, where both ids and the wall codes are there, the
+        contacts' rows among the atoms (:attr:`Frame.rows`), looked up once for the check
+        and the engine."""
+        cols = check_contacts(self.contacts.path, fc)
+        rows = None
+        if "id" in atoms and "id1" in cols:
+            i1, known = lookup(atoms["id"], cols["id1"])
+            if "id2" in cols and "wall" in cols:
+                i2, found2 = lookup(atoms["id"], cols["id2"])
+                pair = np.asarray(cols["wall"]) == 0
+                known &= found2 | ~pair
+                rows = (i1, np.where(pair, i2, -1))
+            self.unknown_ids(fc, cols, known)
+        keep = cols["overlap"] > 0 if "overlap" in cols else None
         if keep is not None and not keep.all():
             self.dropped["contacts_not_touching"] += int(np.sum(~keep))
-            rows = {k: v[keep] for k, v in rows.items()}
-        return rows
+            cols = {k: v[keep] for k, v in cols.items()}
+            rows = rows and (rows[0][keep], rows[1][keep])
+        return cols, rows
 

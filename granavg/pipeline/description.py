@@ -10,7 +10,7 @@ body forces. Anyone's dumps build their cells from options instead
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from granavg import __version__
 from granavg.engine.average import MAX_BLOCKS, CellAverage
@@ -63,8 +63,8 @@ class WithBodyForces:
     def frame(self, f) -> Frame:
         if not self.terms:
             return f
-        return Frame(f.timestep, f.time, add_body_forces(
-            f.atoms, self.terms, self.cells.particle_volume, self.rho_p), f.contacts)
+        return replace(f, atoms=add_body_forces(     # the same atoms, in their order
+            f.atoms, self.terms, self.cells.particle_volume, self.rho_p))
 
     def __iter__(self):
         return (self.frame(f) for f in self.source)

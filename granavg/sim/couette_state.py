@@ -30,7 +30,7 @@ JUDGED = ("C", "C_bulk", "P_bulk_Pa", "rattler_fraction", "nu_bulk", "psi6_bulk"
 INNER, OUTER = 1, 2
 
 
-def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
+def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref, rows=None) -> dict:
     """Scalars describing one frame (SI units; NaN where the data lack a column).
 
     Parameters
@@ -43,6 +43,9 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
         Ring radii (m), disk height (m), material density (kg/m^3).
     d_ref : float
         Reference diameter for the overlaps (m), the small disks' d_s.
+    rows : tuple of ndarray, optional
+        The contacts' rows among the atoms (:attr:`granavg.io.frames.Frame.rows`), if
+        the reader looked them up; else looked up here.
 
     Returns
     -------
@@ -70,7 +73,7 @@ def frame_state(atoms, contacts, R_i, R_o, h, rho_p, d_ref) -> dict:
         out["ke_J"] = float(np.sum(ke))
     with_contacts = contacts is not None and "id" in atoms
     if with_contacts:
-        i1, i2 = contact_rows(atoms, contacts)
+        i1, i2 = rows if rows is not None else contact_rows(atoms, contacts)
         fn = ((contacts["fnx"] + contacts["ftx"]) * contacts["nx"] +
               (contacts["fny"] + contacts["fty"]) * contacts["ny"]) if "fnx" in contacts \
             else np.zeros(len(i1))
@@ -140,7 +143,8 @@ class CouetteState:
 
     def add(self, frame) -> None:
         self.rows.append({"step": frame.timestep, "t_s": frame.time,
-                          **frame_state(frame.atoms, frame.contacts, *self.geometry)})
+                          **frame_state(frame.atoms, frame.contacts, *self.geometry,
+                                        rows=frame.rows)})
 
     def columns(self) -> dict:
         """The rows as columns, name -> ndarray (NaN where a frame lacks a quantity)."""

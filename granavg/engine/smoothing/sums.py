@@ -18,8 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from granavg.engine.channels import BLOCK, CONTACT_BLOCKS, DERIVATIVE_BLOCKS, Block
-from granavg.engine.kernels import (BRANCHES, contact_rows, particle_channels,
-                                   wall_points)
+from granavg.engine.kernels import BRANCHES, frame_rows, particle_channels, wall_points
 from granavg.engine.smoothing.rotation import block_terms, mixed
 
 #: Particles per pass (as :data:`granavg.engine.average.CHUNK`).
@@ -137,7 +136,7 @@ def smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout):
     D = cells.dim
     radius = np.asarray(a["radius"], float)
     want = set(blocks) & set(layout.blocks)
-    rows = contact_rows(a, contacts) if contacts is not None and \
+    rows = frame_rows(frame) if contacts is not None and \
         {*CONTACT_BLOCKS, "wall", "dsig"} & want else None
     n = cells.n * max(sectors, 1)
     sums = np.zeros((n, layout.n))
