@@ -390,15 +390,16 @@ run             0
 def test_2d_sphere_masses_turn_as_spheres_as_in_lammps(tmp_path):
     """A 2D run of sphere masses integrated by fix nve/sphere (no disc), as fix pour
     gives: granavg sees the masses scale as a^3 and takes I = 2/5 m a^2 (said in the
-    sidecar); the rotational energy over a slab holding every disk is LAMMPS' own
-    compute erotate/sphere. Taken as disks (--inertia disk) it is 5/4 of it."""
+    sidecar); the rotational energy over a slab spanning the periodic box (every disk,
+    through its images) is LAMMPS' own compute erotate/sphere. Taken as disks (--inertia
+    disk) it is 5/4 of it."""
     deck = tmp_path / "spin.lmp"
     deck.write_text(SPINNING.format(out=tmp_path))
     with lammps_session(["-log", str(tmp_path / "log.lammps")]) as lmp:
         lmp.file(str(deck))
         lammps_erot = lmp.last_thermo()["c_rot"]
     base = ["average", "--atoms", tmp_path / "atoms.dump", "--thickness", 1, "--slabs", "y",
-            "--range", -1, 21, "--bins", 1, "--quantities", "erot,spin_density",
+            "--bins", 1, "--quantities", "erot,spin_density",
             "--dt", 1, "--no-progress"]
     proc = run_cli(*base, "--out", tmp_path / "a.csv")
     assert proc.returncode == 0, proc.stderr

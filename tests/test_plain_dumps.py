@@ -89,15 +89,14 @@ def average(out, dest, *extra):
 
 @pytest.mark.parametrize("branch", ["contact", "paper"])
 def test_the_stress_trace_equals_lammps_virial(user_run, tmp_path, branch):
-    """sum_k V_k tr sigma_k over a grid covering every disk = LAMMPS' summed per-atom
-    virial of the same frame: directly with the contact-point branch vectors, and with
-    the known difference of Eq. 5's (our r_1 + r_2 against LAMMPS' centre distance:
-    overlap x f.n per contact) added."""
+    """sum_k V_k tr sigma_k over a grid spanning the periodic box (every disk, through
+    the images of those across its faces) = LAMMPS' summed per-atom virial of the same
+    frame: directly with the contact-point branch vectors, and with the known difference
+    of Eq. 5's (our r_1 + r_2 against LAMMPS' centre distance: overlap x f.n per contact)
+    added."""
     out, virial = user_run
-    g = 0.06
-    proc = average(out, tmp_path / "grid.csv", "--grid", 6, 6, "--x-range", -g, g,
-                   "--y-range", -g, g, "--t-min", 0.39, "--quantities", "nu,sigma",
-                   "--branch", branch)
+    proc = average(out, tmp_path / "grid.csv", "--grid", 6, 6, "--t-min", 0.39,
+                   "--quantities", "nu,sigma", "--branch", branch)
     assert proc.returncode == 0, proc.stderr
     p = read_profiles(tmp_path / "grid.csv")
     assert p.n_frames == 1                                   # the last frame only
@@ -163,8 +162,7 @@ def test_wall_types_leave_the_packing_and_scaled_coordinates_are_unscaled(user_r
     their contacts with type 1 stay as wall contacts of the disk. The same dump with
     scaled coordinates (xs, ys) gives the same numbers."""
     out, _ = user_run
-    g = 0.06
-    grid = ["--grid", 4, 4, "--x-range", -g, g, "--y-range", -g, g, "--t-min", 0.39]
+    grid = ["--grid", 4, 4, "--t-min", 0.39]
     proc = average(out, tmp_path / "w.csv", *grid, "--wall-types", 2,
                    "--quantities", "nu,coordination,sigma")
     assert proc.returncode == 0, proc.stderr

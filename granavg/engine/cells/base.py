@@ -28,6 +28,9 @@ from granavg.errors import ParameterError, UserError
 DEFAULT_BINS = 20
 #: Most cells accepted (a 60-ring profile is the paper's finest).
 MAX_CELLS = 100_000
+#: How far (a share of the period) cells may reach past a periodic box's faces and
+#: still be within it, and their edges still span it: the dumps' printed bounds.
+PERIOD_SLACK = 1e-9
 
 
 @dataclass(frozen=True)
@@ -66,12 +69,28 @@ class Space:
             return tuple(float(v) for v in given)
         return tuple(float(v) for v in self.box()["xyz".index(axis)])
 
-    def period(self, axis: str, given=None):
-        """The periodic span along ``axis`` where the cells span a periodic box along it
-        (the range not given and the box periodic there), else None."""
-        if given is not None or not self.periodic()["xyz".index(axis)]:
+    def period(self, axis: str, given=None, name=None):
+        """The periodic span along ``axis`` where the box is periodic along it, else
+        None: the particles' images across its faces then reach every cell and kernel
+        node near them, whether the cells span the box (``given`` None) or a range of it
+        (``given``, the option ``name``: refused if it reaches beyond the box, where
+        cells would repeat it). A tilted box's images are not pure shifts along one
+        axis: there only cells whose range comes from the box take them."""
+        if not self.periodic()["xyz".index(axis)]:
             return None
-        return self.span(axis)
+        if given is None:
+            return self.span(axis)
+        if self.tilted:
+            return None
+        lo, hi = self.span(axis)
+        g_lo, g_hi = (float(v) for v in given)
+        slack = PERIOD_SLACK * (hi - lo)
+        if g_lo < lo - slack or g_hi > hi + slack:
+            raise ParameterError(name or f"{axis}_range", f"{{param}} {g_lo:g} {g_hi:g}: "
+                                 f"the box is periodic along {axis} over {lo:g} {hi:g}, "
+                                 "and cells beyond it would repeat it; give a range "
+                                 "within the box")
+        return lo, hi
 
     def needs_ranges(self, what: str, **ranges) -> None:
         """In a tilted box, refuse cells whose ranges would come from it."""
@@ -452,10 +471,19 @@ class Imaged:
         return index[particle], cell, w
 
     def wraps(self, axis: str) -> bool:
-        """Whether the cells are periodic along ``axis`` (x, y or z)."""
+        """Whether the cells span the periodic box along ``axis`` (x, y or z), end to
+        end: their first cell then neighbours their last across its faces."""
         periods = getattr(self, "periods", None)
         k = "xyz".index(axis)
-        return bool(periods and k < len(periods) and periods[k] is not None)
+        if not (periods and k < len(periods) and periods[k] is not None):
+            return False
+        names, _, edges = self.grid()
+        if axis not in names:
+            return False
+        e = edges[names.index(axis)]
+        lo, hi = periods[k]
+        slack = PERIOD_SLACK * (hi - lo)
+        return abs(e[0] - lo) <= slack and abs(e[-1] - hi) <= slack
 
 
 def spans_of(periods):

@@ -31,14 +31,14 @@ class Boxes(Spheres, Imaged, Cells):
     @classmethod
     def from_options(cls, space: Space, *, grid=None, x_range=None, y_range=None,
                      z_range=None) -> "Boxes":
-        """``grid`` = (nx, ny, nz) boxes over the ranges (default the box; periodic
-        images where the box is periodic and the range is the box's)."""
+        """``grid`` = (nx, ny, nz) boxes over the ranges (default the box; the particles'
+        periodic images where the box is periodic, :meth:`Space.period`)."""
         shape = counts("grid", grid, 3, "NX NY NZ for a 3D dump")
         ranges = {"x": check_range("x_range", x_range), "y": check_range("y_range", y_range),
                   "z": check_range("z_range", z_range)}
         space.needs_ranges(cls.title, x_range=x_range, y_range=y_range, z_range=z_range)
         e = [np.linspace(*space.span(a, ranges[a]), n + 1) for a, n in zip("xyz", shape)]
-        periods = tuple(space.period(a, ranges[a]) for a in "xyz")
+        periods = tuple(space.period(a, ranges[a], f"{a}_range") for a in "xyz")
         return cls(*e, periods if any(periods) else None)
 
     @classmethod

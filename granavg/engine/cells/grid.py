@@ -33,14 +33,15 @@ class Grid(Disks, Imaged, Cells):
     def from_options(cls, space: Space, *, thickness=None, grid=None, x_range=None,
                      y_range=None) -> "Grid":
         """``grid`` = (nx, ny) rectangles over ``x_range`` and ``y_range`` (default the
-        box; periodic images where the box is periodic and the range is the box's)."""
+        box; the particles' periodic images where the box is periodic,
+        :meth:`Space.period`)."""
         h = disk_height(space, thickness)
         nx, ny = counts("grid", grid, 2, "NX NY for a 2D dump")
         check_range("x_range", x_range)
         check_range("y_range", y_range)
         space.needs_ranges(cls.title, x_range=x_range, y_range=y_range)
         xr, yr = space.span("x", x_range), space.span("y", y_range)
-        periods = (space.period("x", x_range), space.period("y", y_range))
+        periods = (space.period("x", x_range, "x_range"), space.period("y", y_range, "y_range"))
         return cls(np.linspace(*xr, nx + 1), np.linspace(*yr, ny + 1), h,
                    periods if any(periods) else None)
 

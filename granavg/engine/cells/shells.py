@@ -54,7 +54,7 @@ class Shells(Spheres, Imaged, Cells):
                                  f"{MAX_CELLS}")
         space.needs_ranges(cls.title, z_range=z_range)
         zedges = np.linspace(*space.span("z", z_range), (layers or 1) + 1)
-        period = space.period("z", z_range)
+        period = space.period("z", z_range, "z_range")
         return cls(radii, zedges, (0.0, 0.0) if center is None else tuple(center),
                    (None, None, period) if period else None)
 

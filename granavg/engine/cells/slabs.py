@@ -107,10 +107,12 @@ class Slabs(Disks, Imaged, AcrossAxis, Cells):
         length = length or (other[1] - other[0])
         # in a tilted box the slabs' segments along x would not follow the cell
         span = None if space.tilted else (other[0], other[0] + length)
-        periods = None
-        if range is None and edges is None and space.periodic()[k]:
-            periods = tuple(tuple(bx[k]) if j == k else None for j in (0, 1))
-        return cls(cuts(bins, edges, lo_hi), h, slabs, length, span, periods)
+        cells = cuts(bins, edges, lo_hi)
+        given = None if range is None and edges is None else (cells[0], cells[-1])
+        period = space.period(slabs, given, "range" if edges is None else "edges")
+        periods = None if period is None else tuple(period if j == k else None
+                                                     for j in (0, 1))
+        return cls(cells, h, slabs, length, span, periods)
 
     @classmethod
     def restore(cls, d: dict) -> "Slabs":

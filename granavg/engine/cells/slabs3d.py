@@ -64,7 +64,9 @@ class Slabs3D(Spheres, Imaged, AcrossAxis, Cells):
             others = [space.span(a) for a in "xyz" if a != slabs]
             area = (others[0][1] - others[0][0]) * (others[1][1] - others[1][0])
         positive("area", area)
-        periods = tuple(space.period(a, range) if a == slabs else None for a in "xyz")
+        given = None if range is None and edges is None else (cells[0], cells[-1])
+        periods = tuple(space.period(a, given, "range" if edges is None else "edges")
+                        if a == slabs else None for a in "xyz")
         span = None if space.tilted else tuple(space.span(_along(slabs)))
         return cls(cells, slabs, float(area), periods if any(periods) else None, span)
 
