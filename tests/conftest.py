@@ -51,3 +51,14 @@ def small_run(tmp_path_factory) -> Path:
     proc = run_cli(*small_cell_args(out))
     assert proc.returncode == 0, proc.stderr
     return out
+
+
+@pytest.fixture(scope="session")
+def pile3d_soft(tmp_path_factory) -> Path:
+    """tests/decks/pile_3d_si.lmp at rest with k_n = 20 N/m (overlaps of 1-3% of a
+    diameter near the floor), default %g dumps: one run per session."""
+    from .test_3d_dumps import run_deck
+
+    out = tmp_path_factory.mktemp("pile3d_soft")
+    run_deck(out, kn=20.0)
+    return out

@@ -31,12 +31,13 @@ SIDE, G = 0.016, 9.81
 PRINTED = 1e-4
 
 
-def run_deck(out, series="no", kn=100.0):
-    """The user's deck in-process; LAMMPS' summed pair virial (xx + yy + zz) of the last
-    dumped frame."""
+def run_deck(out, series="no", kn=100.0, heavy=1.0):
+    """The user's deck in-process (``heavy``: the odd ids' material that many times as
+    dense); LAMMPS' summed pair virial (xx + yy + zz) of the last dumped frame."""
     out.mkdir(parents=True, exist_ok=True)
     with lammps_session(["-log", str(out / "log.lammps"), "-var", "out", str(out),
-                         "-var", "series", series, "-var", "kn", str(kn)]) as lmp:
+                         "-var", "series", series, "-var", "kn", str(kn),
+                         "-var", "heavy", str(heavy)]) as lmp:
         lmp.file(str(DECK))
         last = lmp.last_thermo()
     return last["c_t[1]"] + last["c_t[2]"] + last["c_t[3]"]

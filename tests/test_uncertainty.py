@@ -98,7 +98,8 @@ def test_profile_errors_with_a_ring_empty_in_some_blocks():
     vol[::5, 1] = 0.0
     v = rng.standard_normal((n, 2))
     sums[:, :, INDEX["vol"]] = vol
-    sums[:, :, INDEX["mom_phi"]] = vol * v
+    sums[:, :, INDEX["mass"]] = 2.0 * vol
+    sums[:, :, INDEX["mom_phi"]] = 2.0 * vol * v
     sem, lower, reps = standard_errors(np.ones(n), sums, np.ones(2), 1000.0, ["v"], LAYOUT)
     finite = v[vol[:, 1] > 0, 1]
     naive = np.std(finite, ddof=1) / np.sqrt(len(finite))

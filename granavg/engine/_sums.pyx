@@ -41,8 +41,9 @@ def fill_particles(double[:, ::1] q, const double[::1] vol, const double[::1] ma
                    const double[:, ::1] v, const double[:, ::1] w, const double[:, ::1] b,
                    const double[:, :, ::1] E, bint moving, bint kinetic, bint spin,
                    bint body, const int64_t[::1] off):
-    """The particles' own channels in one pass: volume, mass, momentum, the kinetic
-    tensor m v (x) v, spin and body force, in the basis E (rows e_i), shape (P, D, D);
+    """The particles' own channels in one pass: volume, mass, momentum m v, the kinetic
+    tensor m v (x) v, the mass-weighted spin m omega and the body force, in the basis E
+    (rows e_i), shape (P, D, D);
     ``off`` the blocks' first channels (:attr:`~granavg.engine.channels.Layout.offsets`)."""
     cdef int D = E.shape[1], i, j
     cdef Py_ssize_t p
@@ -57,7 +58,7 @@ def fill_particles(double[:, ::1] q, const double[::1] vol, const double[::1] ma
                 _project(v, p, E, p, 1.0, D, vb)
                 if off[MOM] >= 0:                   # the kinetic tensor may come alone
                     for i in range(D):
-                        q[p, off[MOM] + i] = vol[p] * vb[i]
+                        q[p, off[MOM] + i] = mass[p] * vb[i]
                 if kinetic:
                     m = mass[p]
                     for i in range(D):
@@ -65,11 +66,11 @@ def fill_particles(double[:, ::1] q, const double[::1] vol, const double[::1] ma
                             q[p, off[KIN] + i * D + j] = m * vb[i] * vb[j]
             if spin:
                 if D == 2:                                    # omega_z, a scalar
-                    q[p, off[SPIN]] = vol[p] * w[p, 0]
+                    q[p, off[SPIN]] = mass[p] * w[p, 0]
                 else:
                     _project(w, p, E, p, 1.0, D, wb)
                     for i in range(D):
-                        q[p, off[SPIN] + i] = vol[p] * wb[i]
+                        q[p, off[SPIN] + i] = mass[p] * wb[i]
             if body:
                 _project(b, p, E, p, 1.0, D, bb)
                 for i in range(D):

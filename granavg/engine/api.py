@@ -30,6 +30,11 @@ from granavg.errors import ParameterError, UserError
 
 log = logging.getLogger(__name__)
 
+#: The sidecar's word on the means' weights when the data carry no masses.
+UNWEIGHED = ("no masses in the data (no mass column, no material density): velocity and "
+             "spin are weighted by the particles' volumes, their mass weights for one "
+             "material density")
+
 
 def average(frames, cells, *, progress: bool | None = False, **options) -> Profiles:
     """Time-averaged profiles of ``frames`` over ``cells`` (Eqs. 1-7):
@@ -165,7 +170,8 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         log.info("the masses come from the atoms' mass column; the material density "
                  "given is not used")
     massive = [g for g in groups if QUANTITIES[g].needs_mass]
-    if rho_p is None and not has_mass:
+    unweighed = rho_p is None and not has_mass
+    if unweighed:
         if quantities is not None and massive:
             raise ParameterError("rho_p", f"{massive[0]} needs masses: give the material "
                                  "density ({param}) or a mass column")
@@ -174,14 +180,18 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         block_time = head[1].time - head[0].time if len(head) == 2 else 1.0
         if not block_time > 0:
             raise UserError("frames must come in increasing time")
+    # without masses the mass-weighted means (velocity, spin) weigh by volume: one
+    # material, of a density that cancels (UNWEIGHED)
     avg = CellAverage(itertools.chain(head, it), cells, groups,
-                      rho_p if rho_p is not None else 0.0, t_min, block_time, branch=branch,
+                      rho_p if rho_p is not None else 1.0, t_min, block_time, branch=branch,
                       sectors=sectors)
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
                 "geometry": cells.describe(),
                 "frames": {"t_min_s": t_min, "block_time_s": block_time}}
     if lacking:
         avg.meta["left_out"] = {g: f"no {' '.join(c)} in the data" for g, c in lacking.items()}
+    if unweighed:
+        avg.meta["weights"] = UNWEIGHED
     zero = _taken_as_zero(groups, head[0], cells.dim)
     if zero:
         avg.meta["taken_as_zero"] = zero

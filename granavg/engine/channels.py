@@ -13,8 +13,8 @@ block      channels                    Q_p
 =========  ==========================  ==========================================
 vol        vol                         V^p (pi h a^2 for a disk, 4/3 pi a^3 a sphere)
 mass       mass                        m^p
-mom        mom_<i>                     V^p v_i
-spin       spin (2D) or spin_<i> (3D)  V^p omega (omega_z in 2D, the vector in 3D)
+mom        mom_<i>                     m^p v_i: the momentum
+spin       spin (2D) or spin_<i> (3D)  m^p omega (omega_z in 2D, the vector in 3D)
 ncontact   ncontact                    V^p C^p
 fab        fab_<ij>                    V^p sum_c n_i n_j
 sig        sig_<ij>                    sum_c f_i l_j
@@ -22,7 +22,7 @@ kin        kin_<ij>                    m^p v_i v_j
 def        def_<ij>                    (V^p / a_p^2) sum_c Delta_i l_j
 wall       wall_<i>                    the walls' forces (at the contact points)
 body       body_<i>                    b^p (gravity, base-plate friction, ...)
-dvol       dvol_<j>                    d_j of the vol sum (smoothing kernels only)
+dmass      dmass_<j>                   d_j of the mass sum (smoothing kernels only)
 dmom       dmom_<ij>                   d_j of the mom_i sum
 dsig       dsig_<i>                    sum_j d_j of the sig_ij sum
 dkin       dkin_<i>                    sum_j d_j of the kin_ij sum
@@ -137,10 +137,10 @@ BLOCK = {b.name: b for b in (
     Block("wall", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
     Block("body", "vector", ("{b}",)),
     # the derivatives a smoothing kernel gives (granavg.engine.smoothing): d_j of the
-    # volume and momentum sums, and the divergences d_j T_ij of the static and kinetic
+    # mass and momentum sums, and the divergences d_j T_ij of the static and kinetic
     # stress sums, along the cells' basis (partial derivatives: the curvature terms of a
     # polar basis are added with the values)
-    Block("dvol", "vector"),
+    Block("dmass", "vector"),
     Block("dmom", "tensor", ("{v}",)),
     Block("dsig", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
     Block("dkin", "vector", ("{v}",)),
@@ -167,7 +167,7 @@ BLOCK = {b.name: b for b in (
     Block("bpow", "scalar", ("{v}", "{b}")),
 )}
 #: Blocks only a smoothing kernel fills.
-DERIVATIVE_BLOCKS = ("dvol", "dmom", "dsig", "dkin", "rinv")
+DERIVATIVE_BLOCKS = ("dmass", "dmom", "dsig", "dkin", "rinv")
 #: The blocks in channel order.
 BLOCKS = tuple(BLOCK)
 #: Blocks that the particles' contacts fill in the contact pass (``wall`` is filled at

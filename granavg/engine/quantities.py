@@ -99,12 +99,19 @@ def _inverse_volume(S, layout):
     return np.where(vol > 0, 1.0 / vol, np.nan)
 
 
-def _per_volume_of_particles(block):
-    """Columns of a block over the particles' volume in the cell (v = <V^p v>/<V^p>)."""
+def _inverse_mass(S, layout):
+    mass = S[:, layout.index["mass"]]
+    return np.where(mass > 0, 1.0 / mass, np.nan)
+
+
+def _per_mass_of_particles(block):
+    """Columns of a block over the particles' mass in the cell: the mass-weighted means
+    (v = <m^p v> / <m^p>, so that rho v is the momentum density; Eq. 3's volume weights
+    for a single material density)."""
     def value(S, V, layout, name):
-        inv_vol = _inverse_volume(S, layout)
+        inv_mass = _inverse_mass(S, layout)
         part = layout.block(S, block)
-        return {n: part[:, k] * inv_vol for k, n in enumerate(columns(name, layout.axes))}
+        return {n: part[:, k] * inv_mass for k, n in enumerate(columns(name, layout.axes))}
     return value
 
 
@@ -127,15 +134,14 @@ def _coordination(S, V, layout, name):
 
 
 def _fluctuation(S, V, layout, name):
-    """(sum m v v - rho v v) / V: the kinetic stress about the cell's mean flow."""
-    inv_vol = _inverse_volume(S, layout)
-    mass = S[:, layout.index["mass"]]
+    """(sum m v v - rho v v) / V: the kinetic stress about the cell's mean flow (v
+    mass-weighted, so that sum m v v - m_cell v v is the fluctuations' own)."""
+    inv_mass = _inverse_mass(S, layout)
     mom, kin, D = layout.block(S, "mom"), layout.block(S, "kin"), layout.dim
     out = {}
     for k, n in enumerate(columns(name, layout.axes)):
         a, b = mom[:, k // D], mom[:, k % D]
-        mean_flow = mass * a * b * inv_vol * inv_vol        # rho v v
-        out[n] = (kin[:, k] - mean_flow) / V
+        out[n] = (kin[:, k] - a * b * inv_mass) / V          # rho v v = P P / M
     return out
 
 
@@ -196,14 +202,14 @@ def _curvature(S, layout):
 
 def _gradient(S, layout):
     """L_ij = d v_i / d x_j at each node, shape (n, D, D), from the kernel's derivatives:
-    v = P / N (P, N the momentum and volume sums), d_j v_i = (d_j P_i - v_i d_j N) / N,
+    v = P / M (P, M the momentum and mass sums), d_j v_i = (d_j P_i - v_i d_j M) / M,
     plus in a polar basis the curvature terms L_rphi -= v_phi / r, L_phiphi += v_r / r."""
     D = layout.dim
-    inv_vol = _inverse_volume(S, layout)
-    v = layout.block(S, "mom") * inv_vol[:, None]
+    inv_mass = _inverse_mass(S, layout)
+    v = layout.block(S, "mom") * inv_mass[:, None]
     dP = layout.block(S, "dmom").reshape(-1, D, D)
-    dN = layout.block(S, "dvol")
-    L = (dP - v[:, :, None] * dN[:, None, :]) * inv_vol[:, None, None]
+    dM = layout.block(S, "dmass")
+    L = (dP - v[:, :, None] * dM[:, None, :]) * inv_mass[:, None, None]
     rinv = _curvature(S, layout)
     if rinv is not None:
         L[:, 0, 1] -= v[:, 1] * rinv
@@ -255,15 +261,13 @@ def _divergence(block, div_block):
 def _granular_temperature(S, V, layout, name):
     """T = tr(sum m v v - m_cell v v) / (D m_cell): the kinetic energy of the velocity
     fluctuations about the cell's mean flow per mass and degree of freedom (v the
-    volume-weighted mean velocity of Eq. 3), m^2/s^2 in SI."""
+    mass-weighted mean velocity), m^2/s^2 in SI."""
     D = layout.dim
-    inv_vol = _inverse_volume(S, layout)
     mass = S[:, layout.index["mass"]]
     mom, kin = layout.block(S, "mom"), layout.block(S, "kin")
-    v = mom * inv_vol[:, None]
     trace = sum(kin[:, k * D + k] for k in range(D))
     with np.errstate(invalid="ignore", divide="ignore"):
-        return {name: (trace - mass * np.sum(v * v, axis=1)) / (D * mass)}
+        return {name: (trace - np.sum(mom * mom, axis=1) / mass) / (D * mass)}
 
 
 def _rotational_temperature(S, V, layout, name):
@@ -284,10 +288,10 @@ QUANTITIES = {q.name: q for q in (
              help="volume fraction, Eq. 2"),
     Quantity("rho", ("vol", "mass"), "scalar", _values(_ratio("mass", "rho"), "rho"),
              needs_mass=True, help="density"),
-    Quantity("v", ("vol", "mom"), "vector", _values(_per_volume_of_particles("mom"), "v"),
-             help="velocity, Eq. 3"),
-    Quantity("omega", ("vol", "spin"), "axial",
-             _values(_per_volume_of_particles("spin"), "omega"), help="spin"),
+    Quantity("v", ("vol", "mass", "mom"), "vector", _values(_per_mass_of_particles("mom"), "v"),
+             help="velocity (mass-weighted; Eq. 3 for one material)"),
+    Quantity("omega", ("vol", "mass", "spin"), "axial",
+             _values(_per_mass_of_particles("spin"), "omega"), help="spin (mass-weighted)"),
     Quantity("coordination", ("vol", "ncontact"), "scalar",
              _values(_coordination, "coordination"), help="contacts per particle"),
     Quantity("F", ("fab",), "tensor", _values(_per_cell_volume("fab"), "F"),
@@ -305,12 +309,12 @@ QUANTITIES = {q.name: q for q in (
              balanced=_all_components, help="force density of the walls"),
     Quantity("body", ("body",), "vector", _values(_per_cell_volume("body"), "body"),
              help="body force density: gravity, base-plate friction, a force column"),
-    Quantity("gradv", ("vol", "mom", "dvol", "dmom", "rinv"), "tensor",
+    Quantity("gradv", ("vol", "mass", "mom", "dmass", "dmom", "rinv"), "tensor",
              _values(_gradv, "gradv"), smooth=True,
              help="velocity gradient d v_i / d x_j (smoothing kernels only)"),
-    Quantity("D", ("vol", "mom", "dvol", "dmom", "rinv"), "tensor", _values(_rate, "D"),
+    Quantity("D", ("vol", "mass", "mom", "dmass", "dmom", "rinv"), "tensor", _values(_rate, "D"),
              smooth=True, help="deformation rate, Eq. 13 (smoothing kernels only)"),
-    Quantity("W", ("vol", "mom", "dvol", "dmom", "rinv"), "tensor",
+    Quantity("W", ("vol", "mass", "mom", "dmass", "dmom", "rinv"), "tensor",
              _values(_spin_rate, "W"), smooth=True,
              help="rotation rate, Eq. 14 (smoothing kernels only)"),
     Quantity("divsigma", ("vol", "sig", "dsig", "rinv"), "vector",

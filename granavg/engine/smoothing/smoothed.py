@@ -10,7 +10,7 @@ circle of a ring) the fields at it: a particle's weight in node k is
 phi_k the kernel at the node (:mod:`granavg.engine.smoothing.nodes`), depth the disks'
 height in 2D (1 in 3D), so that the engine's sum over the particles, divided by V_k as
 for cells, is the field: nu(x_k) = sum_p V^p phi_k(x_p) / depth, rho = sum_p m_p phi_k,
-v = <V^p v> / <V^p>, and every other quantity alike. The static stress spreads each
+v = <m^p v> / <m^p>, and every other quantity alike. The static stress spreads each
 contact's force along its branch vectors, centre -> contact point for each particle of
 the contact (the contact point the middle of the overlap, as the exact weights' branch;
 Weinhart, Thornton, Luding and Bokhove 2012): sigma(x) = sum_contacts f (x) l

@@ -143,14 +143,14 @@ def smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout):
     terms = _Terms(layout, cells.moments > 1)
     particle_blocks = [b for b in blocks if b not in ("sig", "wall", *DERIVATIVE_BLOCKS)]
     plain = terms.channels(particle_blocks)
-    deriv = bool({"dvol", "dmom", "dkin", "dsig"} & want)
+    deriv = bool({"dmass", "dmom", "dkin", "dsig"} & want)
     col = layout.first
     # the derivative blocks, along each basis direction j: (terms, which W to use)
     along = []
     for j in range(D if deriv else 0):
         parts = []
-        if "dvol" in want:
-            parts.append(terms.into("scalar", lambda o, j=j: col("dvol") + j, col("vol")))
+        if "dmass" in want:
+            parts.append(terms.into("scalar", lambda o, j=j: col("dmass") + j, col("mass")))
         if "dmom" in want:
             parts.append(terms.into("vector", lambda o, j=j: col("dmom") + o * D + j,
                                     col("mom")))
