@@ -40,12 +40,13 @@ def local_contacts(lmp, lammps) -> np.ndarray:
     force of a rolling-resistance law (:data:`~granavg.io.contacts.RAW_ROLLING`); each
     pair is on one rank."""
     loc, arr = lammps.LMP_STYLE_LOCAL, lammps.LMP_TYPE_ARRAY
+    width = 4 + lmp.extract_compute("cpair", loc, lammps.LMP_SIZE_COLS)
     prop = lmp.numpy.extract_compute("cprop", loc, arr)
     pair = lmp.numpy.extract_compute("cpair", loc, arr)
-    if prop is None or pair is None:
-        return np.empty((0, len(RAW_COLUMNS)))
+    if prop is None or pair is None or not np.size(prop):      # no contact on this rank
+        return np.empty((0, width))
     prop = np.asarray(prop).reshape(-1, 4)
-    return np.hstack([prop, np.asarray(pair).reshape(len(prop), -1)])
+    return np.hstack([prop, np.asarray(pair).reshape(len(prop), width - 4)])
 
 
 def gather(comm, rows: np.ndarray):
