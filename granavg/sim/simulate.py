@@ -28,7 +28,7 @@ from pathlib import Path
 from granavg import __version__
 from granavg.engine.quantities import QUANTITIES, groups_for
 from granavg.errors import LammpsError, ParameterError, UserError, literal
-from granavg.sim.lammps_session import lammps_version
+from granavg.sim.lammps_session import lammps_version, threads_that_fit
 from granavg.sim.run_layout import ATOMS, CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext
 from granavg.sim.embedded import run_embedded
 from granavg.sim.mpi import run_mpi, run_mpi_python
@@ -255,7 +255,7 @@ def resume(out, *, np_ranks: int | None = None, omp_threads: int | None = None,
     if np_ranks is not None:
         manifest["execution"]["np"] = np_ranks
     if omp_threads is not None:
-        manifest["execution"]["omp"] = omp_threads
+        manifest["execution"].update({"omp": omp_threads, "omp_asked": omp_threads})
     return _execute(out, derived, manifest, resume_from=restart_path, progress=progress)
 
 
@@ -264,6 +264,10 @@ def _execute(out, derived, manifest, resume_from, progress, insitu=None):
     write_manifest(out, manifest)
     ex = manifest["execution"]
     start = manifest.get("start")
+    threads, why = threads_that_fit(ex.get("omp_asked", ex["omp"]), ex["np"])
+    if why:
+        log.warning(why)
+    ex.update({"omp_asked": ex.get("omp_asked", ex["omp"]), "omp": threads})
     if ex.get("engine") != "reference":
         variables = deck_variables(out, derived, embedded=ex["np"] == 1 or bool(
             manifest.get("average")), resume=resume_from, start=start)

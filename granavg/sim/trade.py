@@ -183,6 +183,7 @@ def expectation(derived, *, prepared: bool, np_ranks: int = 1, omp_threads: int 
     cls, why = accuracy_class(s.to_dict(), tables)
     return {"wall_time_s": seconds, "accuracy_class": cls, "accuracy_reason": why,
             "parallel": np_ranks * omp_threads > 1,
+            "assumes": f"{tables[0]['machine']}, no other job running",
             "what": f"forecast from {tables[0]['measured']} ({tables[0]['machine']}); wall "
                     "time of one single-threaded LAMMPS process, within about "
                     f"{100 * max(t['time_spread'] for t in tables):.0f}% there"}
@@ -195,5 +196,8 @@ def describe(forecast: dict) -> str:
     t = forecast["wall_time_s"]
     when = f"{t / 60:.1f} min" if t >= 60 else f"{t:.0f} s"
     more = " (more processes: less; the study timed one)" if forecast["parallel"] else ""
-    return (f"expected wall time {when} on the study's machine{more}; expected accuracy: "
+    assumes = forecast.get("assumes", "")
+    return (f"expected wall time {when} on the study's machine{more}"
+            + (f" ({assumes}; other jobs on the cores: longer)" if assumes else "")
+            + "; expected accuracy: "
             f"{forecast['accuracy_class']} - {forecast['accuracy_reason']}")
