@@ -8,7 +8,10 @@ import pandas as pd
 import pytest
 
 from granavg.analysis.claims import analyze
-from granavg.analysis.figures import FIGURES, fig2, fig4
+from matplotlib.container import ErrorbarContainer
+
+from granavg.analysis.figures import FIGURES, fig2, fig4, fig6
+from granavg.analysis.rounding import pm
 from granavg.io.profiles_io import read_profiles
 
 from .conftest import run_cli
@@ -39,36 +42,72 @@ def test_every_figure_is_a_valid_image_in_png_and_pdf(report):
         assert (report / "figures" / f"{name}.pdf").read_bytes().startswith(b"%PDF")
 
 
+def series(ax):
+    """The labelled series of an axes: label -> (x, y, half heights of the error bars or
+    None), of lines and of error bars alike."""
+    out = {}
+    for c in ax.containers:
+        if isinstance(c, ErrorbarContainer):
+            line, _, bars = c.lines
+            err = None
+            if c.has_yerr and bars:
+                seg = bars[0].get_segments()
+                err = np.array([0.5 * abs(s[1][1] - s[0][1]) if len(s) == 2 else np.nan
+                                for s in seg])
+            out[c.get_label()] = (line.get_xdata(), line.get_ydata(), err)
+    for ln in ax.get_lines():
+        if not ln.get_label().startswith("_"):
+            out.setdefault(ln.get_label(), (ln.get_xdata(), ln.get_ydata(), None))
+    return out
+
+
 def test_the_axes_hold_the_plotted_profiles(profiles):
+    """Figs. 2, 4 and 6 draw the profiles with their errors: a value's bar is its
+    standard error (the replicates' for the derived orientations)."""
     p8, p16 = (read_profiles(p) for p in profiles)
     summary = analyze(p8, p16, p8.meta["run_manifest"])
     ax = fig2(p8, p16, summary)
-    nu_lines = [ln for ln in ax[0].get_lines() if "nu (8 rings)" in ln.get_label()]
-    assert len(nu_lines) == 1
-    assert np.allclose(nu_lines[0].get_xdata(), p8.cells.centre)
-    assert np.allclose(nu_lines[0].get_ydata(), p8.values["nu"])
+    x, y, err = series(ax[0])["nu (8 rings)"]
+    assert np.allclose(x, p8.cells.centre) and np.allclose(y, p8.values["nu"])
+    assert np.allclose(err, p8.sem["nu"])
+    _, _, err = series(ax[1])["v_phi/(Omega r) (16 rings)"]
+    omega = p16.meta["run_manifest"]["scene"]["Omega"]
+    assert np.allclose(err, p16.sem["v_phi"] / (omega * p16.cells.centre))
     # 3 s of shear leave v_phi beyond the first layer within 2 errors of 0: no band fit
     assert not np.isfinite(summary["numbers"]["shear_band"]["s_m"])
     fit = [ln for ln in ax[1].get_lines() if ln.get_label().startswith("fit")]
     assert not fit and ax[1].get_yscale() == "log" and "Omega" in ax[1].get_ylabel()
     ax4 = fig4(p8, p16, summary)
-    labels = [ln.get_label() for ln in ax4[0].get_lines()]
-    assert "sigma_rphi (16 rings)" in labels
-    line = next(ln for ln in ax4[0].get_lines() if ln.get_label() == "sigma_rphi (16 rings)")
-    assert np.allclose(line.get_ydata(), p16.values["sigma_rphi"])
+    _, y, err = series(ax4[0])["sigma_rphi (16 rings)"]
+    assert np.allclose(y, p16.values["sigma_rphi"])
+    assert np.allclose(err, p16.sem["sigma_rphi"])
     assert "(Pa)" in ax4[0].get_ylabel()
+    legend = ax4[0].get_legend().get_window_extent()       # under the axes, off the data
+    assert legend.y1 <= ax4[0].get_window_extent().y0
+    ax6 = fig6(p8, p16, summary)
+    _, _, err = series(ax6[0])["phi_sigma (8 rings)"]
+    assert err is not None and np.all(np.isfinite(err)) and np.all(err > 0)
+    assert np.allclose(err, summary["series"]["errors_8"]["orientation_sigma"])
 
 
 def test_report_and_summary_hold_the_headline_numbers(report):
     summary = json.loads((report / "summary.json").read_text())
     html = (report / "report.html").read_text()
     sb = summary["numbers"]["shear_band"]
-    assert f"{sb['v0_over_omega_Ri']:.4g}" in html and f"{sb['s_m']:.4g}" in html
-    assert "0.645" in html and "0.0127" in html                  # the paper's values beside
+    # values rounded to their errors, the band's length in mm everywhere
+    for key, f in (("v0_over_omega_Ri", 1.0), ("s_m", 1e3)):
+        shown = pm(f * sb[key], f * sb[f"{key}_err"]).replace(" +- ", " &plusmn; ")
+        assert shown in html, shown
+    assert "<td>mm</td>" in html and "<td>m</td>" not in html
+    assert "0.645" in html and "<td>12.7</td>" in html           # the paper's values beside
     assert len(summary["claims"]) == 14
     text = html.replace("&#x27;", "'")
     for claim in summary["claims"]:
         assert claim["claim"] in text and claim["evidence"] in text
+        assert claim["tolerance"] and f"<td>{claim['tolerance']}</td>" in text
+    run_table = html.split("<h2>Run</h2>")[1].split("</table>")[0]
+    entries = [c.split("</td>")[0] for c in run_table.split("<td>")[1:]]
+    assert max(len(c.split(" <sup>")[0]) for c in entries) <= 70, entries
     assert html.count("data:image/png;base64,") == len(FIGURES) + 1   # + Fig. 1; self-contained
     assert "src='http" not in html and 'src="http' not in html
     # the run table as a person writes it; no path of this machine in the summary
@@ -175,3 +214,39 @@ def test_a_shipped_packings_description_names_no_path_of_the_machine_that_made_i
     text = packings.describe("rolling-coulomb-sheared", 20011)
     assert "sheared 150 s" in text and "workflows/sheared_packings.py OUT" in text
     assert not [w for w in text.split() if w.startswith("/")], text
+
+
+def test_the_report_of_anyones_dumps_labels_every_axis_with_its_unit(pile3d_soft, tmp_path):
+    """``analyze`` of slab profiles of a user's 3D pile (no run manifest): every axis
+    names its quantity and unit, each panel holds one unit (no power beside the force
+    densities), and no two series of a panel look alike."""
+    from granavg.analysis.fields import balance_panel, profile_panels
+    from granavg.analysis.balance import balance
+
+    out = tmp_path / "s.csv"
+    cmap = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
+            "force=c_pl[5],ftx=c_pl[6],fty=c_pl[7],ftz=c_pl[8]")
+    proc = run_cli("average", "--atoms", pile3d_soft / "atoms.dump", "--contacts",
+                   pile3d_soft / "contacts.dump", "--contact-columns", cmap, "--slabs", "z",
+                   "--range", 0, 0.024, "--bins", 12, "--gravity", 0, 0, -9.81, "--out", out,
+                   "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    p = read_profiles(out)
+    units = p.meta["columns"]
+    axes = [*profile_panels(p), balance_panel(p, balance(p, closed=False))]
+    for ax in axes:
+        assert ax.get_xlabel() == "z (m)", ax.get_xlabel()
+        assert ax.get_ylabel().endswith(")") and "(" in ax.get_ylabel(), ax.get_ylabel()
+        drawn = series(ax)
+        labels = [k for k in drawn if k in units]
+        assert len({units[k] for k in labels}) <= 1, labels          # one unit a panel
+        looks = [(tuple(c.lines[0].get_color()) if not isinstance(c.lines[0].get_color(), str)
+                  else c.lines[0].get_color(), c.lines[0].get_marker())
+                 for c in ax.containers if isinstance(c, ErrorbarContainer)]
+        assert len(looks) == len(set(looks)), ax.get_title()
+    stress = next(a for a in axes if a.get_title() == "static stress")
+    assert len(series(stress)) == 9 and stress.get_ylabel() == "static stress (Pa)"
+    forces = next(a for a in axes if a.get_title() == "force densities")
+    assert "body_power" not in series(forces) and forces.get_ylabel().endswith("(N/m^3)")
+    proc = run_cli("analyze", out, "--out", tmp_path / "report")
+    assert proc.returncode == 0, proc.stderr

@@ -31,6 +31,7 @@ import numpy as np
 from granavg.analysis import continuum as c
 from granavg.analysis import shear_band as sb_fit
 from granavg.analysis.balance import FORCE_DENSITIES, residuals, stress_scale
+from granavg.analysis.rounding import plain, pm
 from granavg.analysis.spin_balance import (ARMS, has_couples, moment_density, spin_balance,
                                            spin_residuals)
 from granavg.engine.kernels import BRANCHES
@@ -95,9 +96,11 @@ def warn_if_inertial(p) -> float | None:
         return None
     ratio = float(np.nanmax(dynamic_over_static(p)))
     if ratio > QUASI_STATIC_LIMIT:
-        log.warning("dynamic stress reaches %.2f of the static stress (above %.2f): the flow "
-                    "is inertial, outside the quasi-static regime the paper describes; lower "
-                    "Omega or stiffen k_n", ratio, QUASI_STATIC_LIMIT)
+        what = "reaches %.2f of the static stress (above %.2f)" % (ratio, QUASI_STATIC_LIMIT) \
+            if np.isfinite(ratio) else "is not zero where the static stress is (cells " \
+            "without contacts)"
+        log.warning("dynamic stress %s: the flow is inertial, outside the quasi-static "
+                    "regime the paper describes; lower Omega or stiffen k_n", what)
     return ratio
 
 
@@ -217,9 +220,22 @@ def _both(*verdicts):
     return "inconclusive"
 
 
-def _claim(text, result, evidence, kind="claim"):
+def _claim(text, result, evidence, kind="claim", tolerance="", deviations=()):
+    """One claim's entry. ``tolerance``: what decides it beyond the errors, shown beside
+    the verdict. ``deviations``: (label, value, error, reference) of the numbers a
+    tolerance lets pass; a claim that holds while one of them lies more than Z errors
+    from its reference says so in its ``note`` ("within its tolerance (0.3 on each
+    exponent, + 2 errors): sigma_rr 21 errors from 0"), never a plain "reproduced"."""
+    note = ""
+    if result in ("reproduced", "holds"):
+        far = [(label, abs(v - ref) / e, ref) for label, v, e, ref in deviations
+               if np.isfinite(v) and np.isfinite(e) and e > 0 and abs(v - ref) > Z * e]
+        if far:
+            note = f"within its tolerance ({tolerance}): " + ", ".join(
+                f"{label} {n:.0f} errors from {ref:g}" for label, n, ref in far)
     return {"claim": text, "kind": kind, "verdict": result,
-            "reproduced": result in ("reproduced", "holds"), "evidence": evidence}
+            "reproduced": result in ("reproduced", "holds"), "tolerance": tolerance,
+            "note": note, "evidence": evidence}
 
 
 def analyze(p20, p60, manifest, density_series=()) -> dict:
@@ -261,17 +277,19 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         _both(verdict(d["dilation_inner"], d["dilation_inner_err"], 0.0),
               verdict(d["dilation_outer"], d["dilation_outer_err"], 0.0)),
         f"nu_bulk - nu between 1 and 3 mean diameters from the wall (the first layer, where "
-        f"excluded volume alone lowers nu, left out): inner {d['dilation_inner']:.4f} +- "
-        f"{d['dilation_inner_err']:.4f}, outer {d['dilation_outer']:.4f} +- "
-        f"{d['dilation_outer_err']:.4f} ({p60.cells.n} rings)"))
+        f"excluded volume alone lowers nu, left out): inner "
+        f"{pm(d['dilation_inner'], d['dilation_inner_err'])}, outer "
+        f"{pm(d['dilation_outer'], d['dilation_outer_err'])} ({p60.cells.n} rings)",
+        tolerance=f"both above 0 by {Z:g} errors"))
     claims.append(_claim(
         "layering at the walls, none in the bulk",
         _both(verdict(d["layering_excess"], d["layering_excess_err"], 0.0),
               verdict(d["layering_walls"], 0.0, 2 * d["layering_bulk"])),
         f"rms of nu about a straight line between 1 and 3 mean diameters from a wall: "
-        f"{d['layering_walls']:.4f}, in a bulk window as wide: {d['layering_bulk']:.4f}; "
-        f"excess {d['layering_excess']:.4f} +- {d['layering_excess_err']:.4f} (reproduced if "
-        f"the excess is significant and the walls' rms is over twice the bulk's)"))
+        f"{plain(d['layering_walls'])}, in a bulk window as wide: "
+        f"{plain(d['layering_bulk'])}; excess "
+        f"{pm(d['layering_excess'], d['layering_excess_err'])}",
+        tolerance=f"excess above 0 by {Z:g} errors, the walls' rms over twice the bulk's"))
 
     # Fig. 3: fabric anisotropy, in the norm |dev F| = (F_1 - F_2)/2
     num["fabric"] = est(lambda a, b: _fabric_numbers(a))
@@ -279,11 +297,12 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
     claims.append(_claim(
         "anisotropy |dev F|/tr F below 20%",
         verdict(fab["anisotropy_max"], fab["anisotropy_max_err"], ANISOTROPY_LIMIT, above=False),
-        f"largest over {p20.cells.n} rings: {fab['anisotropy_max']:.3f} +- "
-        f"{fab['anisotropy_max_err']:.3f} with |dev F| = (F_1 - F_2)/2, half the eigenvalue "
-        f"difference (the paper does not define its norm; as Frobenius norm "
-        f"{fab['anisotropy_max'] * np.sqrt(2):.3f}, as full difference "
-        f"{2 * fab['anisotropy_max']:.3f})"))
+        f"largest over {p20.cells.n} rings: "
+        f"{pm(fab['anisotropy_max'], fab['anisotropy_max_err'])} with |dev F| = "
+        f"(F_1 - F_2)/2, half the eigenvalue difference (the paper does not define its "
+        f"norm; as Frobenius norm {plain(fab['anisotropy_max'] * np.sqrt(2))}, as full "
+        f"difference {plain(2 * fab['anisotropy_max'])})",
+        tolerance=f"below {ANISOTROPY_LIMIT:g} by {Z:g} errors"))
 
     # Fig. 4, Eq. 10: stress exponents in the bulk (unweighted; errors from replicates)
     num["stress_exponents"] = {k: v for comp in TENSOR for k, v in est(
@@ -299,8 +318,11 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
             parts.append("reproduced" if off <= EXPONENT_TOLERANCE + Z * err else "not reproduced")
     claims.append(_claim(
         "sigma_rr, sigma_phiphi ~ r^0 and sigma_rphi, sigma_phir ~ r^-2 (Eq. 10)", _both(*parts),
-        ", ".join(f"{k}: {ex[f'sigma_{k}']:.2f} +- {ex[f'sigma_{k}_err']:.2f}" for k in TENSOR)
-        + f" (each within {EXPONENT_TOLERANCE} + {Z:g} errors of 0 or -2)"))
+        ", ".join(f"{k}: {pm(ex[f'sigma_{k}'], ex[f'sigma_{k}_err'])}" for k in TENSOR)
+        + " (the paper: 0, 0, -2, -2)",
+        tolerance=f"{EXPONENT_TOLERANCE:g} on each exponent, + {Z:g} errors",
+        deviations=[(f"sigma_{k}", ex[f"sigma_{k}"], ex[f"sigma_{k}_err"],
+                     PAPER[f"exp_sigma_{k}"]) for k in TENSOR]))
     num["quasi_static"] = est(lambda a, b: {
         "dynamic_over_static_max": float(np.nanmax(dynamic_over_static(a)))})
     q = num["quasi_static"]
@@ -308,8 +330,9 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         "quasi-static: dynamic stress much smaller than static",
         verdict(q["dynamic_over_static_max"], q["dynamic_over_static_max_err"],
                 QUASI_STATIC_LIMIT, above=False),
-        f"largest |d sigma| / |sigma| = {q['dynamic_over_static_max']:.2e} +- "
-        f"{q['dynamic_over_static_max_err']:.1e} (reproduced below {QUASI_STATIC_LIMIT})"))
+        f"largest |d sigma| / |sigma| = "
+        f"{pm(q['dynamic_over_static_max'], q['dynamic_over_static_max_err'])}",
+        tolerance=f"below {QUASI_STATIC_LIMIT:g} by {Z:g} errors"))
 
     # Fig. 5: stiffness against tr F; for linear springs an identity, checked as such
     num["stiffness"] = est(lambda a, b: _stiffness_numbers(a, b, geo))
@@ -323,12 +346,14 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         "bulk stiffness = tr F / (2 pi h), the linear-spring identity",
         "holds" if abs(dev) <= IDENTITY_TOLERANCE + Z * st["identity_deviation_err"]
         else "violated",
-        f"slope {st['bulk_slope_per_m']:.2f} +- {st['bulk_slope_per_m_err']:.2f} 1/m against "
-        f"1/(2 pi h) = {geo.identity_slope:.2f} 1/m: deviation {100 * dev:.1f} +- "
-        f"{100 * st['identity_deviation_err']:.1f}% (damping, tangential forces and fabric "
-        "anisotropy make it; an identity of the averaging, not a finding of the paper; the "
-        "paper's collapse of several simulations is Fig. 5 of a density series)",
-        kind="identity check"))
+        f"slope {pm(st['bulk_slope_per_m'], st['bulk_slope_per_m_err'], '1/m')} against "
+        f"1/(2 pi h) = {plain(geo.identity_slope, 4)} 1/m: deviation "
+        f"{pm(100 * dev, 100 * st['identity_deviation_err'], '%')} (damping, tangential "
+        "forces and fabric anisotropy make it; an identity of the averaging, not a finding "
+        "of the paper; the paper's collapse of several simulations is Fig. 5 of a density "
+        "series)", kind="identity check",
+        tolerance=f"{IDENTITY_TOLERANCE:.0%}, + {Z:g} errors",
+        deviations=[("the deviation", dev, st["identity_deviation_err"], 0.0)]))
 
     if density_series:
         collapse = master_curve([p20, *density_series], geo)
@@ -336,7 +361,10 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         num["master_curve"] = collapse
         claims.append(_claim(
             "bulk stiffness of different simulations on one master curve (Fig. 5)",
-            collapse["verdict"], collapse["evidence"]))
+            collapse["verdict"], collapse["evidence"],
+            tolerance=f"{COLLAPSE_TOLERANCE:.0%} on each run's offset, + {Z:g} errors",
+            deviations=[(f"area fraction {f:.4f}", o, e, 0.0) for f, o, e in zip(
+                collapse["area_fractions"], collapse["offsets"], collapse["offset_errors"])]))
 
     # Fig. 6: orientations, not co-linear in the band
     for p in (p20, p60):
@@ -352,9 +380,9 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         "reproduced" if significant else ("not reproduced" if colinear else "inconclusive"),
         "mean angle between major axes over the band (" + str(max(band_end, 2)) +
         f" of {p60.cells.n} rings): " + ", ".join(
-            f"{k.replace('band_mean_angle_', '')} {o[k]:.1f} +- {o[k + '_err']:.1f} deg"
-            for k in pairs) + f" (reproduced if one exceeds {COLINEAR_DEG:g} deg and "
-        f"{Z:g} errors)"))
+            f"{k.replace('band_mean_angle_', '').replace('_', ' to ')} "
+            f"{pm(o[k], o[k + '_err'], 'deg')}" for k in pairs),
+        tolerance=f"one angle above {COLINEAR_DEG:g} deg and {Z:g} errors"))
 
     # Fig. 7: equations of motion, static alone and the total sigma - dsigma
     for p in (p20, p60):
@@ -366,15 +394,17 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         verdict(eo["bulk_median_residual"], eo["bulk_median_residual_err"], EOM_LIMIT,
                 above=False),
         f"median |residual of div(sigma - dsigma)| / mean |sigma_rr| in the bulk = "
-        f"{eo['bulk_median_residual']:.3f} +- {eo['bulk_median_residual_err']:.3f} "
-        f"({p20.cells.n} rings; reproduced below {EOM_LIMIT}). Each ring's net force over "
-        f"its face's with the body and boundary force densities, walls closed: median "
-        f"{eo['balance_bulk_median_residual']:.2g} +- "
-        f"{eo['balance_bulk_median_residual_err']:.1g} in the bulk, at most "
-        f"{eo['balance_max_residual']:.2g} +- {eo['balance_max_residual_err']:.1g} in any "
-        f"ring, wall rings {eo['balance_wall_residual_max']:.2g} +- "
-        f"{eo['balance_wall_residual_max_err']:.1g} ({eo['balance_wall_residual_max_without_forces']:.2f}"
-        " without the force densities)"))
+        f"{pm(eo['bulk_median_residual'], eo['bulk_median_residual_err'])} "
+        f"({p20.cells.n} rings). Each ring's net force over its face's with the body and "
+        f"boundary force densities, walls closed: median "
+        f"{pm(eo['balance_bulk_median_residual'], eo['balance_bulk_median_residual_err'])} "
+        f"in the bulk, at most "
+        f"{pm(eo['balance_max_residual'], eo['balance_max_residual_err'])} in any ring, "
+        f"wall rings "
+        f"{pm(eo['balance_wall_residual_max'], eo['balance_wall_residual_max_err'])} "
+        f"({plain(eo['balance_wall_residual_max_without_forces'])} without the force "
+        "densities)",
+        tolerance=f"bulk median below {EOM_LIMIT:g} of the stress scale by {Z:g} errors"))
 
     # the spins' balance (micropolar): the forces' moments, the couples passed and the
     # spins' flux, with the law's own lever arm (pair granular with rolling resistance:
@@ -393,12 +423,14 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
             f"moment density left unbalanced by the forces' moments (lever arm to the "
             f"{'contact point' if arm == 'contact' else 'surface'}), the couples the "
             f"contacts pass and the spins' flux, over the stress scale ({p20.cells.n} "
-            f"rings, walls included): at most {sp['max_residual']:.2g} +- "
-            f"{sp['max_residual_err']:.1g}, bulk median {sp['bulk_median_residual']:.2g} +- "
-            f"{sp['bulk_median_residual_err']:.1g} (closes below {SPIN_LIMIT:g} and "
-            f"{SPIN_BULK_LIMIT:g}); the forces' moments alone reach {sp['tau_max']:.2g}. "
-            f"With the couple stress field's divergence instead of the couples passed: at "
-            f"most {sp['field_max_residual']:.2g} +- {sp['field_max_residual_err']:.1g}"))
+            f"rings, walls included): at most {pm(sp['max_residual'], sp['max_residual_err'])}"
+            f", bulk median "
+            f"{pm(sp['bulk_median_residual'], sp['bulk_median_residual_err'])}; the forces' "
+            f"moments alone reach {plain(sp['tau_max'], 2)}. With the couple stress field's "
+            f"divergence instead of the couples passed: at most "
+            f"{pm(sp['field_max_residual'], sp['field_max_residual_err'])}",
+            tolerance=f"below {SPIN_LIMIT:g} in every ring and {SPIN_BULK_LIMIT:g} as the "
+                      f"bulk's median, by {Z:g} errors"))
 
     # the power balance: what the inner wall delivers (-Omega <T_in>) is dissipated by the
     # contacts, at the walls and by the base plate, the packing's kinetic energy steady
@@ -414,22 +446,25 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
                            P_err, pw["inner_wall_delivered_W_err"])),
                        "closure": pw["kinetic_energy_rate_W"] / P,
                        "closure_err": pw["kinetic_energy_rate_W_err"] / abs(P)})
-            plate = (f", the base plate {pw['plate_dissipation_W']:.4g} +- "
-                     f"{pw['plate_dissipation_W_err']:.2g} W" if "body_power" in p20.values
-                     else " (no base plate)")
+            plate = (f", the base plate "
+                     f"{pm(pw['plate_dissipation_W'], pw['plate_dissipation_W_err'], 'W')}"
+                     if "body_power" in p20.values else " (no base plate)")
             claims.append(_claim(
                 "the inner wall's power is dissipated",
                 _closes(pw["closure"], pw["closure_err"], POWER_LIMIT),
-                f"inner wall -Omega T_in (window mean) = {P:.4g} +- {P_err:.2g} W; "
-                f"dissipated by the disks' contacts {pw['contact_dissipation_W']:.4g} +- "
-                f"{pw['contact_dissipation_W_err']:.2g} W, the inner wall's contacts "
-                f"{pw['inner_wall_contacts_dissipation_W']:.4g} +- "
-                f"{pw['inner_wall_contacts_dissipation_W_err']:.2g} W, the outer wall's "
-                f"{-pw['outer_wall_delivered_W']:.4g} +- "
-                f"{pw['outer_wall_delivered_W_err']:.2g} W{plate}: unbalanced "
-                f"{pw['closure']:.3g} +- {pw['closure_err']:.2g} of the wall's power (closes "
-                f"within {POWER_LIMIT:g} or {Z:g} errors; what is left is the rate of the "
-                "kinetic and elastic energy, nil in a steady state)"))
+                f"inner wall -Omega T_in (window mean) = {pm(P, P_err, 'W')}; dissipated by "
+                f"the disks' contacts "
+                f"{pm(pw['contact_dissipation_W'], pw['contact_dissipation_W_err'], 'W')}, "
+                f"the inner wall's contacts "
+                f"{pm(pw['inner_wall_contacts_dissipation_W'], pw['inner_wall_contacts_dissipation_W_err'], 'W')}"
+                f", the outer wall's "
+                f"{pm(-pw['outer_wall_delivered_W'], pw['outer_wall_delivered_W_err'], 'W')}"
+                f"{plate}: unbalanced {pm(pw['closure'], pw['closure_err'])} of the wall's "
+                "power (what is left is the rate of the kinetic and elastic energy, nil in a "
+                "steady state)",
+                tolerance=f"{POWER_LIMIT:.0%} of the wall's power, or {Z:g} errors",
+                deviations=[("the unbalanced share", pw["closure"], pw["closure_err"],
+                             0.0)]))
         num["power_balance"] = pw
 
     # the shear cell's torque (what the experiments measure), and its balance with the
@@ -461,9 +496,12 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         rot = "inconclusive"
     claims.append(_claim(
         "eigen-rotation alternates over the two innermost layers", rot,
-        f"omega* = {l1:.3g} +- {e1:.2g}, {l2:.3g} +- {e2:.2g} 1/s (layers of d_mean = "
-        f"{geo.d_mean * 1e3:.2f} mm, {p60.cells.n} rings; reproduced if both differ from 0 "
-        f"by {Z:g} errors and have opposite signs)"))
+        f"omega* = {pm(l1, e1, '1/s')}, {pm(l2, e2, '1/s')} (layers of d_mean = "
+        f"{geo.d_mean * 1e3:.2f} mm, {p60.cells.n} rings)",
+        tolerance=f"both beyond {Z:g} errors of 0, of opposite signs"))
+
+    for p, errs in zip((p20, p60), _derived_errors(est, geo.k_n)):
+        series[f"errors_{p.cells.n}"] = errs
 
     errors = {"kind": est.replicates.kind if est.replicates else None,
               "replicates": est.replicates.n if est.replicates else 0,
@@ -486,6 +524,47 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
                "errors": errors, "numbers": _plain(num), "claims": claims}
     summary["series"] = series
     return summary
+
+
+def derived_profiles(p, k_n) -> dict:
+    """The per-ring profiles the figures derive from a profile (or a replicate's view):
+    tr F, the anisotropy, the stiffnesses 2 pi E / k_n and pi G / k_n (``k_n`` the
+    normal spring), the major axes' orientations (deg), the residuals of the equations
+    of motion over the stress scale, D_rphi, W_rphi and omega*."""
+    F = tensor(p, "F")
+    B, G = c.stiffness(tensor(p, "sigma"), tensor(p, "eps"), k_n)
+    out = {"trF": c.trace(F), "anisotropy": c.deviator_norm(F) / c.trace(F), "B": B, "G": G}
+    for q in ("F", "sigma", "eps"):
+        out[f"orientation_{q}"] = np.degrees(c.orientation(tensor(p, q)))
+    st, tot, scale = _eom(p)
+    for j, comp in enumerate(("r", "phi")):
+        out[f"eom_static_{comp}"], out[f"eom_total_{comp}"] = st[j] / scale, tot[j] / scale
+    D, W = c.deformation_rate_and_spin(p.cells.centre, p.values["v_phi"])
+    out.update({"D": D, "W": W, "omega_star": c.eigen_rotation(p.values["omega"], W)})
+    return out
+
+
+def _derived_errors(est, k_n) -> list:
+    """Per-ring errors of :func:`derived_profiles` of the coarse and the fine profile,
+    from the replicates (empty dicts without); orientations as the replicates' turns
+    from the profile's own axes (wrapped into +-90 deg)."""
+    if not est.views:
+        return [{}, {}]
+    out = []
+    for i, p in enumerate((est.p20, est.p60)):
+        own = derived_profiles(p, k_n)
+        reps = []
+        for views in est.views:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                reps.append(derived_profiles(views[i], k_n))
+        errs = {}
+        for k, v in own.items():
+            x = np.array([r[k] for r in reps])
+            if k.startswith("orientation_"):
+                x = _angle_diff(x, v[None])
+            errs[k] = np.array([est.replicates.error(x[:, j]) for j in range(x.shape[1])])
+        out.append(errs)
+    return out
 
 
 def _runs_by_name(runs):
@@ -544,8 +623,8 @@ def _shear_band(p20, p60, geo, est):
     claims = [_claim(
         "exponential decay over about two decades",
         verdict(num["decades"], num["decades_err"], DECADES),
-        f"{num['decades']:.2f} +- {num['decades_err']:.2f} decades from the first ring to the "
-        f"noise (reproduced above {DECADES})")]
+        f"{pm(num['decades'], num['decades_err'], 'decades')} from the first ring to the "
+        "noise", tolerance=f"above {DECADES:g} decades by {Z:g} errors")]
     for key, label, unit, scale, tol in (
             ("s_m", "decay length s", " mm", 1e3, S_TOLERANCE),
             ("v0_over_omega_Ri", "v0/(Omega R_i)", "", 1.0, V0_TOLERANCE)):
@@ -554,10 +633,11 @@ def _shear_band(p20, p60, geo, est):
         claims.append(_claim(
             f"{label} within {tol:.0%} of the paper's {paper * scale:g}{unit}",
             verdict(abs(num[key] - paper), total, tol * paper, above=False),
-            f"{num[key] * scale:.3g} +- {num[f'{key}_err'] * scale:.2g} (statistical) +- "
-            f"{num[f'{key}_sys'] * scale:.2g} (estimator){unit}, {num['rings_fitted']} of "
-            f"{p60.cells.n} rings; reproduced if it lies within the tolerance by {Z:g} "
-            "combined errors", kind="comparison"))
+            f"{pm(num[key] * scale, num[f'{key}_err'] * scale, unit.strip())} (statistical)"
+            f", +- {plain(num[f'{key}_sys'] * scale, 2)}{unit} (estimator); "
+            f"{num['rings_fitted']} of {p60.cells.n} rings", kind="comparison",
+            tolerance=f"{tol:.0%} of the paper's value, + {Z:g} combined errors",
+            deviations=[(label, num[key] * scale, total * scale, paper * scale)]))
     return num, band, end, claims
 
 
@@ -682,10 +762,9 @@ def master_curve(profiles, geo) -> dict:
     return {"slope_per_m": a, "intercept_per_m": b0, "runs": len(pts),
             "area_fractions": fractions, "offsets": offsets, "offset_errors": errors,
             "verdict": result,
-            "evidence": "pooled fit " + f"{a:.2f} tr F {b0:+.2f} 1/m; each run's mean offset "
-            "from it: " + ", ".join(f"{f:.4f}: {100 * o:+.1f} +- {100 * e:.1f}%"
-                                    for f, o, e in zip(fractions, offsets, errors)) +
-            f" (collapsed within {100 * COLLAPSE_TOLERANCE:.0f}% + 2 errors)",
+            "evidence": "pooled fit " + f"{plain(a)} tr F {b0:+.3g} 1/m; each run's mean "
+            "offset from it: " + ", ".join(f"{f:.4f}: {pm(100 * o, 100 * e, '%')}"
+                                           for f, o, e in zip(fractions, offsets, errors)),
             "points": [(lab, t, B, G) for lab, (t, B, G, _) in zip(labels, pts)]}
 
 

@@ -21,12 +21,26 @@ import numpy as np  # noqa: E402
 
 from granavg.analysis.balance import balance  # noqa: E402
 from granavg.analysis.spin_balance import has_couples, spin_balance  # noqa: E402
+from granavg.engine.quantities import columns  # noqa: E402
 
 OKABE_ITO = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000"]
-#: Groups of columns drawn together, by prefix.
-PANELS = [("volume fraction and density", ("nu",)), ("velocity", ("v_",)),
-          ("stress", ("sigma_",)), ("dynamic stress", ("dsigma_",)),
-          ("force densities", ("body_", "boundary_"))]
+#: Markers, with the colours: every component of a panel looks different (9 in 3D).
+MARKERS = "os^Dv<>P*X"
+#: Quantities drawn together, one panel each, all of a panel in one unit.
+PANELS = [("volume fraction", ("nu",)), ("velocity", ("v",)),
+          ("static stress", ("sigma",)), ("dynamic stress", ("dsigma",)),
+          ("force densities", ("body", "boundary"))]
+
+
+def _style(k):
+    """Colour and marker of the k-th series of a panel."""
+    return {"color": OKABE_ITO[k % len(OKABE_ITO)], "marker": MARKERS[k % len(MARKERS)]}
+
+
+def _axis_label(p, name):
+    """A coordinate's axis label with the profile's length unit: ``z (m)``."""
+    unit = (p.meta.get("columns") or {}).get(name)
+    return f"{name} ({unit})" if unit else name
 
 
 def position(p):
@@ -73,19 +87,20 @@ def slice_panels(p, ax=None):
             unit = units.get({"speed": f"v_{p.cells.axes[0]}",
                               "pressure": f"sigma_{p.cells.axes[0] * 2}"}.get(name, name), "")
             a.figure.colorbar(mesh, ax=a, label=f"{name} ({unit})" if unit else name)
-            a.set(xlabel=hx, ylabel=vx, title=f"{name}: {title}")
+            a.set(xlabel=_axis_label(p, hx), ylabel=_axis_label(p, vx), title=f"{name}: {title}")
             a.set_aspect("equal")
     return ax
 
 
 def profile_panels(p, ax=None):
-    """Each panel of :data:`PANELS` against position, values with their errors."""
+    """Each panel of :data:`PANELS` against position, values with their errors, the
+    y axis labelled with the panel's unit."""
     where = position(p)
-    panels = [(t, [k for k in p.values if k.startswith(pre) and not k.startswith("dsigma_fluct")])
-              for t, pre in PANELS]
+    panels = [(t, [c for q in qs for c in columns(q, p.cells.axes) if c in p.values])
+              for t, qs in PANELS]
     panels = [(t, ks) for t, ks in panels if ks]
     if ax is None:
-        _, ax = plt.subplots(1, len(panels), figsize=(4.0 * len(panels), 3.2),
+        _, ax = plt.subplots(1, len(panels), figsize=(4.0 * len(panels), 4.0),
                              constrained_layout=True)
     ax = np.atleast_1d(ax)
     units = p.meta.get("columns", {})
@@ -93,11 +108,16 @@ def profile_panels(p, ax=None):
         for k, key in enumerate(keys):
             if where is None:
                 continue
-            a.errorbar(where[1], p.values[key], yerr=p.sem.get(key), ls="-", marker="o",
-                       ms=3, color=OKABE_ITO[k % len(OKABE_ITO)], label=key)
-        a.set_title(title)
-        a.set_xlabel(f"{where[0] if where else 'cell'} ({units.get(where[0], '') if where else ''})")
-        a.legend(fontsize=7)
+            a.errorbar(where[1], p.values[key], yerr=p.sem.get(key), ls="-", ms=3,
+                       label=key, **_style(k))
+        unit = units.get(keys[0])
+        a.set(title=title, xlabel=_axis_label(p, where[0]) if where else "cell",
+              ylabel=f"{title} ({'-' if unit in (None, '', '1') else unit})")
+        if len(keys) > 3:                           # many: under the axes, off the data
+            a.legend(fontsize=6, ncol=3, loc="upper center", bbox_to_anchor=(0.5, -0.2),
+                     frameon=False)
+        else:
+            a.legend(fontsize=6)
     return ax
 
 
@@ -112,17 +132,17 @@ def balance_panel(p, result, ax=None, spins=False):
     comps = ("z",) if spins and p.cells.dim == 2 else p.cells.axes
     for k, comp in enumerate(comps):
         ax.errorbar(x, result["residual"][k], yerr=result["residual_err"][k], ls="none",
-                    marker="os^"[k], ms=4, color=OKABE_ITO[k], label=f"{comp} component")
+                    ms=4, label=f"{comp} component", **_style(k))
     ax.axhspan(-0.1, 0.1, color="0.9", zorder=0)
     ax.axhline(0, color="0.5", lw=0.8)
-    ax.set_xlabel(where[0] if where else "cell")
+    ax.set_xlabel(_axis_label(p, where[0]) if where else "cell")
     if spins:
-        ax.set_ylabel("unbalanced moment density / stress scale")
+        ax.set_ylabel("unbalanced moment density / stress scale (-)")
         ax.set_title(f"balance of the spins ({result['form']} form, lever arm to the "
                      f"{'contact point' if result['arm'] == 'contact' else 'surface'})",
                      fontsize=9)
     else:
-        ax.set_ylabel("net force on a cell / (stress scale x face)")
+        ax.set_ylabel("net force on a cell / (stress scale x face) (-)")
         terms = ", ".join(result["terms"]) or "none"
         ax.set_title(f"balance (force densities: {terms})", fontsize=9)
     ax.legend(fontsize=7)

@@ -15,6 +15,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import FuncFormatter  # noqa: E402
 
 from granavg.analysis.claims import tensor  # noqa: E402
 from granavg.engine.quantities import TENSOR  # noqa: E402
@@ -31,15 +32,36 @@ def _axes(axes, n, size=(4.2, 3.2)):
     return np.atleast_1d(ax)
 
 
-def _points(ax, p, y, k, label, closed):
-    ax.plot(p.cells.centre, y, ls="none", marker=MARKERS[k % len(MARKERS)], ms=4 if closed else 5,
-            color=OKABE_ITO[k % len(OKABE_ITO)], mfc=OKABE_ITO[k % len(OKABE_ITO)] if closed else "none",
-            label=f"{label} ({p.cells.n} rings)")
+def _points(ax, x, y, k, label, closed, err=None, n=None, **kw):
+    """One series as markers (closed: coarse rings, open: fine) with its error bars."""
+    colour = OKABE_ITO[k % len(OKABE_ITO)]
+    ax.errorbar(x, y, yerr=err, ls=kw.pop("ls", "none"), marker=MARKERS[k % len(MARKERS)],
+                ms=4 if closed else 5, color=colour, mfc=colour if closed else "none",
+                elinewidth=0.7, capsize=0, label=f"{label} ({n} rings)" if n else label,
+                **kw)
 
 
-def _both(ax, p20, p60, fn, k, label):
-    _points(ax, p20, fn(p20), k, label, True)
-    _points(ax, p60, fn(p60), k, label, False)
+def _both(ax, p20, p60, fn, k, label, err=None):
+    """A profile's series for both ring counts; ``err(p)`` its errors (None: none)."""
+    for p, closed in ((p20, True), (p60, False)):
+        _points(ax, p.cells.centre, fn(p), k, label, closed,
+                None if err is None else err(p), n=p.cells.n)
+
+
+def _sem(name, scale=None):
+    """The errors of a profile column (``scale(p)`` divides them as the values)."""
+    return lambda p: p.sem[name] / (scale(p) if scale else 1.0)
+
+
+def _derived(summary, key):
+    """The replicates' per-ring errors of a derived profile (None without replicates)."""
+    return lambda p: summary["series"].get(f"errors_{p.cells.n}", {}).get(key)
+
+
+def _below(ax, ncol=2):
+    """The legend under the axes, clear of the data."""
+    ax.legend(fontsize=6, ncol=ncol, loc="upper center", bbox_to_anchor=(0.5, -0.2),
+              frameon=False)
 
 
 def fig2(p20, p60, summary, axes=None):
@@ -47,15 +69,17 @@ def fig2(p20, p60, summary, axes=None):
     ax = _axes(axes, 2)
     run = summary["run"]["scene"]
     R_i, Omega = run["R_i"], run["Omega"]
-    _both(ax[0], p20, p60, lambda p: p.values["nu"], 0, "nu")
+    _both(ax[0], p20, p60, lambda p: p.values["nu"], 0, "nu", _sem("nu"))
     ax[0].set(xlabel="r (m)", ylabel="volume fraction nu (-)", title="density")
-    _both(ax[1], p20, p60, lambda p: p.values["v_phi"] / (Omega * p.cells.centre), 1, "v_phi/(Omega r)")
+    scale = lambda p: Omega * p.cells.centre                                # noqa: E731
+    _both(ax[1], p20, p60, lambda p: p.values["v_phi"] / scale(p), 1, "v_phi/(Omega r)",
+          _sem("v_phi", scale))
     sb = summary["numbers"]["shear_band"]
     if np.isfinite(sb["s_m"]):
         r = np.linspace(R_i, sb["decay_range_end_m"], 100)
         ax[1].plot(r, sb["v0_over_omega_Ri"] * R_i * np.exp(-(r - R_i) / sb["s_m"]) / r,
-                   color="k", ls=":", label=f"fit: v0/(Omega R_i)={sb['v0_over_omega_Ri']:.3f}, "
-                   f"s={sb['s_m'] * 1e3:.1f} mm")
+                   color="k", ls=":", label=f"fit: v0/(Omega R_i) = "
+                   f"{sb['v0_over_omega_Ri']:.3g}, s = {sb['s_m'] * 1e3:.3g} mm")
     ax[1].set(yscale="log", xlabel="r (m)", ylabel="v_phi / (Omega r) (-)", title="velocity")
     for a in ax:
         a.legend(fontsize=7)
@@ -65,10 +89,11 @@ def fig2(p20, p60, summary, axes=None):
 def fig3(p20, p60, summary, axes=None):
     """tr F and the anisotropy |dev F| / tr F against r (Fig. 3)."""
     ax = _axes(axes, 2)
-    _both(ax[0], p20, p60, lambda p: trace(tensor(p, "F")), 0, "tr F")
+    _both(ax[0], p20, p60, lambda p: trace(tensor(p, "F")), 0, "tr F",
+          _derived(summary, "trF"))
     ax[0].set(xlabel="r (m)", ylabel="tr F (-)", title="isotropic fabric")
     _both(ax[1], p20, p60, lambda p: deviator_norm(tensor(p, "F")) / trace(tensor(p, "F")), 2,
-          "|dev F| / tr F")
+          "|dev F| / tr F", _derived(summary, "anisotropy"))
     ax[1].set(xlabel="r (m)", ylabel="|dev F| / tr F (-)", title="anisotropy")
     for a in ax:
         a.legend(fontsize=7)
@@ -77,22 +102,24 @@ def fig3(p20, p60, summary, axes=None):
 
 def fig4(p20, p60, summary, axes=None):
     """Static stress, dynamic stress and the fluctuation part against r (Fig. 4)."""
-    ax = _axes(axes, 3)
+    ax = _axes(axes, 3, size=(4.4, 4.0))
     ex = summary["numbers"]["stress_exponents"]
     for k, comp in enumerate(TENSOR):
-        _both(ax[0], p20, p60, lambda p, c=comp: p.values[f"sigma_{c}"], k, f"sigma_{comp}")
+        _both(ax[0], p20, p60, lambda p, c=comp: p.values[f"sigma_{c}"], k, f"sigma_{comp}",
+              _sem(f"sigma_{comp}"))
         r = p20.cells.centre
         y0 = p20.values[f"sigma_{comp}"]
         mid = len(r) // 2
         ax[0].plot(r, y0[mid] * (r / r[mid]) ** ex[f"sigma_{comp}"], color=OKABE_ITO[k], lw=1)
-        _both(ax[1], p20, p60, lambda p, c=comp: p.values[f"dsigma_{c}"], k, f"dsigma_{comp}")
+        _both(ax[1], p20, p60, lambda p, c=comp: p.values[f"dsigma_{c}"], k, f"dsigma_{comp}",
+              _sem(f"dsigma_{comp}"))
         _both(ax[2], p20, p60, lambda p, c=comp: p.values[f"dsigma_fluct_{c}"], k,
-              f"fluct_{comp}")
+              f"fluct_{comp}", _sem(f"dsigma_fluct_{comp}"))
     ax[0].set(xlabel="r (m)", ylabel="static stress (Pa)", title="static (lines: r^n fits)")
     ax[1].set(xlabel="r (m)", ylabel="dynamic stress (Pa)", title="dynamic")
     ax[2].set(xlabel="r (m)", ylabel="fluctuation stress (Pa)", title="velocity fluctuations")
     for a in ax:
-        a.legend(fontsize=6, ncol=2)
+        _below(a)
     return ax
 
 
@@ -102,17 +129,15 @@ def fig5(p20, p60, summary, axes=None):
     ax = _axes(axes, 2)
     for k, p in enumerate((p20, p60)):
         trF, B, G = summary["series"][f"stiffness_{p.cells.n}"]
-        for a, y in ((ax[0], B), (ax[1], G)):
-            a.plot(trF, y, ls="none", marker=MARKERS[k], color=OKABE_ITO[k],
-                   mfc=OKABE_ITO[k] if k == 0 else "none", label=f"{p.cells.n} rings")
+        for a, y, key in ((ax[0], B, "B"), (ax[1], G, "G")):
+            _points(a, trF, y, k, f"{p.cells.n} rings", k == 0, _derived(summary, key)(p))
     for k, (label, trF, B, G) in enumerate(summary["series"].get("density_series", [])):
         for a, y in ((ax[0], B), (ax[1], G)):
-            a.plot(trF, y, ls="none", marker=MARKERS[(k + 2) % len(MARKERS)],
-                   color=OKABE_ITO[(k + 2) % len(OKABE_ITO)], label=f"{label} (bulk)")
+            _points(a, trF, y, k + 2, f"{label} (bulk)", True)
     slope, intercept = summary["series"]["bulk_fit"]
     x = np.linspace(*ax[0].get_xlim(), 50)
-    ax[0].plot(x, slope * x + intercept, color="k", ls=":", label=f"bulk fit: {slope:.1f} tr F "
-               f"{intercept:+.1f}")
+    ax[0].plot(x, slope * x + intercept, color="k", ls=":", label=f"bulk fit: {slope:.3g} tr F "
+               f"{intercept:+.3g}")
     ax[0].set(xlabel="tr F (-)", ylabel="2 pi E / k_n = tr sigma / tr eps / k_n (1/m)",
               title="bulk stiffness")
     ax[1].set(xlabel="tr F (-)", ylabel="pi G / k_n = |dev sigma| / |dev eps| / k_n (1/m)",
@@ -123,17 +148,18 @@ def fig5(p20, p60, summary, axes=None):
 
 
 def fig6(p20, p60, summary, axes=None):
-    """Orientation of the major axes of F, sigma and eps to e_r against r (Fig. 6)."""
-    ax = _axes(axes, 1, size=(5.0, 3.4))
+    """Orientation of the major axes of F, sigma and eps to e_r against r (Fig. 6), with
+    the replicates' errors."""
+    ax = _axes(axes, 1, size=(5.4, 4.2))
     for p in (p20, p60):
         closed = p is p20
         for k, (name, deg) in enumerate(summary["series"][f"orientation_{p.cells.n}"].items()):
-            ax[0].plot(p.cells.centre, deg, marker=MARKERS[k], color=OKABE_ITO[k],
-                       mfc=OKABE_ITO[k] if closed else "none", ls="-" if closed else "none",
-                       lw=0.8, ms=4, label=f"phi_{name} ({p.cells.n} rings)")
-    ax[0].set(xlabel="r (m)", ylabel="orientation of the major axis (deg)",
+            _points(ax[0], p.cells.centre, deg, k, f"phi_{name}", closed,
+                    _derived(summary, f"orientation_{name}")(p), n=p.cells.n,
+                    ls="-" if closed else "none", lw=0.8)
+    ax[0].set(xlabel="r (m)", ylabel="orientation of the major axis to e_r (deg)",
               title="tensor orientations")
-    ax[0].legend(fontsize=7)
+    _below(ax[0], ncol=3)
     return ax
 
 
@@ -141,43 +167,40 @@ def fig7(p20, p60, summary, axes=None):
     """Residuals of the equations of motion (Eqs. 11-12), r div T, for the static stress
     alone and for the total T = sigma - dsigma whose divergence vanishes in steady flow
     (Fig. 7)."""
-    ax = _axes(axes, 2)
+    ax = _axes(axes, 2, size=(4.4, 3.8))
     for k, p in enumerate((p20, p60)):
         st, tot, scale = summary["series"][f"eom_{p.cells.n}"]
-        for j, title in enumerate(("radial, Eq. 11", "tangential, Eq. 12")):
-            ax[j].plot(p.cells.centre, st[j] / scale, marker=MARKERS[k], ls="none",
-                       color=OKABE_ITO[0], mfc=OKABE_ITO[0] if k == 0 else "none",
-                       label=f"static ({p.cells.n} rings)")
-            ax[j].plot(p.cells.centre, tot[j] / scale, marker=MARKERS[k + 2], ls="none",
-                       color=OKABE_ITO[1], mfc=OKABE_ITO[1] if k == 0 else "none",
-                       label=f"total, sigma - dsigma ({p.cells.n} rings)")
+        for j, (comp, title) in enumerate((("r", "radial, Eq. 11"),
+                                           ("phi", "tangential, Eq. 12"))):
+            r = p.cells.centre
+            _points(ax[j], r, st[j] / scale, 0, "static", k == 0,
+                    _derived(summary, f"eom_static_{comp}")(p), n=p.cells.n)
+            _points(ax[j], r, tot[j] / scale, 1, "total, sigma - dsigma", k == 0,
+                    _derived(summary, f"eom_total_{comp}")(p), n=p.cells.n)
             ax[j].set(xlabel="r (m)", ylabel=f"residual / {scale:.3g} Pa (-)", title=title)
     for a in ax:
         a.axhline(0, color="k", lw=0.5)
-        a.legend(fontsize=6)
+        _below(a)
     return ax
 
 
 def fig8(p20, p60, summary, axes=None):
     """-D_rphi and -W_rphi against r, with the fit's Eq. 15 and the particles' -omega."""
-    ax = _axes(axes, 2)
+    ax = _axes(axes, 2, size=(4.4, 3.8))
     for k, p in enumerate((p20, p60)):
         D, W, Df, Wf, omega, _ = summary["series"][f"rates_{p.cells.n}"]
         r = p.cells.centre
-        ax[0].plot(r, -D, ls="none", marker=MARKERS[k], color=OKABE_ITO[0],
-                   mfc=OKABE_ITO[0] if k == 0 else "none", label=f"-D ({p.cells.n} rings)")
-        ax[1].plot(r, -W, ls="none", marker=MARKERS[k], color=OKABE_ITO[1],
-                   mfc=OKABE_ITO[1] if k == 0 else "none", label=f"-W ({p.cells.n} rings)")
+        _points(ax[0], r, -D, 0, "-D", k == 0, _derived(summary, "D")(p), n=p.cells.n)
+        _points(ax[1], r, -W, 1, "-W", k == 0, _derived(summary, "W")(p), n=p.cells.n)
         if k == 1:
             ax[0].plot(r, -Df, color="k", ls=":", label="-D of the fit (Eq. 15)")
             ax[1].plot(r, -Wf, color="k", ls=":", label="-W of the fit")
             ax[1].plot(r, -omega, color=OKABE_ITO[2], lw=1.2, label="-omega of the particles")
-    ax[0].set(xlabel="r (m)", ylabel="-D_rphi (1/s)", title="deformation rate", yscale="symlog",
-              )
-    ax[1].set(xlabel="r (m)", ylabel="-W_rphi, -omega (1/s)", title="spin", yscale="symlog")
+    ax[0].set(xlabel="r (m)", ylabel="-D_rphi (1/s)", title="deformation rate")
+    ax[1].set(xlabel="r (m)", ylabel="-W_rphi, -omega (1/s)", title="spin")
     for a in ax:
         a.set_yscale("symlog", linthresh=1e-3)
-        a.legend(fontsize=7)
+        _below(a)
     return ax
 
 
@@ -189,9 +212,9 @@ def fig9(p20, p60, summary, axes=None):
     for k, p in enumerate((p20, p60)):
         ws = summary["series"][f"rates_{p.cells.n}"][5]
         near = p.cells.centre <= max(sb["decay_range_end_m"], R_i + 0.03)
-        ax[0].plot(p.cells.centre[near], -ws[near], marker=MARKERS[k], color=OKABE_ITO[k],
-                   mfc=OKABE_ITO[k] if k == 0 else "none", lw=0.8,
-                   label=f"-omega* ({p.cells.n} rings)")
+        err = _derived(summary, "omega_star")(p)
+        _points(ax[0], p.cells.centre[near], -ws[near], k, "-omega*", k == 0,
+                None if err is None else err[near], n=p.cells.n, ls="-", lw=0.8)
     ax[0].axhline(0, color="k", lw=0.5)
     ax[0].set(xlabel="r (m)", ylabel="-omega* = -(omega - W_rphi) (1/s)",
               title="eigen-rotation near the inner wall")
@@ -248,14 +271,17 @@ def fig_spins(p20, p60, summary, axes=None):
     return ax
 
 
-#: Panels of the time-series figure: (columns, y label, log scale).
+#: Panels of the time-series figure: ((column, legend label) ..., y label, log scale
+#: where the values span more than a decade).
 _SERIES_PANELS = [
-    (("C", "C_bulk"), "coordination (contacts per disk)", False),
-    (("P_bulk_Pa",), "bulk static pressure -tr(sigma)/2 (Pa)", True),
-    (("rattler_fraction",), "rattler fraction, < 2 contacts (-)", False),
-    (("overlap_mean_over_d", "overlap_max_over_d"), "overlap / d_s (-)", True),
-    (("ke_J",), "kinetic energy (J)", True),
-    (("psi6_bulk", "psi6_bulk_ordered"), "bulk hexatic order |psi_6|, share > 0.8 (-)", False),
+    ((("C", "all disks"), ("C_bulk", "bulk")), "coordination C (contacts per disk)", False),
+    ((("P_bulk_Pa", "bulk"),), "static pressure -tr(sigma)/2 (Pa)", True),
+    ((("rattler_fraction", "all disks"),), "rattlers: share with < 2 contacts (-)", False),
+    ((("overlap_mean_over_d", "mean"), ("overlap_max_over_d", "largest")),
+     "overlap / d_s (-)", True),
+    ((("ke_J", "all disks"),), "kinetic energy (J)", True),
+    ((("psi6_bulk", "mean |psi_6|, bulk"), ("psi6_bulk_ordered", "share |psi_6| > 0.8, bulk")),
+     "hexatic order (-)", False),
 ]
 
 
@@ -273,12 +299,19 @@ def fig_timeseries(p20, p60, summary, axes=None):
     t_min = (p20.meta.get("frames") or {}).get("t_min_s", 0.0)
     runs = list(ts.groupby("run")) if "run" in ts else [(None, ts)]
     for a, (cols, label, log) in zip(ax, _SERIES_PANELS):
-        for k, col in enumerate(c for c in cols if c in ts):
+        shown = [(col, name) for col, name in cols if col in ts]
+        for k, (col, name) in enumerate(shown):
             for j, (run, part) in enumerate(runs):
                 a.plot(part.t_s, part[col], color=OKABE_ITO[k], lw=0.8, alpha=1 if j == 0 else 0.5,
-                       label=col if j == 0 else None)
+                       label=name if j == 0 else None)
         a.axvspan(t_min, ts.t_s.max(), color="0.9", zorder=0, label="averaged")
-        a.set(xlabel="t (s)", ylabel=label, yscale="log" if log else "linear")
+        values = np.concatenate([np.asarray(ts[c], float) for c, _ in shown]) if shown else []
+        positive = values[np.isfinite(values) & (values > 0)] if len(values) else values
+        wide = len(positive) and positive.max() > 10 * positive.min()
+        a.set(xlabel="t (s)", ylabel=label, yscale="log" if log and wide else "linear")
+        if log and wide:                     # ticks as plain numbers: 0.02, 0.1, not 2x10^-2
+            for axis in (a.yaxis.set_major_formatter, a.yaxis.set_minor_formatter):
+                axis(FuncFormatter(lambda y, _: f"{y:g}"))
         a.legend(fontsize=6)
     return ax
 

@@ -9,11 +9,12 @@ import math
 from pathlib import Path
 
 from granavg.analysis.claims import PAPER
+from granavg.analysis.rounding import plain, pm
 from granavg.engine.stationarity import DRIFT_Z
 
-_NUMBERS = [  # (section, key, label, unit, paper key)
+_NUMBERS = [  # (section, key, label, unit, paper key); lengths of the band in mm
     ("shear_band", "v0_over_omega_Ri", "v0 / (Omega R_i)", "-", "v0_over_omega_Ri"),
-    ("shear_band", "s_m", "decay length s", "m", "s_m"),
+    ("shear_band", "s_m", "decay length s", "mm", "s_m"),
     ("shear_band", "s_over_d_mean", "s / mean diameter", "-", None),
     ("shear_band", "decades", "decay before the noise", "decades", None),
     ("density", "nu_inner", "nu, inner ring", "-", None),
@@ -60,19 +61,25 @@ def write_summary(summary: dict, path) -> Path:
     return path
 
 
+#: Units shown, and the factor from the summary's SI value.
+_SCALE = {"mm": 1e3}
+
+
 def headline_rows(summary):
-    """(label, value +- error, unit, paper value) of every headline number."""
+    """(label, value +- error rounded to the error, unit, paper value) of every headline
+    number, in the unit of its row."""
     rows = []
     for section, key, label, unit, paper in _NUMBERS:
         block = summary["numbers"].get(section) or {}
         if key not in block:
             continue
+        f = _SCALE.get(unit, 1.0)
         err, sys = block.get(f"{key}_err"), block.get(f"{key}_sys")
-        value = f"{block[key]:.4g}" + (f" &plusmn; {err:.2g}" if err is not None and
-                                       math.isfinite(err) else "")
+        value = pm(f * block[key], f * err if err is not None else None)
         if sys is not None and math.isfinite(sys):
-            value += f" (statistical) &plusmn; {sys:.2g} (estimator)"
-        rows.append((label, value, unit, "" if paper is None else f"{PAPER[paper]:g}"))
+            value += f" (statistical), +- {plain(f * sys, 2)} (estimator)"
+        rows.append((label, value.replace(" +- ", " &plusmn; "), unit,
+                     "" if paper is None else f"{f * PAPER[paper]:g}"))
     return rows
 
 
@@ -144,14 +151,29 @@ def stationarity_table(summary, e) -> list:
             cls = {"drifts": "no", "steady": "yes"}.get(verdict, "")
             start = r.get("steady_from_s")
             resolution = r.get("resolution", DRIFT_Z * math.sqrt(2) * r["second_half_err"])
-            out.append(f"<tr><td>{e(str(run))}</td><td>{e(q)}</td><td>{r['first_half']:.4g} "
-                       f"&plusmn; {r['first_half_err']:.2g}</td><td>{r['second_half']:.4g} "
-                       f"&plusmn; {r['second_half_err']:.2g}</td><td>{r['z']:.1f}</td>"
+            halves = [pm(r[k], r[f"{k}_err"]).replace(" +- ", " &plusmn; ")
+                      for k in ("first_half", "second_half")]
+            out.append(f"<tr><td>{e(str(run))}</td><td>{e(q)}</td><td>{halves[0]}</td>"
+                       f"<td>{halves[1]}</td><td>{r['z']:.1f}</td>"
                        f"<td>{resolution:.2g}</td><td class='{cls}'>{verdict}</td><td>"
                        f"{'-' if 'n_runs' in r else 'none' if start is None else f'{start:.0f}'}"
                        "</td></tr>")
     out.append("</table>")
     return out
+
+
+#: Longest entry of the run table; longer ones keep their head and go whole to a note.
+SHORT = 60
+
+
+def _short(text):
+    """(the table's entry, the whole text for a footnote or ""): a long entry cut at its
+    first parenthesis or semicolon (or at :data:`SHORT` characters)."""
+    if len(text) <= SHORT:
+        return html.escape(text), ""
+    cut = min((i for i in (text.find(" ("), text.find(";")) if 0 < i <= SHORT),
+              default=SHORT)
+    return html.escape(text[:cut].rstrip(" ,;:")) + "&hellip;", text
 
 
 def _seconds(t):
@@ -189,23 +211,35 @@ def write_report(summary: dict, figures: dict, path, title="granavg report") -> 
              "img{max-width:100%}</style></head><body>",
              f"<h1>{e(title)}</h1><p>Luding et al. (2001), 2D Couette cell. All quantities in "
              "SI units.</p><h2>Run</h2><table>"]
-    parts += [f"<tr><th>{e(str(k))}</th><td>{e(str(v))}</td></tr>" for k, v in params]
-    parts.append("</table><h2>Headline numbers</h2><table><tr><th>quantity</th><th>value</th>"
+    notes = []
+    for k, v in params:
+        short, full = _short(str(v))
+        if full:
+            notes.append(full)
+            short += f" <sup>[{len(notes)}]</sup>"
+        parts.append(f"<tr><th>{e(str(k))}</th><td>{short}</td></tr>")
+    parts.append("</table>")
+    parts += [f"<p class='note'>[{k}] {e(n)}</p>" for k, n in enumerate(notes, 1)]
+    parts.append("<h2>Headline numbers</h2><table><tr><th>quantity</th><th>value</th>"
                  "<th>unit</th><th>paper</th></tr>")
     parts += [f"<tr><td>{e(a)}</td><td>{b}</td><td>{e(c)}</td><td>{e(d)}</td></tr>"
               for a, b, c, d in headline_rows(summary)]
     parts.append(f"</table><p>Errors: {e(error_source(summary))}</p>")
     parts.append("<h2>The paper's claims</h2><p>A verdict is <i>reproduced</i> when the "
-                 "data show the claim beyond twice its error, <i>not reproduced</i> when "
-                 "they show the opposite beyond twice its error, <i>inconclusive</i> "
-                 "otherwise. Identity checks test the averaging, not the paper's physics."
-                 "</p><table><tr><th>claim</th><th>kind</th><th>verdict</th>"
-                 "<th>decided by</th></tr>")
+                 "data show the claim beyond twice its error and within its tolerance, "
+                 "<i>not reproduced</i> when they show the opposite beyond twice its "
+                 "error, <i>inconclusive</i> otherwise. A claim that holds only by its "
+                 "tolerance, its number many errors from the paper's, says so beside "
+                 "its verdict. Identity checks test the averaging, not the paper's "
+                 "physics.</p><table><tr><th>claim</th><th>kind</th><th>verdict</th>"
+                 "<th>tolerance</th><th>the numbers</th></tr>")
     for cl in summary["claims"]:
         cls = {"reproduced": "yes", "holds": "yes", "not reproduced": "no",
                "violated": "no"}.get(cl["verdict"], "")
+        note = f"<br><small>{e(cl['note'])}</small>" if cl.get("note") else ""
         parts.append(f"<tr><td>{e(cl['claim'])}</td><td>{e(cl['kind'])}</td>"
-                     f"<td class='{cls}'>{e(cl['verdict'])}</td><td>{e(cl['evidence'])}</td></tr>")
+                     f"<td class='{cls}'>{e(cl['verdict'])}{note}</td>"
+                     f"<td>{e(cl.get('tolerance', ''))}</td><td>{e(cl['evidence'])}</td></tr>")
     parts.append("</table>")
     parts += stationarity_table(summary, e)
     parts.append("<h2>Figures</h2>")
