@@ -1,13 +1,14 @@
-"""The ``granavg`` command line: argument parsing and one call of the pipeline per
-command. User mistakes exit with code 2 and one line, no traceback."""
+"""The ``granavg`` command line: its arguments, parsed; each command is one call of
+:mod:`granavg.pipeline.commands`. User mistakes exit with code 2 and one line, no
+traceback."""
 
 from __future__ import annotations
 
 import argparse
-import logging
 import math
 import os
 import sys
+import textwrap
 
 # The command's parallel work is its own (engine threads, the reader's, dask workers); BLAS
 # sees only small matrices, and an OpenBLAS pool of idle threads spins a core after each
@@ -15,7 +16,14 @@ import sys
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from granavg import __version__
-from granavg.errors import ParameterError, UserError, name_parameters
+from granavg.errors import UserError, name_parameters
+
+DESCRIPTION = ("granavg turns discrete-element (DEM) simulations of granular matter into "
+               "continuum fields - density, velocity, spin, fabric, static and dynamic "
+               "stress, elastic strain - with their errors, and checks that the fields obey "
+               "the balance laws. It simulates the 2D Couette cell of Luding et al. (2001) "
+               "in LAMMPS, averages that run or anyone's LAMMPS dumps (2D and 3D) over "
+               "cells, and writes figures and a report.")
 
 #: The options whose flag is not the library's parameter name with dashes
 #: (:func:`flag`): how the command line names them in messages.
@@ -27,11 +35,6 @@ FLAGS = {"rho_p": "--density", "atom_map": "--atom-columns", "contact_map":
 def flag(name: str) -> str:
     """The command line's name of a library parameter: ``t_min`` -> ``--t-min``."""
     return FLAGS.get(name, "--" + name.replace("_", "-"))
-#: Options that only plain dumps take (a run directory's manifest says them).
-PLAIN_ONLY = ("thickness", "density", "dt", "r_range", "slabs", "grid", "wall_types",
-              "atom_columns", "contact_columns", "units", "format", "gravity", "center",
-              "range", "length", "x_range", "y_range", "z_range", "layers", "area", "dim",
-              "inertia")
 
 
 #: Where the help names the quantities: filled in from their registry when help is shown
@@ -39,9 +42,21 @@ PLAIN_ONLY = ("thickness", "density", "dt", "r_range", "slabs", "grid", "wall_ty
 CATALOGUE = "<quantities>"
 
 
+class _Formatter(argparse.HelpFormatter):
+    """Help wrapped between words only: an example such as a column map stays one
+    token a user can copy."""
+
+    def _split_lines(self, text, width):
+        return textwrap.wrap(" ".join(text.split()), width, break_long_words=False,
+                             break_on_hyphens=False)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, its refusals as one line (a :class:`UserError`) without the usage, the
     quantities' catalogue in its help."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, formatter_class=_Formatter, **kwargs)
 
     def error(self, message):
         raise UserError(f"{message} (see {self.prog} --help)")
@@ -56,7 +71,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="granavg", description=__doc__.splitlines()[0])
+    p = _Parser(prog="granavg", description=DESCRIPTION)
     p.add_argument("--version", action="version", version=f"granavg {__version__}")
     p.add_argument("-v", "--verbose", action="store_true", help="log more")
     sub = p.add_subparsers(dest="command", required=True)
@@ -175,7 +190,8 @@ def _parser() -> argparse.ArgumentParser:
     demo = sub.add_parser("demo", help="simulate the demo scene, average over 20 and 60 "
                           "rings, analyse and write the report")
     demo.add_argument("--out", required=True, help="directory to create (must be new)")
-    demo.add_argument("--omp", type=int, default=2, help="OpenMP threads (default 2)")
+    demo.add_argument("--omp", type=int, default=1, help="OpenMP threads (default 1: the "
+                      "demo's law, pair granular, has no OpenMP version)")
     demo.add_argument("--t-min", type=_finite, default=None,
                       help="average frames with t >= T s (default: the scene's discarded "
                       "start, 6.3 s)")
@@ -250,12 +266,13 @@ def _frames_and_cells(avg):
                        "scales as a^3, else disks; 3D: spheres")
     plain.add_argument("--atom-columns", metavar="MAP", help="our name=dump column, e.g. "
                        "omegaz=c_spin[3],radius=c_r (others by name or alias)")
-    plain.add_argument("--contact-columns", metavar="MAP", help="e.g. id1=c_pp[1],"
-                       "id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
-                       "ftx=c_pl[5],fty=c_pl[6]; the contact couple as mz (3D: mx my "
-                       "mz) or as pair granular's rolling force frx fry [frz] (p5 p6 "
-                       "p7) and twisting torque twist (p9); without them the couples "
-                       "are taken as zero")
+    plain.add_argument("--contact-columns", metavar="MAP", help="our name=dump column "
+                       "of each contact column, for 2D pair/local + property/local e.g. "
+                       "id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],"
+                       "force=c_pl[4],ftx=c_pl[5],fty=c_pl[6] (3D: dz and ftz too). "
+                       "The contact couple as mz (3D: mx my mz) or as pair granular's "
+                       "rolling force frx fry [frz] (p5 p6 p7) and twisting torque twist "
+                       "(p9); without them the couples are taken as zero")
     avg.add_argument("--t-min", type=_finite, help="average frames with t >= T s (default: "
                      "the scene's discarded transient, discard_rotations rotations)")
     avg.add_argument("--block-time", type=_finite, help="base time blocks of the errors' "
@@ -304,130 +321,19 @@ def _sectors(text):
         raise argparse.ArgumentTypeError(f"{text!r}: give auto, off or a number") from None
 
 
-def _names(text):
-    """'nu, v' -> ['nu', 'v']; None stays None (all quantities)."""
-    return [q.strip() for q in text.split(",")] if text else None
-
-
-def _progress(args):
-    return False if getattr(args, "no_progress", False) else None
-
-
-def _simulate(args) -> str:
-    from granavg.pipeline.simulation import simulate_command
-
-    return simulate_command(
-        preset=args.preset, overrides=args.overrides, out=args.out, np=args.np, omp=args.omp,
-        resume=args.resume, start=args.start, engine=args.engine, average=args.average,
-        t_min=args.t_min, block_time=args.block_time, quantities=_names(args.quantities),
-        seeds=args.seeds, workers=args.workers, scheduler=args.scheduler,
-        progress=_progress(args))
-
-
-def _averaging(args, **extra) -> dict:
-    """The options of the frames, cells and errors (average, scales) for the pipeline,
-    with ``extra``; plain dumps' options refused beside a run directory."""
-    from granavg.io.lammps_dumps import parse_map
-
-    given = [o for o in PLAIN_ONLY if getattr(args, o) not in (None, [], ())]
-    if args.run_dir and given:
-        flag = "--" + given[0].replace("_", "-")
-        raise UserError(f"{flag} is for plain LAMMPS dumps; a run directory's manifest "
-                        "already says it (drop the option or the run directory)")
-    common = dict(t_min=args.t_min, block_time=args.block_time,
-                  quantities=_names(args.quantities), branch=args.branch,
-                  sectors=args.sectors, kernel=args.kernel, **extra)
-    if args.run_dir:
-        return dict(common, bins=args.bins, edges=args.edges, polar_grid=args.polar_grid)
-    cells = dict(thickness=args.thickness, bins=args.bins, edges=args.edges,
-                 polar_grid=args.polar_grid,
-                 center=args.center, r_range=args.r_range, slabs=args.slabs,
-                 range=args.range, length=args.length, grid=args.grid,
-                 x_range=args.x_range, y_range=args.y_range, z_range=args.z_range,
-                 layers=args.layers, area=args.area)
-    return dict(common, cells=cells, fmt=args.format, density=args.density,
-                dt=args.dt, units=args.units, wall_types=args.wall_types, dim=args.dim,
-                gravity=args.gravity, inertia=args.inertia,
-                atom_map=parse_map(args.atom_columns),
-                contact_map=parse_map(args.contact_columns))
-
-
-def _average(args):
-    from granavg.pipeline.averaging import average_to_file
-
-    options = _averaging(args, width=args.width)
-    return average_to_file(args.run_dir, args.out, parquet=args.parquet, netcdf=args.netcdf,
-                           vtk=args.vtk, workers=args.workers,
-                           scheduler=args.scheduler, atoms=args.atoms, contacts=args.contacts,
-                           progress=_progress(args), **options)
-
-
-def _scales(args):
-    from granavg.pipeline.scales import scale_study_to_file
-
-    return scale_study_to_file(args.run_dir, args.out, widths=args.widths,
-                               diameter=args.diameter, fields=_names(args.fields),
-                               atoms=args.atoms, contacts=args.contacts,
-                               progress=_progress(args), **_averaging(args))
-
-
-def _analyze(args):
-    from granavg.pipeline.reporting import analyze_command
-
-    return analyze_command(args.profiles, args.out, args.density_series, args.closed,
-                           args.torque_arm)
-
-
-def _demo(args):
-    from granavg.pipeline.reporting import demo_command
-
-    return demo_command(args.out, omp=args.omp, t_min=args.t_min)
-
-
 def argv_command(argv) -> str | None:
     """The command word of the arguments (``sys.argv`` without one)."""
     words = list(sys.argv[1:] if argv is None else argv)
     return next((w for w in words if w in ("simulate", "average", "scales", "analyze",
-                                                   "demo")), None)
+                                           "demo")), None)
 
 
 def main(argv=None) -> int:
     """Entry point of the ``granavg`` command."""
-    from granavg.pipeline.session import (configure_logging, interrupt_code, no_room,
-                                          outputs_written, signals_as_interrupts,
-                                          use_threads)
+    from granavg.pipeline.commands import run
 
     name_parameters(flag)
-    with signals_as_interrupts():
-        try:
-            args = _parser().parse_args(argv)
-            command = {"simulate": _simulate, "average": _average, "scales": _scales,
-                       "analyze": _analyze,
-                       "demo": _demo}[args.command]
-            configure_logging(args.verbose)
-            use_threads(getattr(args, "threads", None))
-            done = command(args)
-            if args.command == "simulate":
-                logging.getLogger("granavg").info("run complete: %s", done)
-            return 0
-        except UserError as exc:
-            text = exc.named(flag) if isinstance(exc, ParameterError) else str(exc)
-            print(f"granavg: error: {text}", file=sys.stderr)
-            return exc.exit_code
-        except (KeyboardInterrupt, Exception) as raised:
-            code = interrupt_code(raised)
-            if code is None and (full := no_room(raised)):
-                print(f"granavg: error: {full}", file=sys.stderr)
-                return 2
-            if code is None:
-                raise
-            done = outputs_written()
-            what = "stopped (the run is kept; --resume continues it)" if \
-                argv_command(argv) in ("simulate", "demo") else \
-                f"the outputs were complete before it: {done[-1]} (with its companions)" \
-                if done else "nothing written"
-            print(f"granavg: interrupted; {what}", file=sys.stderr)
-            return code
+    return run(lambda: _parser().parse_args(argv), argv_command(argv))
 
 
 if __name__ == "__main__":

@@ -78,3 +78,10 @@ class _Names(dict):
 
 class LammpsError(UserError):
     """LAMMPS stopped with an error (bad deck variable, lost atoms, blow-up)."""
+
+
+def message(exc: UserError) -> str:
+    """A user error's one line, its parameters named as the front end names them."""
+    if isinstance(exc, ParameterError):
+        return exc.named(_naming["of"] or (lambda n: n))
+    return str(exc)

@@ -298,3 +298,46 @@ def test_the_flag_check_sees_a_flag(tmp_path):
     probe.write_text('"""Docs may say --t-min."""\n\ndef f():\n    raise ValueError("give '
                      '--t-min T")\n')
     assert flag_texts(probe) == [(4, "--t-min")]
+
+
+def lines_outside_the_parser(path: Path) -> int:
+    """Lines of a module outside the functions that build its argument parser (those
+    calling ``add_argument`` or ``add_parser``)."""
+    tree = ast.parse(path.read_text())
+    builders = 0
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef) and any(
+                isinstance(n, ast.Attribute) and n.attr in ("add_argument", "add_parser")
+                for n in ast.walk(node)):
+            builders += node.end_lineno - node.lineno + 1
+    return len(path.read_text().splitlines()) - builders
+
+
+def test_the_cli_is_argument_parsing():
+    """cli.py holds its parser and a call of the pipeline's commands: at most 150
+    lines besides the parser (the commands' logic lives in granavg.pipeline.commands);
+    the count sees a command's logic moved back into it."""
+    assert lines_outside_the_parser(ROOT / "cli.py") <= 150
+    grown = ROOT.parent / "tests" / "__cli_probe.py"
+    try:
+        grown.write_text((ROOT / "cli.py").read_text() +
+                         (ROOT / "pipeline" / "commands.py").read_text())
+        assert lines_outside_the_parser(grown) > 150
+    finally:
+        grown.unlink()
+
+
+def test_the_help_says_what_granavg_does_in_full_sentences():
+    """``granavg --help`` describes the tool in sentences that end (no RST markup), and
+    an example option value stays whole on its line (wrapped only between words)."""
+    env = dict(os.environ, COLUMNS="80")
+    top = subprocess.run([sys.executable, "-m", "granavg", "--help"], capture_output=True,
+                         text=True, env=env)
+    text = top.stdout.split("positional arguments")[0]
+    description = " ".join(text.split("\n\n", 1)[1].split())
+    assert description.endswith(".") and "``" not in top.stdout and len(description) > 100
+    avg = subprocess.run([sys.executable, "-m", "granavg", "average", "--help"],
+                         capture_output=True, text=True, env=env)
+    example = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
+               "ftx=c_pl[5],fty=c_pl[6]")
+    assert any(line.strip() == example for line in avg.stdout.splitlines()), avg.stdout

@@ -131,5 +131,7 @@ def run_directory(path) -> Path:
     if not p.exists():
         raise UserError(f"{p}: no such run directory")
     if not p.is_dir():
-        raise UserError(f"{p}: is a file; give the run directory that holds manifest.json")
+        raise ParameterError("run_dirs", f"{literal(str(p))}: is a file, not a run directory "
+                             "(which holds manifest.json); for a dump give {atoms} "
+                             f"{literal(str(p))} (and {{contacts}} for its contacts)")
     return p

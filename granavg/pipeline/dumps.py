@@ -12,7 +12,7 @@ from granavg.engine.api import averager
 from granavg.engine.cells import Space, from_options
 from granavg.engine.profiles import Profiles
 from granavg.engine.smoothing import smooth
-from granavg.errors import ParameterError
+from granavg.errors import ParameterError, named
 from granavg.io import formats, validate
 from granavg.pipeline.description import WithBodyForces
 from granavg.io.prefetch import Prefetched
@@ -102,8 +102,8 @@ def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     if terms:
         frames = WithBodyForces(frames, terms, cells_of_options, density)
     if frames.units.style == "unstated":
-        log.info("%s does not say its units: the outputs are labelled 'unstated'; name "
-                 "them with the units option (LAMMPS style: si, lj, ...)", atoms)
+        log.info(named("%s does not say its units: the outputs are labelled 'unstated'; "
+                       "name them with {units} (LAMMPS style: si, lj, ...)"), atoms)
     avg = averager(Prefetched(frames), cells_of_options, rho_p=density, quantities=quantities,
                    t_min=t_min or 0.0, block_time=block_time, units=frames.units,
                    branch=branch, sectors=sectors)

