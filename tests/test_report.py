@@ -250,3 +250,19 @@ def test_the_report_of_anyones_dumps_labels_every_axis_with_its_unit(pile3d_soft
     assert "body_power" not in series(forces) and forces.get_ylabel().endswith("(N/m^3)")
     proc = run_cli("analyze", out, "--out", tmp_path / "report")
     assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize("name", list(FIGURES))
+def test_no_axis_of_a_figure_lacks_its_quantity_and_unit(profiles, name):
+    """Every axis of every figure of the paper's report (twin axes included) names its
+    quantity with a unit in parentheses."""
+    p8, p16 = (read_profiles(p) for p in profiles)
+    summary = analyze(p8, p16, p8.meta["run_manifest"])
+    fig = np.atleast_1d(FIGURES[name](p8, p16, summary)).ravel()[0].figure
+    for ax in fig.axes:
+        if not ax.has_data():
+            continue
+        twin = len(ax.get_shared_x_axes().get_siblings(ax)) > 1     # its x axis is another's
+        for label in (ax.get_ylabel(),) if twin else (ax.get_xlabel(), ax.get_ylabel()):
+            assert "(" in label and label.endswith(")"), (name, ax.get_title(), label)
+    fig.clf()
