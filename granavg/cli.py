@@ -16,7 +16,7 @@ import textwrap
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from granavg import __version__
-from granavg.errors import UserError, name_parameters
+from granavg.errors import UserError, name_parameters, named
 
 DESCRIPTION = ("granavg turns discrete-element (DEM) simulations of granular matter into "
                "continuum fields - density, velocity, spin, fabric, static and dynamic "
@@ -37,9 +37,10 @@ def flag(name: str) -> str:
     return FLAGS.get(name, "--" + name.replace("_", "-"))
 
 
-#: Where the help names the quantities: filled in from their registry when help is shown
-#: (it is not imported for anything else the command line does).
-CATALOGUE = "<quantities>"
+#: Where the help names the quantities and the kernels: filled in from their registries
+#: when help is shown (they are not imported for anything else the command line does).
+CATALOGUE, KERNELS, WIDTHS, DEFAULT_KERNEL = ("<quantities>", "<kernels>", "<widths>",
+                                              "<default kernel>")
 
 
 class _Formatter(argparse.HelpFormatter):
@@ -62,11 +63,12 @@ class _Parser(argparse.ArgumentParser):
         raise UserError(f"{message} (see {self.prog} --help)")
 
     def format_help(self):
-        from granavg.pipeline.description import quantity_catalogue
+        from granavg.pipeline.commands import catalogues
 
         for action in self._actions:
-            if action.help and CATALOGUE in action.help:
-                action.help = action.help.replace(CATALOGUE, quantity_catalogue())
+            for name, text in catalogues().items():
+                if action.help and name in action.help:
+                    action.help = action.help.replace(name, text)
         return super().format_help()
 
 
@@ -104,6 +106,9 @@ def _parser() -> argparse.ArgumentParser:
                      "the scene's discarded transient: discard_rotations inner-ring rotations)")
     sim.add_argument("--block-time", type=_finite, help="in-situ standard errors: base blocks "
                      "of this length in s (default: one dump interval, at most 512)")
+    sim.add_argument("--kernel", help="with --average: smooth the in-situ averages with "
+                     "this kernel (" + KERNELS + "; docs/profiles.md)")
+    sim.add_argument("--width", type=_finite, metavar="W", help="with --kernel: its width, m")
     sim.add_argument("--quantities", help="comma-separated quantities the run is for, of: "
                      + CATALOGUE + "; if none needs contact forces, LAMMPS computes and "
                      "writes no contact output")
@@ -120,14 +125,12 @@ def _parser() -> argparse.ArgumentParser:
                          "of a granavg run or an ensemble (SI units), or of plain LAMMPS "
                          "dumps (in their own units)")
     _frames_and_cells(avg)
-    avg.add_argument("--kernel", default="exact", help="how particles enter the fields: "
-                     "exact (default: each cell's exact average, the particles' volume "
-                     "fractions in it) or a smoothing kernel, lucy, gauss or heaviside: "
-                     "fields at the cells' centres, with their gradients (gradv, D, W, "
-                     "divsigma, divdsigma); docs/profiles.md")
+    avg.add_argument("--kernel", help="how particles enter the fields: " + KERNELS +
+                     ". The first is the default; a smoothing kernel gives fields at the "
+                     "cells' centres, with their gradients (gradv, D, W, divsigma, "
+                     "divdsigma); docs/profiles.md")
     avg.add_argument("--width", type=_finite, metavar="W", help="the smoothing kernel's "
-                     "width, in the dumps' length unit (m for runs): lucy's and "
-                     "heaviside's support radius, gauss's standard deviation")
+                     "width, in the data's length unit (m for runs): " + WIDTHS)
     _branch_and_errors(avg)
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
@@ -150,8 +153,8 @@ def _parser() -> argparse.ArgumentParser:
                          "smoothing kernel at several widths, the fields and their errors "
                          "against the width, and where each stops depending on it")
     _frames_and_cells(scl)
-    scl.add_argument("--kernel", default="lucy", help="the smoothing kernel: lucy "
-                     "(default), gauss or heaviside")
+    scl.add_argument("--kernel", help="the smoothing kernel (default " + DEFAULT_KERNEL +
+                     "), of: " + KERNELS)
     scl.add_argument("--widths", type=_finite, nargs="+", metavar="F",
                      default=[0.25, 0.5, 1.0, 2.0, 4.0], help="the kernel's widths in mean "
                      "particle diameters (default 0.25 0.5 1 2 4)")
@@ -208,15 +211,6 @@ def _frames_and_cells(avg):
                      "any LAMMPS dump without a run directory")
     avg.add_argument("--contacts", help="per-contact dump: granavg's, the deck's raw one, "
                      "or a dump local of compute pair/local + property/local")
-    rings = avg.add_mutually_exclusive_group()
-    rings.add_argument("--bins", type=int, help="number of equal rings (from R_i to R_o of "
-                       "a run, default 20; or over --r-range) or slabs (over --range)")
-    rings.add_argument("--edges", type=_finite, nargs="+", metavar="R",
-                       help="ring (or slab) edges in m, increasing")
-    rings.add_argument("--polar-grid", type=int, nargs=2, metavar=("NR", "NPHI"),
-                       help="a polar grid: NR equal rings (from R_i to R_o of a run, or "
-                       "over --r-range about --center) in NPHI equal sectors each: field "
-                       "maps over the annulus")
     plain = avg.add_argument_group("plain LAMMPS dumps (no run directory; every number in "
                                    "the dump's own units)")
     plain.add_argument("--format", help="input format of --atoms/--contacts (lammps, csv; "
@@ -226,33 +220,10 @@ def _frames_and_cells(avg):
                        "ITEM: UNITS header (dump_modify units yes); only labels the outputs")
     plain.add_argument("--dim", type=int, choices=[2, 3], help="2 (disks) or 3 "
                        "(spheres); default from the dump: 3 where the atoms' z differ")
-    plain.add_argument("--thickness", type=_finite, metavar="H", help="2D: disk height h "
-                       "(disks of volume pi h a^2); required in 2D")
     plain.add_argument("--density", type=_finite, metavar="RHO", help="material density "
                        "(masses rho pi h a^2 for disks, rho 4/3 pi a^3 for spheres); or the "
                        "dump's mass column")
     plain.add_argument("--dt", type=_finite, help="time step, for dumps without ITEM: TIME")
-    plain.add_argument("--center", type=_finite, nargs=2, metavar=("X", "Y"),
-                       help="centre of the rings (3D: the axis of the cylindrical shells, "
-                       "parallel to z; default 0 0)")
-    plain.add_argument("--r-range", type=_finite, nargs=2, metavar=("R1", "R2"),
-                       help="rings (3D: cylindrical shells): --bins equal rings from R1 to R2")
-    plain.add_argument("--layers", type=int, metavar="NZ", help="3D shells: NZ layers over "
-                       "--z-range (default 1)")
-    plain.add_argument("--slabs", choices=["x", "y", "z"], help="Cartesian slabs across x, "
-                       "y (or z in 3D) (--bins over --range, or --edges) instead of rings")
-    plain.add_argument("--range", type=_finite, nargs=2, metavar=("LO", "HI"),
-                       help="slabs: from LO to HI (default the box)")
-    plain.add_argument("--length", type=_finite, help="2D slabs: their length along the "
-                       "other axis (default the box's)")
-    plain.add_argument("--area", type=_finite, help="3D slabs: their cross-section (default "
-                       "the box's)")
-    plain.add_argument("--grid", type=int, nargs="+", metavar="N",
-                       help="a grid: NX NY rectangles (2D) or NX NY NZ boxes (3D) over "
-                       "--x-range, --y-range (--z-range)")
-    plain.add_argument("--x-range", type=_finite, nargs=2, metavar=("X1", "X2"))
-    plain.add_argument("--y-range", type=_finite, nargs=2, metavar=("Y1", "Y2"))
-    plain.add_argument("--z-range", type=_finite, nargs=2, metavar=("Z1", "Z2"))
     plain.add_argument("--gravity", type=_finite, nargs="+", metavar="G",
                        help="gravitational acceleration GX GY (3D: GX GY GZ): a body force "
                        "m g on every particle")
@@ -273,6 +244,14 @@ def _frames_and_cells(avg):
                        "The contact couple as mz (3D: mx my mz) or as pair granular's "
                        "rolling force frx fry [frz] (p5 p6 p7) and twisting torque twist "
                        "(p9); without them the couples are taken as zero")
+    from granavg.pipeline.commands import cell_options     # the cells' registry
+
+    for spec in cell_options():
+        (avg if spec.runs else plain).add_argument(
+            "--" + spec.name.replace("_", "-"), type={"float": _finite, "int": int,
+                                                       "str": str}[spec.kind],
+            nargs=spec.nargs, metavar=spec.metavar, choices=spec.choices,
+            help=named(spec.help))
     avg.add_argument("--t-min", type=_finite, help="average frames with t >= T s (default: "
                      "the scene's discarded transient, discard_rotations rotations)")
     avg.add_argument("--block-time", type=_finite, help="base time blocks of the errors' "

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from granavg.engine import Boxes
+from granavg.cells import Boxes
 from granavg.io.profiles_io import read_profiles
 from granavg.sim.lammps_session import lammps_session
 

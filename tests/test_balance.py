@@ -13,7 +13,8 @@ scatter by 1-2% with the layering."""
 import numpy as np
 import pytest
 
-from granavg.engine import Slabs, average
+from granavg.engine import average
+from granavg.cells import Slabs
 from granavg.io.frames import Frame
 from granavg.io.profiles_io import read_profiles
 

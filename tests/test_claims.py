@@ -7,7 +7,7 @@ import pytest
 
 from granavg.analysis.claims import analyze
 from granavg.engine.cells.rings import Rings
-from granavg.engine.profiles import Profiles
+from granavg.engine.fields import Fields
 from granavg.analysis.continuum import deformation_rate_and_spin
 from granavg.engine.uncertainty.blocking import Replicates
 
@@ -119,7 +119,7 @@ def profiles(n, n_rep=6, noise=1e-3, seed=0, leaky=False, **kw):
     t = np.tile(np.arange(20.0), n_rep)
     torque = -POWER / SCENE["Omega"] * (1 + noise * rng.standard_normal(t.size))
     series = {"t_s": t, "run": np.repeat(np.arange(n_rep), 20), "torque_in_Nm": torque}
-    return Profiles(rings, values, sem, np.array([""] * n, dtype=object), 100, meta, rep,
+    return Fields(rings, values, sem, np.array([""] * n, dtype=object), 100, meta, rep,
                     np.full(n, n_rep), series)
 
 
@@ -187,7 +187,7 @@ def test_noisy_data_make_claims_inconclusive_not_reproduced():
 
 
 def shifted(n, dnu, **kw):
-    """Profiles of the same law at a density shifted by dnu (replicates included)."""
+    """Fields of the same law at a density shifted by dnu (replicates included)."""
     p = profiles(n, **kw)
     scale = (0.82 + dnu) / 0.82
     for d in (p.values, *(([p.replicates.values]) if p.replicates else [])):

@@ -5,7 +5,8 @@ the stress sum rule over boxes."""
 import numpy as np
 import pytest
 
-from granavg.engine import Boxes, Shells, Slabs3D, average
+from granavg.engine import average
+from granavg.cells import Boxes, Shells, Slabs3D
 from granavg.engine.sphere_weights import box_weights
 from granavg.io.frames import Frame
 

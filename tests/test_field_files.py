@@ -1,4 +1,4 @@
-"""Profiles as NetCDF (xarray) and VTK (meshio): written and read back, on boxes, a 2D
+"""Fields as NetCDF (xarray) and VTK (meshio): written and read back, on boxes, a 2D
 grid and slabs, with the cells where they belong."""
 
 import meshio
@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from granavg.engine import Boxes, Grid, Slabs3D, average
+from granavg.engine import average
+from granavg.cells import Boxes, Grid, Slabs3D
 from granavg.errors import UserError
-from granavg.io.field_files import to_dataset, write_netcdf, write_vtk
+from granavg.io.field_files import write_netcdf, write_vtk
 from granavg.io.frames import Frame
 
 from .test_engine_3d import RHO_P, cubic_crystal
@@ -75,7 +76,7 @@ def test_a_2d_grid_is_quadrilaterals_and_slabs_have_no_vtk(tmp_path):
     spheres = {**atoms, "z": rng.uniform(0, 1, 400)}
     slabs = average([Frame(k, float(k), spheres, None) for k in range(2)],
                     Slabs3D(np.linspace(0, 1, 4), "z", 1.0), quantities=["nu"], sectors=None)
-    assert to_dataset(slabs)["nu"].dims == ("z",)
+    assert slabs.to_xarray()["nu"].dims == ("z",)
     with pytest.raises(UserError, match="VTK output is for grids"):
         write_vtk(slabs, tmp_path / "s.vtu")
     assert not (tmp_path / "s.vtu").exists()

@@ -10,7 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from granavg.engine import Rings, average
+from granavg.engine import average
+from granavg.cells import Rings
 from granavg.io import formats
 from granavg.io.csv_frames import CsvFrames
 from granavg.io.profiles_io import read_profiles

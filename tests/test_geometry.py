@@ -7,7 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from granavg.engine import Grid, Rings, Slabs, average
+from granavg.engine import average
+from granavg.cells import Grid, Rings, Slabs
 from granavg.engine.weights import grid_weights, strip_weights
 from granavg.io.reader import DumpReader
 from granavg.io.run_dumps import RunDumps
@@ -37,7 +38,7 @@ def test_sum_of_nu_v_over_cells_is_the_disks_volume(geometry):
     occupied = p.values["nu"] > 0
     assert np.allclose(p.values["v_x"][occupied], 0.03, rtol=1e-12)
     assert np.allclose(p.values["v_y"][occupied], -0.01, rtol=1e-12)
-    assert "v_r" not in p.values and set(geometry.coordinates()) <= set(p.to_frame().columns)
+    assert "v_r" not in p.values and set(geometry.coordinates()) <= set(p.to_pandas().columns)
 
 
 def test_weights_against_quadrature():

@@ -67,10 +67,10 @@ def make_golden(out_dir=GOLDEN):
     (out_dir / "hashes.json").write_text(json.dumps(hashes, indent=1, sort_keys=True) + "\n")
 
 
-#: Unit labels that were wrong on 2026-12-04 (guessed from the columns' names), by the
-#: column's prefix, and what they are in SI.
-RELABELLED = {"gradv_": "1/s", "D_": "1/s", "W_": "1/s", "divsigma_": "Pa/m",
-              "divdsigma_": "Pa/m", "spin_density_": "kg/(m s)"}
+#: Unit labels that were wrong on 2026-12-04 (guessed from the columns' names): each
+#: column of these quantities or coordinates (``phi``, ``phi_lo``, ...) and its unit in SI.
+RELABELLED = {"gradv": "1/s", "D": "1/s", "W": "1/s", "divsigma": "Pa/m",
+              "divdsigma": "Pa/m", "spin_density": "kg/(m s)", "phi": "rad"}
 
 
 def relabelled(meta):
@@ -78,7 +78,7 @@ def relabelled(meta):
     for column in meta.get("columns", {}):
         name = column[:-4] if column.endswith("_sem") else column
         for prefix, unit in RELABELLED.items():
-            if name.startswith(prefix):
+            if name == prefix or name.startswith(prefix + "_"):
                 meta["columns"][column] = unit
     return meta
 

@@ -341,3 +341,63 @@ def test_the_help_says_what_granavg_does_in_full_sentences():
     example = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
                "ftx=c_pl[5],fty=c_pl[6]")
     assert any(line.strip() == example for line in avg.stdout.splitlines()), avg.stdout
+
+
+def docstring_ids(tree) -> set:
+    """The string constants of a module that are docstrings."""
+    docs = set()
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef,
+                             ast.ClassDef)) and body and isinstance(body[0], ast.Expr) \
+                and isinstance(body[0].value, ast.Constant):
+            docs.add(id(body[0].value))
+    return docs
+
+
+def registered() -> tuple:
+    """(kinds of cells, their class names, kernel names) as the registries hold them."""
+    from granavg.engine.cells import registry as cells
+    from granavg.engine.smoothing import registry as kernels
+    return set(cells()), {c.__name__ for c in cells().values()}, set(kernels())
+
+
+def plugin_names(path: Path, kinds, classes, kernels) -> list:
+    """(line, name) of each kernel or geometry named in a string of the file that is not
+    a docstring: a kernel's name or a cells class's as a word; a kind of cells as the
+    whole string, or as a word where it is no English word (``polar_grid``)."""
+    tree = ast.parse(path.read_text())
+    docs = docstring_ids(tree)
+    pieces = {id(v) for node in ast.walk(tree) if isinstance(node, ast.JoinedStr)
+              for v in node.values}                          # parts of f-strings' text
+    out = []
+    for node in ast.walk(tree):
+        if not (isinstance(node, ast.Constant) and isinstance(node.value, str)) or \
+                id(node) in docs:
+            continue
+        whole = id(node) not in pieces
+        for word in set(__import__("re").findall(r"[A-Za-z_][A-Za-z0-9_]*", node.value)):
+            identifier = "_" in word or any(ch.isdigit() for ch in word)
+            if word in kernels or word in classes or (
+                    word in kinds and ((whole and node.value.strip() == word) or identifier)):
+                out.append((node.lineno, word))
+    return sorted(out)
+
+
+def test_no_kernel_or_geometry_is_named_outside_its_registry():
+    """Messages, help and choices name kernels and kinds of cells from their registries
+    (granavg/engine/smoothing, granavg/engine/cells): a new kernel or geometry is one
+    module there, and appears everywhere else by itself."""
+    names = registered()
+    own = (ROOT / "engine" / "cells", ROOT / "engine" / "smoothing")
+    found = {str(p.relative_to(ROOT)): hits for p in sorted(ROOT.rglob("*.py"))
+             if not any(d in p.parents for d in own) and (hits := plugin_names(p, *names))}
+    assert not found, found
+
+
+def test_the_name_check_sees_a_name(tmp_path):
+    probe = tmp_path / "probe.py"
+    probe.write_text('"""Lucy\'s kernel may be named here."""\n\nKINDS = ("rings", '
+                     '"a polar_grid")\nHELP = "smooth with lucy or gauss"\n')
+    assert plugin_names(probe, *registered()) == [(3, "polar_grid"), (3, "rings"),
+                                                  (4, "gauss"), (4, "lucy")]

@@ -47,7 +47,7 @@ def test_cli_average_on_local_workers(small_run, tmp_path):
     proc = run_cli("average", small_run, "--bins", "8", "--t-min", "1", "--workers", "2",
                    "--out", out, "--no-progress")
     assert proc.returncode == 0, proc.stderr
-    serial = average_run(small_run, bins=8, t_min=1.0, progress=False).to_frame()
+    serial = average_run(small_run, bins=8, t_min=1.0, progress=False).to_pandas()
     table = pd.read_csv(out)
     assert np.allclose(table["sigma_rr"], serial["sigma_rr"], rtol=1e-9, atol=0)
     meta = json.loads(out.with_name(out.name + ".json").read_text())

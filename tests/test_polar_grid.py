@@ -10,7 +10,7 @@ import json
 import numpy as np
 import pytest
 
-from granavg.engine import PolarGrid, Rings
+from granavg.cells import PolarGrid, Rings
 from granavg.engine.cells import from_options, registry, restore
 from granavg.engine.cells.base import Space
 from granavg.io.profiles_io import read_profiles
@@ -161,7 +161,7 @@ def test_plain_dumps_take_a_polar_grid_about_a_centre(demo_run, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert read_profiles(tmp_path / "p.csv").cells.n == 16
     proc = run_cli(*args, "--bins", 3, "--out", tmp_path / "q.csv")
-    assert proc.returncode == 2 and "not allowed with argument" in proc.stderr
+    assert proc.returncode == 2 and "--bins does not apply to a polar grid" in proc.stderr
 
 
 def test_on_the_demo_run_the_spins_balance_in_every_polar_cell(demo_run):

@@ -8,7 +8,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from granavg.engine import Grid, Rings, Slabs, average
+from granavg.engine import average
+from granavg.cells import Grid, Rings, Slabs
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.average import CellAverage, frame_sums
 from granavg.engine.cells.base import layout_of
@@ -93,7 +94,7 @@ def test_sector_sums_add_up_to_the_cells_sums(geometry):
 
 
 def synthetic_average(rng, frozen, common, local, k=24, n_cells=3, frames=512, tau=4.0):
-    """Profiles of synthetic sector sums: nu of sector s at frame t is
+    """Fields of synthetic sector sums: nu of sector s at frame t is
     0.8 + F_s + T(t) + e_s(t), with F frozen (sd ``frozen``), T common to all sectors and
     e local to each (sds ``common``, ``local``), both AR(1) with correlation time tau.
     Returns the profiles with errors from time and structure, and from time alone."""

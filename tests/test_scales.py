@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from granavg.analysis.scales import FLAT, interior, plateau, steps
-from granavg.engine import Slabs3D
-from granavg.engine.profiles import Profiles
+from granavg.cells import Slabs3D
+from granavg.engine.fields import Fields
 from granavg.engine.uncertainty.blocking import Replicates
 from granavg.io.profiles_io import read_profiles
 
@@ -24,7 +24,7 @@ CELLS = Slabs3D(np.linspace(0.0, 1.0, 11), "z", 1.0)
 
 def profile(values, sem, replicates=None):
     n = CELLS.n
-    return Profiles(CELLS, {"q": np.asarray(values, float)}, {"q": np.asarray(sem, float)},
+    return Fields(CELLS, {"q": np.asarray(values, float)}, {"q": np.asarray(sem, float)},
                     np.array([""] * n), 10, {},
                     None if replicates is None else Replicates("jackknife", {"q": replicates}))
 
@@ -114,7 +114,7 @@ def test_the_piles_stress_does_not_depend_on_the_width_its_floor_does(pile3d, tm
     (("--widths", 1, 0.5), "--widths 1 0.5: give positive widths in increasing order"),
     (("--diameter", -1), "--diameter -1: must be a finite number > 0"),
     (("--widths", 0.1, 1), "--widths 0.1: 0.1 d = "),
-    (("--kernel", "cubic"), "--kernel 'cubic': choose exact or one of"),
+    (("--kernel", "cubic"), "--kernel 'cubic': choose exact or gauss, heaviside or lucy"),
 ])
 def test_scale_study_refusals_in_one_line(pile3d, tmp_path, extra, needle):
     proc = run_cli("scales", "--atoms", pile3d / "atoms.dump", "--slabs", "z",

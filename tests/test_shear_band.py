@@ -120,7 +120,7 @@ def test_the_systematic_error_is_the_largest_shift_of_the_variants():
 
 
 def ensemble(n, s, runs, rng, rel=0.1, absolute=2e-5, v0_ratio=0.645):
-    """Profiles of ``runs`` synthetic realisations: every field as in tests/test_claims,
+    """Fields of ``runs`` synthetic realisations: every field as in tests/test_claims,
     v_phi a first-layer staircase and exponential with realisation-to-realisation noise,
     relative and absolute (the creeping bulk's)."""
     p = profiles(n, n_rep=runs, noise=1e-3, seed=int(rng.integers(1 << 30)))

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 from scipy import integrate, optimize
 
-from granavg.engine import Boxes, Grid, PolarGrid, Rings, Shells, Slabs, Slabs3D, average
+from granavg.engine import average
+from granavg.cells import Boxes, Grid, PolarGrid, Rings, Shells, Slabs, Slabs3D
 from granavg.engine.average import frame_sums
 from granavg.engine.cells.base import layout_of
 from granavg.engine.smoothing import get, registry, smooth
@@ -581,8 +582,8 @@ def test_the_couette_torque_passes_through_every_circle(tmp_path):
 @pytest.mark.parametrize("extra, needle", [
     (("--width", 0.01), "--width is the width of a smoothing kernel"),
     (("--kernel", "lucy"), "--kernel lucy needs --width W"),
-    (("--kernel", "cubic", "--width", 1), "--kernel 'cubic': choose exact or one of gauss, "
-                                          "heaviside, lucy"),
+    (("--kernel", "cubic", "--width", 1), "--kernel 'cubic': choose exact or gauss, "
+                                          "heaviside or lucy"),
     (("--kernel", "lucy", "--width", 0.1), "--width 0.1: below half the smallest particle "
                                            "radius"),
     (("--quantities", "nu,gradv"), "gradv is a derivative of the coarse-grained fields"),

@@ -8,7 +8,7 @@ import pytest
 from scipy import integrate
 
 from granavg.engine import sphere_weights as sw
-from granavg.engine import Boxes, Shells, Slabs3D
+from granavg.cells import Boxes, Shells, Slabs3D
 
 
 def slice_below(X, Y, rho):

@@ -7,7 +7,8 @@ import importlib
 import numpy as np
 import pytest
 
-from granavg.engine import Boxes, average, threads
+from granavg.engine import average, threads
+from granavg.cells import Boxes
 from granavg.engine.average import frame_sums
 from granavg.engine.cells.sectors import about_axis
 from granavg.engine.cells.rings import Rings

@@ -41,7 +41,7 @@ log = logging.getLogger("calibrate")
 
 
 def one_run(run, bins, t_min) -> dict:
-    """Profiles of one run with every method's errors, from one pass over its frames."""
+    """Fields of one run with every method's errors, from one pass over its frames."""
     avg = run_averager(run, bins=bins, t_min=t_min)
     avg.run(False)
     out, replica_acc = {}, avg.replica_acc

@@ -24,13 +24,16 @@ from __future__ import annotations
 
 import logging
 import os
+from dataclasses import dataclass, field
 from types import SimpleNamespace
+from typing import Callable
 
 import numpy as np
 
 from granavg.analysis import continuum as c
 from granavg.analysis import shear_band as sb_fit
 from granavg.analysis.balance import FORCE_DENSITIES, residuals, stress_scale
+from granavg.analysis.regime import QUASI_STATIC_LIMIT, dynamic_over_static
 from granavg.analysis.rounding import plain, pm
 from granavg.analysis.spin_balance import (ARMS, has_couples, moment_density, spin_balance,
                                            spin_residuals)
@@ -75,33 +78,6 @@ IDENTITY_TOLERANCE = 0.05
 def tensor(p, name):
     """The four components of a tensor profile, as a tuple of arrays."""
     return tuple(p.values[f"{name}_{k}"] for k in TENSOR)
-
-
-#: Dynamic over static stress above which the flow is no longer quasi-static (the paper
-#: describes the quasi-static regime only); granavg warns.
-QUASI_STATIC_LIMIT = 0.1
-
-
-def dynamic_over_static(p) -> np.ndarray:
-    """|dynamic stress| / |static stress| per ring (Frobenius norms), shape (n_rings,)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.sqrt(sum(np.asarray(t) ** 2 for t in tensor(p, "dsigma"))) / np.sqrt(
-            sum(np.asarray(t) ** 2 for t in tensor(p, "sigma")))
-
-
-def warn_if_inertial(p) -> float | None:
-    """Log a warning when the dynamic stress is no longer small against the static
-    stress in some ring; returns the largest ratio (None without both stresses)."""
-    if "sigma_rr" not in p.values or "dsigma_rr" not in p.values:
-        return None
-    ratio = float(np.nanmax(dynamic_over_static(p)))
-    if ratio > QUASI_STATIC_LIMIT:
-        what = "reaches %.2f of the static stress (above %.2f)" % (ratio, QUASI_STATIC_LIMIT) \
-            if np.isfinite(ratio) else "is not zero where the static stress is (cells " \
-            "without contacts)"
-        log.warning("dynamic stress %s: the flow is inertial, outside the quasi-static "
-                    "regime the paper describes; lower Omega or stiffen k_n", what)
-    return ratio
 
 
 def bulk(n):
@@ -238,17 +214,388 @@ def _claim(text, result, evidence, kind="claim", tolerance="", deviations=()):
             "note": note, "evidence": evidence}
 
 
+@dataclass
+class Analysis:
+    """What the claims read and write: the coarse and fine profiles, the scene's numbers,
+    the replicates' estimator, and the summary's numbers, series and claims so far."""
+
+    p20: object
+    p60: object
+    manifest: dict
+    density_series: tuple
+    geo: object = None
+    est: object = None
+    numbers: dict = field(default_factory=dict)
+    series: dict = field(default_factory=dict)
+    claims: list = field(default_factory=list)
+    band: object = None
+    band_end: int = 0
+
+    @property
+    def arm(self) -> str:
+        """The law's lever arm for the torque: the contact point with rolling resistance
+        (pair granular), else the surface (gran/hooke/history)."""
+        return "contact" if self.manifest["scene"].get("mu_roll", 0) > 0 else "surface"
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One of the paper's claims (or a check of the averaging), registered in
+    :data:`CLAIMS` like the quantities.
+
+    Attributes
+    ----------
+    name : str
+        Its key.
+    figure : str
+        The paper's figure (or equation) it is about.
+    decide : callable
+        ``decide(analysis) -> dict or None``: the claim's entry (:func:`_claim`), None
+        where the data cannot hold it (no couple stress, no wall torque); it may add
+        the numbers it reads to ``analysis.numbers`` and the figures' arrays to
+        ``analysis.series``.
+    """
+
+    name: str
+    figure: str
+    decide: Callable
+
+
+def _band(a: Analysis) -> dict:
+    """The shear band's numbers (:func:`_shear_band`), computed once."""
+    if "shear_band" not in a.numbers:
+        a.numbers["shear_band"], a.band, a.band_end = _shear_band(a.p20, a.p60, a.geo, a.est)
+    return a.numbers["shear_band"]
+
+
+def _decay(a: Analysis) -> dict:
+    num = _band(a)
+    return _claim(
+        "exponential decay over about two decades",
+        verdict(num["decades"], num["decades_err"], DECADES),
+        f"{pm(num['decades'], num['decades_err'], 'decades')} from the first ring to the "
+        "noise", tolerance=f"above {DECADES:g} decades by {Z:g} errors")
+
+
+def _compared(key, label, unit, scale, tol):
+    """The claim that the band's ``key`` lies within ``tol`` of the paper's value."""
+    def decide(a: Analysis) -> dict:
+        num = _band(a)
+        total = float(np.hypot(num[f"{key}_err"], num[f"{key}_sys"]))
+        paper = PAPER[key]
+        return _claim(
+            f"{label} within {tol:.0%} of the paper's {paper * scale:g}{unit}",
+            verdict(abs(num[key] - paper), total, tol * paper, above=False),
+            f"{pm(num[key] * scale, num[f'{key}_err'] * scale, unit.strip())} (statistical)"
+            f", +- {plain(num[f'{key}_sys'] * scale, 2)}{unit} (estimator); "
+            f"{num['rings_fitted']} of {a.p60.cells.n} rings", kind="comparison",
+            tolerance=f"{tol:.0%} of the paper's value, + {Z:g} combined errors",
+            deviations=[(label, num[key] * scale, total * scale, paper * scale)])
+    return decide
+
+
+def _density(a: Analysis) -> dict:
+    if "density" not in a.numbers:
+        a.numbers["density"] = a.est(lambda x, y: _density_numbers(x, y, a.geo))
+    return a.numbers["density"]
+
+
+def _dilation(a: Analysis) -> dict:
+    d = _density(a)
+    return _claim(
+        "dilation in the shear zone and at the outer wall",
+        _both(verdict(d["dilation_inner"], d["dilation_inner_err"], 0.0),
+              verdict(d["dilation_outer"], d["dilation_outer_err"], 0.0)),
+        f"nu_bulk - nu between 1 and 3 mean diameters from the wall (the first layer, where "
+        f"excluded volume alone lowers nu, left out): inner "
+        f"{pm(d['dilation_inner'], d['dilation_inner_err'])}, outer "
+        f"{pm(d['dilation_outer'], d['dilation_outer_err'])} ({a.p60.cells.n} rings)",
+        tolerance=f"both above 0 by {Z:g} errors")
+
+
+def _layering(a: Analysis) -> dict:
+    d = _density(a)
+    return _claim(
+        "layering at the walls, none in the bulk",
+        _both(verdict(d["layering_excess"], d["layering_excess_err"], 0.0),
+              verdict(d["layering_walls"], 0.0, 2 * d["layering_bulk"])),
+        f"rms of nu about a straight line between 1 and 3 mean diameters from a wall: "
+        f"{plain(d['layering_walls'])}, in a bulk window as wide: "
+        f"{plain(d['layering_bulk'])}; excess "
+        f"{pm(d['layering_excess'], d['layering_excess_err'])}",
+        tolerance=f"excess above 0 by {Z:g} errors, the walls' rms over twice the bulk's")
+
+
+def _anisotropy(a: Analysis) -> dict:
+    """Fig. 3: fabric anisotropy, in the norm |dev F| = (F_1 - F_2)/2."""
+    fab = a.numbers["fabric"] = a.est(lambda x, y: _fabric_numbers(x))
+    return _claim(
+        "anisotropy |dev F|/tr F below 20%",
+        verdict(fab["anisotropy_max"], fab["anisotropy_max_err"], ANISOTROPY_LIMIT,
+                above=False),
+        f"largest over {a.p20.cells.n} rings: "
+        f"{pm(fab['anisotropy_max'], fab['anisotropy_max_err'])} with |dev F| = "
+        f"(F_1 - F_2)/2, half the eigenvalue difference (the paper does not define its "
+        f"norm; as Frobenius norm {plain(fab['anisotropy_max'] * np.sqrt(2))}, as full "
+        f"difference {plain(2 * fab['anisotropy_max'])})",
+        tolerance=f"below {ANISOTROPY_LIMIT:g} by {Z:g} errors")
+
+
+def _exponents(a: Analysis) -> dict:
+    """Fig. 4, Eq. 10: stress exponents in the bulk (unweighted; errors from replicates)."""
+    ex = a.numbers["stress_exponents"] = {
+        k: v for comp in TENSOR for k, v in a.est(
+            lambda x, y, comp=comp: _exponent(x, comp)).items()}
+    parts = []
+    for k in TENSOR:
+        e, err = ex[f"sigma_{k}"], ex[f"sigma_{k}_err"]
+        off = abs(e - PAPER[f"exp_sigma_{k}"])
+        if not np.isfinite(err) or err > EXPONENT_TOLERANCE:
+            parts.append("inconclusive")
+        else:
+            parts.append("reproduced" if off <= EXPONENT_TOLERANCE + Z * err
+                         else "not reproduced")
+    return _claim(
+        "sigma_rr, sigma_phiphi ~ r^0 and sigma_rphi, sigma_phir ~ r^-2 (Eq. 10)",
+        _both(*parts),
+        ", ".join(f"{k}: {pm(ex[f'sigma_{k}'], ex[f'sigma_{k}_err'])}" for k in TENSOR)
+        + " (the paper: 0, 0, -2, -2)",
+        tolerance=f"{EXPONENT_TOLERANCE:g} on each exponent, + {Z:g} errors",
+        deviations=[(f"sigma_{k}", ex[f"sigma_{k}"], ex[f"sigma_{k}_err"],
+                     PAPER[f"exp_sigma_{k}"]) for k in TENSOR])
+
+
+def _quasi_static(a: Analysis) -> dict:
+    q = a.numbers["quasi_static"] = a.est(lambda x, y: {
+        "dynamic_over_static_max": float(np.nanmax(dynamic_over_static(x)))})
+    return _claim(
+        "quasi-static: dynamic stress much smaller than static",
+        verdict(q["dynamic_over_static_max"], q["dynamic_over_static_max_err"],
+                QUASI_STATIC_LIMIT, above=False),
+        f"largest |d sigma| / |sigma| = "
+        f"{pm(q['dynamic_over_static_max'], q['dynamic_over_static_max_err'])}",
+        tolerance=f"below {QUASI_STATIC_LIMIT:g} by {Z:g} errors")
+
+
+def _identity(a: Analysis) -> dict:
+    """Fig. 5: stiffness against tr F; for linear springs an identity, checked as such."""
+    st = a.numbers["stiffness"] = a.est(lambda x, y: _stiffness_numbers(x, y, a.geo))
+    for p in (a.p20, a.p60):
+        B, G = c.stiffness(tensor(p, "sigma"), tensor(p, "eps"), a.geo.k_n)
+        a.series[f"stiffness_{p.cells.n}"] = (c.trace(tensor(p, "F")), B, G)
+    a.series["bulk_fit"] = (st["bulk_slope_per_m"], st["bulk_intercept_per_m"])
+    dev = st["identity_deviation"]
+    return _claim(
+        "bulk stiffness = tr F / (2 pi h), the linear-spring identity",
+        "holds" if abs(dev) <= IDENTITY_TOLERANCE + Z * st["identity_deviation_err"]
+        else "violated",
+        f"slope {pm(st['bulk_slope_per_m'], st['bulk_slope_per_m_err'], '1/m')} against "
+        f"1/(2 pi h) = {plain(a.geo.identity_slope, 4)} 1/m: deviation "
+        f"{pm(100 * dev, 100 * st['identity_deviation_err'], '%')} (damping, tangential "
+        "forces and fabric anisotropy make it; an identity of the averaging, not a finding "
+        "of the paper; the paper's collapse of several simulations is Fig. 5 of a density "
+        "series)", kind="identity check",
+        tolerance=f"{IDENTITY_TOLERANCE:.0%}, + {Z:g} errors",
+        deviations=[("the deviation", dev, st["identity_deviation_err"], 0.0)])
+
+
+def _collapse(a: Analysis) -> dict | None:
+    """Fig. 5 of a density series: the bulk stiffness of every run on one line."""
+    if not a.density_series:
+        return None
+    collapse = master_curve([a.p20, *a.density_series], a.geo)
+    a.series["density_series"] = collapse.pop("points")
+    a.numbers["master_curve"] = collapse
+    return _claim(
+        "bulk stiffness of different simulations on one master curve (Fig. 5)",
+        collapse["verdict"], collapse["evidence"],
+        tolerance=f"{COLLAPSE_TOLERANCE:.0%} on each run's offset, + {Z:g} errors",
+        deviations=[(f"area fraction {f:.4f}", o, e, 0.0) for f, o, e in zip(
+            collapse["area_fractions"], collapse["offsets"], collapse["offset_errors"])])
+
+
+def _colinear(a: Analysis) -> dict:
+    """Fig. 6: orientations, not co-linear in the band."""
+    _band(a)
+    for p in (a.p20, a.p60):
+        a.series[f"orientation_{p.cells.n}"] = {
+            q: np.degrees(c.orientation(tensor(p, q))) for q in ("F", "sigma", "eps")}
+    o = a.numbers["orientation"] = a.est(lambda x, y: _orientation_numbers(y, a.band_end))
+    pairs = [k for k in o if k.startswith("band_mean_angle") and not k.endswith("_err")]
+    significant = [k for k in pairs
+                   if abs(o[k]) > COLINEAR_DEG and abs(o[k]) > Z * o[f"{k}_err"]]
+    colinear = all(abs(o[k]) + Z * o[f"{k}_err"] < COLINEAR_DEG for k in pairs)
+    return _claim(
+        "fabric, stress and strain not co-linear",
+        "reproduced" if significant else ("not reproduced" if colinear else "inconclusive"),
+        "mean angle between major axes over the band (" + str(max(a.band_end, 2)) +
+        f" of {a.p60.cells.n} rings): " + ", ".join(
+            f"{k.replace('band_mean_angle_', '').replace('_', ' to ')} "
+            f"{pm(o[k], o[k + '_err'], 'deg')}" for k in pairs),
+        tolerance=f"one angle above {COLINEAR_DEG:g} deg and {Z:g} errors")
+
+
+def _motion(a: Analysis) -> dict:
+    """Fig. 7: equations of motion, static alone and the total sigma - dsigma."""
+    for p in (a.p20, a.p60):
+        a.series[f"eom_{p.cells.n}"] = _eom(p)
+    eo = a.numbers["equations_of_motion"] = a.est(lambda x, y: _eom_numbers(x), balance=True)
+    return _claim(
+        "equations of motion close in the bulk",
+        verdict(eo["bulk_median_residual"], eo["bulk_median_residual_err"], EOM_LIMIT,
+                above=False),
+        f"median |residual of div(sigma - dsigma)| / mean |sigma_rr| in the bulk = "
+        f"{pm(eo['bulk_median_residual'], eo['bulk_median_residual_err'])} "
+        f"({a.p20.cells.n} rings). Each ring's net force over its face's with the body and "
+        f"boundary force densities, walls closed: median "
+        f"{pm(eo['balance_bulk_median_residual'], eo['balance_bulk_median_residual_err'])} "
+        f"in the bulk, at most "
+        f"{pm(eo['balance_max_residual'], eo['balance_max_residual_err'])} in any ring, "
+        f"wall rings "
+        f"{pm(eo['balance_wall_residual_max'], eo['balance_wall_residual_max_err'])} "
+        f"({plain(eo['balance_wall_residual_max_without_forces'])} without the force "
+        "densities)",
+        tolerance=f"bulk median below {EOM_LIMIT:g} of the stress scale by {Z:g} errors")
+
+
+def _spins_balance(a: Analysis) -> dict | None:
+    """The spins' balance (micropolar): the forces' moments, the couples passed and the
+    spins' flux, with the law's own lever arm."""
+    if not all(has_couples(p.values, p.cells) for p in (a.p20, a.p60)):
+        return None
+    arm = a.arm
+    for p in (a.p20, a.p60):
+        a.series[f"spins_{p.cells.n}"] = _spins(p, arm)
+    sp = a.numbers["spin_balance"] = a.est(lambda x, y: _spin_numbers(x, arm), balance=True)
+    return _claim(
+        "the spins' angular momentum balances in every ring",
+        _both(verdict(sp["max_residual"], sp["max_residual_err"], SPIN_LIMIT, above=False),
+              verdict(sp["bulk_median_residual"], sp["bulk_median_residual_err"],
+                      SPIN_BULK_LIMIT, above=False)),
+        f"moment density left unbalanced by the forces' moments (lever arm to the "
+        f"{'contact point' if arm == 'contact' else 'surface'}), the couples the "
+        f"contacts pass and the spins' flux, over the stress scale ({a.p20.cells.n} "
+        f"rings, walls included): at most {pm(sp['max_residual'], sp['max_residual_err'])}"
+        f", bulk median "
+        f"{pm(sp['bulk_median_residual'], sp['bulk_median_residual_err'])}; the forces' "
+        f"moments alone reach {plain(sp['tau_max'], 2)}. With the couple stress field's "
+        f"divergence instead of the couples passed: at most "
+        f"{pm(sp['field_max_residual'], sp['field_max_residual_err'])}",
+        tolerance=f"below {SPIN_LIMIT:g} in every ring and {SPIN_BULK_LIMIT:g} as the "
+                  f"bulk's median, by {Z:g} errors")
+
+
+def _power(a: Analysis) -> dict | None:
+    """The power balance: what the inner wall delivers (-Omega <T_in>) is dissipated by
+    the contacts, at the walls and by the base plate, the kinetic energy steady."""
+    p20, geo = a.p20, a.geo
+    if not all(k in p20.values for k in ("contact_power", "wall_power")):
+        return None
+    arm = a.arm
+    t_in = window_mean(p20.timeseries, "torque_in_Nm",
+                       (p20.meta.get("frames") or {}).get("t_min_s", 0.0))
+    pw = a.numbers["power_balance"] = a.est(lambda x, y: _power_numbers(x, arm),
+                                            balance=True)
+    if t_in is None:
+        return None
+    P, P_err = -geo.Omega * t_in["mean"], geo.Omega * t_in["err"]
+    pw.update({"inner_wall_power_W": P, "inner_wall_power_W_err": P_err,
+               "inner_wall_contacts_dissipation_W": P - pw["inner_wall_delivered_W"],
+               "inner_wall_contacts_dissipation_W_err": float(np.hypot(
+                   P_err, pw["inner_wall_delivered_W_err"])),
+               "closure": pw["kinetic_energy_rate_W"] / P,
+               "closure_err": pw["kinetic_energy_rate_W_err"] / abs(P)})
+    plate = (f", the base plate "
+             f"{pm(pw['plate_dissipation_W'], pw['plate_dissipation_W_err'], 'W')}"
+             if "body_power" in p20.values else " (no base plate)")
+    return _claim(
+        "the inner wall's power is dissipated",
+        _closes(pw["closure"], pw["closure_err"], POWER_LIMIT),
+        f"inner wall -Omega T_in (window mean) = {pm(P, P_err, 'W')}; dissipated by "
+        f"the disks' contacts "
+        f"{pm(pw['contact_dissipation_W'], pw['contact_dissipation_W_err'], 'W')}, "
+        f"the inner wall's contacts "
+        f"{pm(pw['inner_wall_contacts_dissipation_W'], pw['inner_wall_contacts_dissipation_W_err'], 'W')}"
+        f", the outer wall's "
+        f"{pm(-pw['outer_wall_delivered_W'], pw['outer_wall_delivered_W_err'], 'W')}"
+        f"{plate}: unbalanced {pm(pw['closure'], pw['closure_err'])} of the wall's "
+        "power (what is left is the rate of the kinetic and elastic energy, nil in a "
+        "steady state)",
+        tolerance=f"{POWER_LIMIT:.0%} of the wall's power, or {Z:g} errors",
+        deviations=[("the unbalanced share", pw["closure"], pw["closure_err"], 0.0)])
+
+
+def _wall_loads(a: Analysis) -> None:
+    """The shear cell's torque (what the experiments measure): no claim, its numbers."""
+    t0 = (a.p20.meta.get("frames") or {}).get("t_min_s", 0.0)
+    a.numbers["wall_loads"] = {}
+    for q in ("torque_in_Nm", "torque_out_Nm"):
+        m = window_mean(a.p20.timeseries, q, t0)
+        if m is not None:
+            a.numbers["wall_loads"].update({q: m["mean"], f"{q}_err": m["err"],
+                                            f"{q}_error": m.get("error", "")})
+    return None
+
+
+def _eigen_rotation(a: Analysis) -> dict:
+    """Figs. 8-9: deformation rate, spin, eigen-rotation."""
+    _band(a)
+    for p in (a.p20, a.p60):
+        D, W = c.deformation_rate_and_spin(p.cells.centre, p.values["v_phi"])
+        Df, Wf = (c.deformation_rate_and_spin_fit(p.cells.centre, a.band, a.geo.R_i)
+                  if a.band is not None else (np.full(p.cells.n, np.nan),) * 2)
+        a.series[f"rates_{p.cells.n}"] = (D, W, Df, Wf, p.values["omega"],
+                                          c.eigen_rotation(p.values["omega"], W))
+    er = a.numbers["eigen_rotation"] = a.est(lambda x, y: _layers(y, a.geo))
+    l1, l2 = er["layer1_per_s"], er["layer2_per_s"]
+    e1, e2 = er["layer1_per_s_err"], er["layer2_per_s_err"]
+    sig1, sig2 = abs(l1) > Z * e1, abs(l2) > Z * e2
+    if sig1 and sig2:
+        rot = "reproduced" if np.sign(l1) != np.sign(l2) else "not reproduced"
+    else:
+        rot = "inconclusive"
+    return _claim(
+        "eigen-rotation alternates over the two innermost layers", rot,
+        f"omega* = {pm(l1, e1, '1/s')}, {pm(l2, e2, '1/s')} (layers of d_mean = "
+        f"{a.geo.d_mean * 1e3:.2f} mm, {a.p60.cells.n} rings)",
+        tolerance=f"both beyond {Z:g} errors of 0, of opposite signs")
+
+
+#: The paper's claims and granavg's checks, in the report's order.
+CLAIMS = (
+    Claim("decay", "Fig. 2", _decay),
+    Claim("decay_length", "Fig. 2", _compared("s_m", "decay length s", " mm", 1e3,
+                                              S_TOLERANCE)),
+    Claim("wall_velocity", "Fig. 2", _compared("v0_over_omega_Ri", "v0/(Omega R_i)", "",
+                                               1.0, V0_TOLERANCE)),
+    Claim("dilation", "Fig. 2", _dilation),
+    Claim("layering", "Fig. 2", _layering),
+    Claim("anisotropy", "Fig. 3", _anisotropy),
+    Claim("exponents", "Fig. 4, Eq. 10", _exponents),
+    Claim("quasi_static", "Fig. 4", _quasi_static),
+    Claim("identity", "Fig. 5", _identity),
+    Claim("master_curve", "Fig. 5", _collapse),
+    Claim("colinear", "Fig. 6", _colinear),
+    Claim("motion", "Fig. 7, Eqs. 11-12", _motion),
+    Claim("spins", "Figs. 8-9, micropolar", _spins_balance),
+    Claim("power", "the energy balance", _power),
+    Claim("wall_loads", "the shear cell's torque", _wall_loads),
+    Claim("eigen_rotation", "Figs. 8-9", _eigen_rotation),
+)
+
+
 def analyze(p20, p60, manifest, density_series=()) -> dict:
-    """Analyse coarse and fine ring profiles of one run or one ensemble.
+    """Analyse coarse and fine ring profiles of one run or one ensemble: every claim of
+    :data:`CLAIMS`, with the numbers that decide it.
 
     Parameters
     ----------
-    p20, p60 : Profiles
+    p20, p60 : Fields
         The same data averaged over coarse and fine rings (e.g. 20 and 60), with
         replicates for the errors of derived numbers.
     manifest : dict
         The run's manifest (scene, contact law).
-    density_series : sequence of Profiles, optional
+    density_series : sequence of Fields, optional
         Coarse profiles of the same scene at other area fractions: Fig. 5's master curve
         is judged on the collapse of all of them with ``p20``.
     """
@@ -260,249 +607,15 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
         if missing:
             raise UserError(f"the profiles lack {missing[0]}; average with all quantities "
                             "(the contact dump is needed)")
-    scene = manifest["scene"]
-    geo = SceneNumbers(scene)
-    est = Estimator(p20, p60)
-    num, series, claims = {}, {}, []
-
-    # Fig. 2: the shear band (fine rings) by granavg's stated estimator
-    num["shear_band"], band, band_end, band_claims = _shear_band(p20, p60, geo, est)
-    claims += band_claims
-
-    # Fig. 2: density, dilation and layering (outside the first layer)
-    num["density"] = est(lambda a, b: _density_numbers(a, b, geo))
-    d = num["density"]
-    claims.append(_claim(
-        "dilation in the shear zone and at the outer wall",
-        _both(verdict(d["dilation_inner"], d["dilation_inner_err"], 0.0),
-              verdict(d["dilation_outer"], d["dilation_outer_err"], 0.0)),
-        f"nu_bulk - nu between 1 and 3 mean diameters from the wall (the first layer, where "
-        f"excluded volume alone lowers nu, left out): inner "
-        f"{pm(d['dilation_inner'], d['dilation_inner_err'])}, outer "
-        f"{pm(d['dilation_outer'], d['dilation_outer_err'])} ({p60.cells.n} rings)",
-        tolerance=f"both above 0 by {Z:g} errors"))
-    claims.append(_claim(
-        "layering at the walls, none in the bulk",
-        _both(verdict(d["layering_excess"], d["layering_excess_err"], 0.0),
-              verdict(d["layering_walls"], 0.0, 2 * d["layering_bulk"])),
-        f"rms of nu about a straight line between 1 and 3 mean diameters from a wall: "
-        f"{plain(d['layering_walls'])}, in a bulk window as wide: "
-        f"{plain(d['layering_bulk'])}; excess "
-        f"{pm(d['layering_excess'], d['layering_excess_err'])}",
-        tolerance=f"excess above 0 by {Z:g} errors, the walls' rms over twice the bulk's"))
-
-    # Fig. 3: fabric anisotropy, in the norm |dev F| = (F_1 - F_2)/2
-    num["fabric"] = est(lambda a, b: _fabric_numbers(a))
-    fab = num["fabric"]
-    claims.append(_claim(
-        "anisotropy |dev F|/tr F below 20%",
-        verdict(fab["anisotropy_max"], fab["anisotropy_max_err"], ANISOTROPY_LIMIT, above=False),
-        f"largest over {p20.cells.n} rings: "
-        f"{pm(fab['anisotropy_max'], fab['anisotropy_max_err'])} with |dev F| = "
-        f"(F_1 - F_2)/2, half the eigenvalue difference (the paper does not define its "
-        f"norm; as Frobenius norm {plain(fab['anisotropy_max'] * np.sqrt(2))}, as full "
-        f"difference {plain(2 * fab['anisotropy_max'])})",
-        tolerance=f"below {ANISOTROPY_LIMIT:g} by {Z:g} errors"))
-
-    # Fig. 4, Eq. 10: stress exponents in the bulk (unweighted; errors from replicates)
-    num["stress_exponents"] = {k: v for comp in TENSOR for k, v in est(
-        lambda a, b, comp=comp: _exponents(a, comp)).items()}
-    ex = num["stress_exponents"]
-    parts = []
-    for k in TENSOR:
-        e, err = ex[f"sigma_{k}"], ex[f"sigma_{k}_err"]
-        off = abs(e - PAPER[f"exp_sigma_{k}"])
-        if not np.isfinite(err) or err > EXPONENT_TOLERANCE:
-            parts.append("inconclusive")
-        else:
-            parts.append("reproduced" if off <= EXPONENT_TOLERANCE + Z * err else "not reproduced")
-    claims.append(_claim(
-        "sigma_rr, sigma_phiphi ~ r^0 and sigma_rphi, sigma_phir ~ r^-2 (Eq. 10)", _both(*parts),
-        ", ".join(f"{k}: {pm(ex[f'sigma_{k}'], ex[f'sigma_{k}_err'])}" for k in TENSOR)
-        + " (the paper: 0, 0, -2, -2)",
-        tolerance=f"{EXPONENT_TOLERANCE:g} on each exponent, + {Z:g} errors",
-        deviations=[(f"sigma_{k}", ex[f"sigma_{k}"], ex[f"sigma_{k}_err"],
-                     PAPER[f"exp_sigma_{k}"]) for k in TENSOR]))
-    num["quasi_static"] = est(lambda a, b: {
-        "dynamic_over_static_max": float(np.nanmax(dynamic_over_static(a)))})
-    q = num["quasi_static"]
-    claims.append(_claim(
-        "quasi-static: dynamic stress much smaller than static",
-        verdict(q["dynamic_over_static_max"], q["dynamic_over_static_max_err"],
-                QUASI_STATIC_LIMIT, above=False),
-        f"largest |d sigma| / |sigma| = "
-        f"{pm(q['dynamic_over_static_max'], q['dynamic_over_static_max_err'])}",
-        tolerance=f"below {QUASI_STATIC_LIMIT:g} by {Z:g} errors"))
-
-    # Fig. 5: stiffness against tr F; for linear springs an identity, checked as such
-    num["stiffness"] = est(lambda a, b: _stiffness_numbers(a, b, geo))
-    st = num["stiffness"]
-    for p in (p20, p60):
-        B, G = c.stiffness(tensor(p, "sigma"), tensor(p, "eps"), geo.k_n)
-        series[f"stiffness_{p.cells.n}"] = (c.trace(tensor(p, "F")), B, G)
-    series["bulk_fit"] = (st["bulk_slope_per_m"], st["bulk_intercept_per_m"])
-    dev = st["identity_deviation"]
-    claims.append(_claim(
-        "bulk stiffness = tr F / (2 pi h), the linear-spring identity",
-        "holds" if abs(dev) <= IDENTITY_TOLERANCE + Z * st["identity_deviation_err"]
-        else "violated",
-        f"slope {pm(st['bulk_slope_per_m'], st['bulk_slope_per_m_err'], '1/m')} against "
-        f"1/(2 pi h) = {plain(geo.identity_slope, 4)} 1/m: deviation "
-        f"{pm(100 * dev, 100 * st['identity_deviation_err'], '%')} (damping, tangential "
-        "forces and fabric anisotropy make it; an identity of the averaging, not a finding "
-        "of the paper; the paper's collapse of several simulations is Fig. 5 of a density "
-        "series)", kind="identity check",
-        tolerance=f"{IDENTITY_TOLERANCE:.0%}, + {Z:g} errors",
-        deviations=[("the deviation", dev, st["identity_deviation_err"], 0.0)]))
-
-    if density_series:
-        collapse = master_curve([p20, *density_series], geo)
-        series["density_series"] = collapse.pop("points")
-        num["master_curve"] = collapse
-        claims.append(_claim(
-            "bulk stiffness of different simulations on one master curve (Fig. 5)",
-            collapse["verdict"], collapse["evidence"],
-            tolerance=f"{COLLAPSE_TOLERANCE:.0%} on each run's offset, + {Z:g} errors",
-            deviations=[(f"area fraction {f:.4f}", o, e, 0.0) for f, o, e in zip(
-                collapse["area_fractions"], collapse["offsets"], collapse["offset_errors"])]))
-
-    # Fig. 6: orientations, not co-linear in the band
-    for p in (p20, p60):
-        series[f"orientation_{p.cells.n}"] = {
-            q: np.degrees(c.orientation(tensor(p, q))) for q in ("F", "sigma", "eps")}
-    num["orientation"] = est(lambda a, b: _orientation_numbers(b, band_end))
-    o = num["orientation"]
-    pairs = [k for k in o if k.startswith("band_mean_angle") and not k.endswith("_err")]
-    significant = [k for k in pairs if abs(o[k]) > COLINEAR_DEG and abs(o[k]) > Z * o[f"{k}_err"]]
-    colinear = all(abs(o[k]) + Z * o[f"{k}_err"] < COLINEAR_DEG for k in pairs)
-    claims.append(_claim(
-        "fabric, stress and strain not co-linear",
-        "reproduced" if significant else ("not reproduced" if colinear else "inconclusive"),
-        "mean angle between major axes over the band (" + str(max(band_end, 2)) +
-        f" of {p60.cells.n} rings): " + ", ".join(
-            f"{k.replace('band_mean_angle_', '').replace('_', ' to ')} "
-            f"{pm(o[k], o[k + '_err'], 'deg')}" for k in pairs),
-        tolerance=f"one angle above {COLINEAR_DEG:g} deg and {Z:g} errors"))
-
-    # Fig. 7: equations of motion, static alone and the total sigma - dsigma
-    for p in (p20, p60):
-        series[f"eom_{p.cells.n}"] = _eom(p)
-    num["equations_of_motion"] = est(lambda a, b: _eom_numbers(a), balance=True)
-    eo = num["equations_of_motion"]
-    claims.append(_claim(
-        "equations of motion close in the bulk",
-        verdict(eo["bulk_median_residual"], eo["bulk_median_residual_err"], EOM_LIMIT,
-                above=False),
-        f"median |residual of div(sigma - dsigma)| / mean |sigma_rr| in the bulk = "
-        f"{pm(eo['bulk_median_residual'], eo['bulk_median_residual_err'])} "
-        f"({p20.cells.n} rings). Each ring's net force over its face's with the body and "
-        f"boundary force densities, walls closed: median "
-        f"{pm(eo['balance_bulk_median_residual'], eo['balance_bulk_median_residual_err'])} "
-        f"in the bulk, at most "
-        f"{pm(eo['balance_max_residual'], eo['balance_max_residual_err'])} in any ring, "
-        f"wall rings "
-        f"{pm(eo['balance_wall_residual_max'], eo['balance_wall_residual_max_err'])} "
-        f"({plain(eo['balance_wall_residual_max_without_forces'])} without the force "
-        "densities)",
-        tolerance=f"bulk median below {EOM_LIMIT:g} of the stress scale by {Z:g} errors"))
-
-    # the spins' balance (micropolar): the forces' moments, the couples passed and the
-    # spins' flux, with the law's own lever arm (pair granular with rolling resistance:
-    # the contact point; gran/hooke/history: the surface)
-    arm = "contact" if scene.get("mu_roll", 0) > 0 else "surface"
-    if all(has_couples(p.values, p.cells) for p in (p20, p60)):
-        for p in (p20, p60):
-            series[f"spins_{p.cells.n}"] = _spins(p, arm)
-        num["spin_balance"] = est(lambda a, b: _spin_numbers(a, arm), balance=True)
-        sp = num["spin_balance"]
-        claims.append(_claim(
-            "the spins' angular momentum balances in every ring",
-            _both(verdict(sp["max_residual"], sp["max_residual_err"], SPIN_LIMIT, above=False),
-                  verdict(sp["bulk_median_residual"], sp["bulk_median_residual_err"],
-                          SPIN_BULK_LIMIT, above=False)),
-            f"moment density left unbalanced by the forces' moments (lever arm to the "
-            f"{'contact point' if arm == 'contact' else 'surface'}), the couples the "
-            f"contacts pass and the spins' flux, over the stress scale ({p20.cells.n} "
-            f"rings, walls included): at most {pm(sp['max_residual'], sp['max_residual_err'])}"
-            f", bulk median "
-            f"{pm(sp['bulk_median_residual'], sp['bulk_median_residual_err'])}; the forces' "
-            f"moments alone reach {plain(sp['tau_max'], 2)}. With the couple stress field's "
-            f"divergence instead of the couples passed: at most "
-            f"{pm(sp['field_max_residual'], sp['field_max_residual_err'])}",
-            tolerance=f"below {SPIN_LIMIT:g} in every ring and {SPIN_BULK_LIMIT:g} as the "
-                      f"bulk's median, by {Z:g} errors"))
-
-    # the power balance: what the inner wall delivers (-Omega <T_in>) is dissipated by the
-    # contacts, at the walls and by the base plate, the packing's kinetic energy steady
-    if all(k in p20.values for k in ("contact_power", "wall_power")):
-        t_in = window_mean(p20.timeseries, "torque_in_Nm",
-                           (p20.meta.get("frames") or {}).get("t_min_s", 0.0))
-        pw = est(lambda a, b: _power_numbers(a, arm), balance=True)
-        if t_in is not None:
-            P, P_err = -geo.Omega * t_in["mean"], geo.Omega * t_in["err"]
-            pw.update({"inner_wall_power_W": P, "inner_wall_power_W_err": P_err,
-                       "inner_wall_contacts_dissipation_W": P - pw["inner_wall_delivered_W"],
-                       "inner_wall_contacts_dissipation_W_err": float(np.hypot(
-                           P_err, pw["inner_wall_delivered_W_err"])),
-                       "closure": pw["kinetic_energy_rate_W"] / P,
-                       "closure_err": pw["kinetic_energy_rate_W_err"] / abs(P)})
-            plate = (f", the base plate "
-                     f"{pm(pw['plate_dissipation_W'], pw['plate_dissipation_W_err'], 'W')}"
-                     if "body_power" in p20.values else " (no base plate)")
-            claims.append(_claim(
-                "the inner wall's power is dissipated",
-                _closes(pw["closure"], pw["closure_err"], POWER_LIMIT),
-                f"inner wall -Omega T_in (window mean) = {pm(P, P_err, 'W')}; dissipated by "
-                f"the disks' contacts "
-                f"{pm(pw['contact_dissipation_W'], pw['contact_dissipation_W_err'], 'W')}, "
-                f"the inner wall's contacts "
-                f"{pm(pw['inner_wall_contacts_dissipation_W'], pw['inner_wall_contacts_dissipation_W_err'], 'W')}"
-                f", the outer wall's "
-                f"{pm(-pw['outer_wall_delivered_W'], pw['outer_wall_delivered_W_err'], 'W')}"
-                f"{plate}: unbalanced {pm(pw['closure'], pw['closure_err'])} of the wall's "
-                "power (what is left is the rate of the kinetic and elastic energy, nil in a "
-                "steady state)",
-                tolerance=f"{POWER_LIMIT:.0%} of the wall's power, or {Z:g} errors",
-                deviations=[("the unbalanced share", pw["closure"], pw["closure_err"],
-                             0.0)]))
-        num["power_balance"] = pw
-
-    # the shear cell's torque (what the experiments measure), and its balance with the
-    # base plate's: the packing passes the inner wall's torque on to the outer wall and
-    # the plate
-    t0 = (p20.meta.get("frames") or {}).get("t_min_s", 0.0)
-    num["wall_loads"] = {}
-    for q in ("torque_in_Nm", "torque_out_Nm"):
-        m = window_mean(p20.timeseries, q, t0)
-        if m is not None:
-            num["wall_loads"].update({q: m["mean"], f"{q}_err": m["err"],
-                                      f"{q}_error": m.get("error", "")})
-
-    # Figs. 8-9: deformation rate, spin, eigen-rotation
-    for p in (p20, p60):
-        D, W = c.deformation_rate_and_spin(p.cells.centre, p.values["v_phi"])
-        Df, Wf = (c.deformation_rate_and_spin_fit(p.cells.centre, band, geo.R_i)
-                  if band is not None else (np.full(p.cells.n, np.nan),) * 2)
-        series[f"rates_{p.cells.n}"] = (D, W, Df, Wf, p.values["omega"],
-                                        c.eigen_rotation(p.values["omega"], W))
-    num["eigen_rotation"] = est(lambda a, b: _layers(b, geo))
-    er = num["eigen_rotation"]
-    l1, l2 = er["layer1_per_s"], er["layer2_per_s"]
-    e1, e2 = er["layer1_per_s_err"], er["layer2_per_s_err"]
-    sig1, sig2 = abs(l1) > Z * e1, abs(l2) > Z * e2
-    if sig1 and sig2:
-        rot = "reproduced" if np.sign(l1) != np.sign(l2) else "not reproduced"
-    else:
-        rot = "inconclusive"
-    claims.append(_claim(
-        "eigen-rotation alternates over the two innermost layers", rot,
-        f"omega* = {pm(l1, e1, '1/s')}, {pm(l2, e2, '1/s')} (layers of d_mean = "
-        f"{geo.d_mean * 1e3:.2f} mm, {p60.cells.n} rings)",
-        tolerance=f"both beyond {Z:g} errors of 0, of opposite signs"))
-
-    for p, errs in zip((p20, p60), _derived_errors(est, geo.k_n)):
-        series[f"errors_{p.cells.n}"] = errs
-
+    a = Analysis(p20, p60, manifest, tuple(density_series), SceneNumbers(manifest["scene"]),
+                 Estimator(p20, p60))
+    for claim in CLAIMS:
+        entry = claim.decide(a)
+        if entry is not None:
+            a.claims.append(entry)
+    for p, errs in zip((p20, p60), _derived_errors(a.est, a.geo.k_n)):
+        a.series[f"errors_{p.cells.n}"] = errs
+    est = a.est
     errors = {"kind": est.replicates.kind if est.replicates else None,
               "replicates": est.replicates.n if est.replicates else 0,
               "parts": est.replicates.parts if est.replicates else None,
@@ -521,8 +634,8 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
                "frames": p20.meta.get("frames") if p20.meta else None,
                "runs": _runs_by_name((p20.meta or {}).get("runs")),
                "stationarity": _stationarity(p20),
-               "errors": errors, "numbers": _plain(num), "claims": claims}
-    summary["series"] = series
+               "errors": errors, "numbers": _plain(a.numbers), "claims": a.claims}
+    summary["series"] = a.series
     return summary
 
 
@@ -592,7 +705,7 @@ class SceneNumbers:
 def _shear_band(p20, p60, geo, est):
     """The band's numbers (statistical errors from the replicates, systematic from the
     estimator's variants), its fit (None where it cannot be fitted: NaN numbers, a
-    warning), the index ending the band region and its claims."""
+    warning) and the index ending the band region."""
     r, v, sem = p60.cells.centre, p60.values["v_phi"], p60.sem["v_phi"]
     noise, end = sb_fit.noise_level(v, sem), sb_fit.decay_end(v, sem)
     num = est(lambda a, b: {"decades": _decades(b, noise)})
@@ -620,25 +733,7 @@ def _shear_band(p20, p60, geo, est):
             "scatter_beyond_errors": band.tau, "rings_fitted": band.n_rings,
             "variants": {k: {"v0_over_omega_Ri": x["v0"] / (geo.Omega * geo.R_i),
                              "s_m": x["s"]} for k, x in sens.items()}})
-    claims = [_claim(
-        "exponential decay over about two decades",
-        verdict(num["decades"], num["decades_err"], DECADES),
-        f"{pm(num['decades'], num['decades_err'], 'decades')} from the first ring to the "
-        "noise", tolerance=f"above {DECADES:g} decades by {Z:g} errors")]
-    for key, label, unit, scale, tol in (
-            ("s_m", "decay length s", " mm", 1e3, S_TOLERANCE),
-            ("v0_over_omega_Ri", "v0/(Omega R_i)", "", 1.0, V0_TOLERANCE)):
-        total = float(np.hypot(num[f"{key}_err"], num[f"{key}_sys"]))
-        paper = PAPER[key]
-        claims.append(_claim(
-            f"{label} within {tol:.0%} of the paper's {paper * scale:g}{unit}",
-            verdict(abs(num[key] - paper), total, tol * paper, above=False),
-            f"{pm(num[key] * scale, num[f'{key}_err'] * scale, unit.strip())} (statistical)"
-            f", +- {plain(num[f'{key}_sys'] * scale, 2)}{unit} (estimator); "
-            f"{num['rings_fitted']} of {p60.cells.n} rings", kind="comparison",
-            tolerance=f"{tol:.0%} of the paper's value, + {Z:g} combined errors",
-            deviations=[(label, num[key] * scale, total * scale, paper * scale)]))
-    return num, band, end, claims
+    return num, band, end
 
 
 def _decades(p, noise):
@@ -694,7 +789,7 @@ def _fabric_numbers(p):
             "anisotropy_max": np.nanmax(aniso)}
 
 
-def _exponents(p, comp):
+def _exponent(p, comp):
     b = bulk(p.cells.n)
     return {f"sigma_{comp}": c.power_law(p.cells.centre[b], p.values[f"sigma_{comp}"][b])[0]}
 

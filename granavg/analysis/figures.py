@@ -401,8 +401,8 @@ def fig_scales(widths_d, diameter, profiles, exact, names, plateaus, *, unit="",
         The widths in mean diameters.
     diameter : float
         The mean diameter, in the length unit.
-    profiles : sequence of Profiles, shape (K,)
-    exact : Profiles or None
+    profiles : sequence of Fields, shape (K,)
+    exact : Fields or None
         The exact weights' profile of the same cells and frames.
     names : sequence of str
         Value columns to draw, one panel each.

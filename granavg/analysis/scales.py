@@ -56,7 +56,7 @@ def steps(widths, profiles, cutoffs, names):
     ----------
     widths : sequence of float, shape (K,)
         Increasing kernel widths.
-    profiles : sequence of Profiles, shape (K,)
+    profiles : sequence of Fields, shape (K,)
         The profiles at each width (the same cells and frames).
     cutoffs : sequence of float, shape (K,)
         The kernel's support radius at each width.

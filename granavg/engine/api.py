@@ -2,8 +2,9 @@
 
 ::
 
-    from granavg.engine import Rings, average
-    profiles = average(frames, Rings.count(20, 0.10, 0.25, h=0.006), rho_p=1060.0)
+    from granavg.cells import Rings
+    from granavg.engine import average
+    fields = average(frames, Rings.count(20, 0.10, 0.25, h=0.006), rho_p=1060.0)
 
 ``frames`` is any iterable of objects with ``timestep``, ``time`` (s), ``atoms`` (dict of
 arrays: ``x y radius`` and, as the quantities need, ``vx vy omegaz id mass``) and
@@ -22,7 +23,7 @@ import logging
 import numpy as np
 
 from granavg.engine.average import CellAverage
-from granavg.engine.profiles import Profiles
+from granavg.engine.fields import Fields
 from granavg.engine.quantities import (QUANTITIES, groups_for, missing_columns,
                                        optional_columns)
 from granavg.engine.unit_system import SI, UnitSystem
@@ -36,7 +37,7 @@ UNWEIGHED = ("no masses in the data (no mass column, no material density): veloc
              "material density")
 
 
-def average(frames, cells, *, progress: bool | None = False, **options) -> Profiles:
+def average(frames, cells, *, progress: bool | None = False, **options) -> Fields:
     """Time-averaged profiles of ``frames`` over ``cells`` (Eqs. 1-7):
     :func:`averager`'s, run over every frame (``progress``: a progress bar; None: on
     a terminal)."""
@@ -82,10 +83,10 @@ def _taken_as_zero(groups, frame, dim: int) -> dict:
                "alone)" for c in absent}
 
 
-def _resolvable(cells, radius) -> None:
+def resolvable(cells, radius, warn: bool = True) -> None:
     """Refuse a kernel narrower than half the smallest particle radius: the fields
     would resolve single particles (a particle-resolved, not a continuum, picture);
-    warn below the mean radius."""
+    warn below the mean radius (``warn``)."""
     radius = np.asarray(radius, float)
     if not len(radius):
         return
@@ -97,7 +98,7 @@ def _resolvable(cells, radius) -> None:
                              f"{0.5 * smallest:g} (a diameter or more for continuum "
                              "fields)")
     mean = float(radius.mean())
-    if cells.width < mean:
+    if warn and cells.width < mean:
         log.warning("kernel width %g below the mean particle radius %g: the fields are "
                     "particle-resolved (layers show; the volume fraction at a node can "
                     "exceed 1), not continuum fields", cells.width, mean)
@@ -105,26 +106,32 @@ def _resolvable(cells, radius) -> None:
 
 def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
              t_min: float = 0.0, block_time: float | None = None, units: UnitSystem = SI,
-             branch: str = "contact", sectors="auto") -> CellAverage:
-    """The averager of ``frames`` over ``cells`` (Eqs. 1-7), its
-    quantities and blocks chosen from the first two frames (which it keeps); ``run()``
-    it, or ``prepare()``, ``add()`` frames, ``merge()`` other averagers' ``state()``
-    (disjoint frames: a dask worker's) and ``conclude()``.
+             branch: str = "contact", sectors="auto", series=None) -> CellAverage:
+    """The averager of ``frames`` over ``cells`` (Eqs. 1-7): the one way every route
+    (anyone's dumps, run directories, in situ, dask, ensembles, the scale study) builds
+    its average, with every check and the same metadata. ``run()`` it, or
+    ``prepare()``, ``add()`` frames, ``merge()`` other averagers' ``state()`` (disjoint
+    frames: a dask worker's) and ``conclude()``.
+
+    The quantities and the first block's length are chosen from the first two frames
+    (kept); with ``frames`` None (frames fed later by ``add``: a running LAMMPS, a dask
+    client merging its workers' sums) they must be given. The checks that need a frame
+    (the kernel's width against the particles, the requested quantities' columns) are
+    made on the first frame added.
 
     Parameters
     ----------
-    frames : iterable
+    frames : iterable or None
         Frames as described in the module docstring, in increasing time.
     cells : Cells
-        Rings, Slabs, Grid, PolarGrid, Slabs3D, Boxes, Shells or any registered kind.
-        The cells (:mod:`granavg.engine.cells`: disks of height h in 2D, spheres in
-        3D).
+        The cells (:mod:`granavg.cells`: disks of height h in 2D, spheres in 3D), or the
+        nodes of a smoothing kernel (:func:`granavg.engine.smoothing.smooth`).
     rho_p : float, optional
         Material density (kg/m^3): masses rho_p V^p (pi h a^2, or 4/3 pi a^3). Not needed
         when the atoms carry a ``mass`` column (kg), nor for quantities without mass (nu,
         v, omega, F, sigma, eps, coordination).
     quantities : sequence of str, optional
-        Keys of :data:`granavg.engine.profiles.QUANTITIES`; default all the frames allow.
+        Keys of :data:`granavg.engine.quantities.QUANTITIES`; default all the frames allow.
     t_min : float
         Frames before t_min (s) are left out.
     block_time : float, optional
@@ -144,29 +151,39 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         cells' symmetry direction (rings: phi; slabs with a ``span``: their length),
         K chosen from the sectors' correlation (``auto``) or given; None for errors from
         time alone (grids always).
+    series : FrameObserver, optional
+        Records the state of every frame (the Couette cell's, :mod:`granavg.sim`).
 
     Returns
     -------
     CellAverage
-        Its profiles (:meth:`~granavg.engine.average.CellAverage.conclude`): values,
+        Its fields (:meth:`~granavg.engine.average.CellAverage.conclude`): values,
         standard errors, flags and jackknife replicates per cell, in ``units``.
     """
-    it = iter(frames)
-    head = list(itertools.islice(it, 2))
-    if not head and t_min > 0:          # a source may have scanned past the frames before
-        raise ParameterError("t_min", f"no frame at t >= {t_min:g}, the start of the "
-                             "average ({param}); lower it")
-    if not head:
-        raise UserError("no frame to average")
-    has_contacts = head[0].contacts is not None
-    has_mass = "mass" in head[0].atoms
-    kernel = getattr(cells, "kernel", None)
-    if kernel is not None:
-        _resolvable(cells, head[0].atoms["radius"])
-    groups = groups_for(quantities, has_contacts, "bx" in head[0].atoms,
-                        smooth=bool(kernel and kernel.smooth_edge))
-    groups, lacking = _with_columns(groups, quantities is not None, head[0], cells.dim)
-    if rho_p is not None and has_mass:
+    source = frames
+    if frames is None:
+        if quantities is None or block_time is None:
+            raise ValueError("an averager fed later needs its quantities and block time")
+        head, groups, lacking, has_mass = [], list(quantities), {}, True
+    else:
+        it = iter(frames)
+        head = list(itertools.islice(it, 2))
+        if not head and t_min > 0:      # a source may have scanned past the frames before
+            raise ParameterError("t_min", f"no frame at t >= {t_min:g}, the start of the "
+                                 "average ({param}); lower it")
+        if not head:
+            raise UserError("no frame to average")
+        has_mass = "mass" in head[0].atoms
+        kernel = getattr(cells, "kernel", None)
+        groups = groups_for(quantities, head[0].contacts is not None, "bx" in head[0].atoms,
+                            smooth=bool(kernel and kernel.smooth_edge))
+        groups, lacking = _with_columns(groups, quantities is not None, head[0], cells.dim)
+        if block_time is None:
+            block_time = head[1].time - head[0].time if len(head) == 2 else 1.0
+            if not block_time > 0:
+                raise UserError("frames must come in increasing time")
+        frames = itertools.chain(head, it)
+    if rho_p is not None and head and has_mass:
         log.info("the masses come from the atoms' mass column; the material density "
                  "given is not used")
     massive = [g for g in groups if QUANTITIES[g].needs_mass]
@@ -176,15 +193,11 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
             raise ParameterError("rho_p", f"{massive[0]} needs masses: give the material "
                                  "density ({param}) or a mass column")
         groups = [g for g in groups if g not in massive]
-    if block_time is None:
-        block_time = head[1].time - head[0].time if len(head) == 2 else 1.0
-        if not block_time > 0:
-            raise UserError("frames must come in increasing time")
     # without masses the mass-weighted means (velocity, spin) weigh by volume: one
     # material, of a density that cancels (UNWEIGHED)
-    avg = CellAverage(itertools.chain(head, it), cells, groups,
-                      rho_p if rho_p is not None else 1.0, t_min, block_time, branch=branch,
-                      sectors=sectors)
+    avg = CellAverage(frames, cells, groups, rho_p if rho_p is not None else 1.0, t_min,
+                      block_time, series, branch=branch, sectors=sectors,
+                      check=lambda frame: check_frame(frame, cells, groups), source=source)
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
                 "geometry": cells.describe(),
                 "frames": {"t_min_s": t_min, "block_time_s": block_time}}
@@ -192,7 +205,16 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         avg.meta["left_out"] = {g: f"no {' '.join(c)} in the data" for g, c in lacking.items()}
     if unweighed:
         avg.meta["weights"] = UNWEIGHED
-    zero = _taken_as_zero(groups, head[0], cells.dim)
+    zero = _taken_as_zero(groups, head[0], cells.dim) if head else {}
     if zero:
         avg.meta["taken_as_zero"] = zero
     return avg
+
+
+def check_frame(frame, cells, groups) -> None:
+    """The checks of an average that need a frame, made on the first one added: the
+    kernel's width against the particles' radii, and the quantities' columns (one-line
+    refusals)."""
+    if getattr(cells, "kernel", None) is not None:
+        resolvable(cells, frame.atoms["radius"])
+    _with_columns(groups, True, frame, cells.dim)

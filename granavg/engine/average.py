@@ -2,7 +2,7 @@
 units.
 
 :class:`CellAverage` follows MDAnalysis' ``AnalysisBase``: ``run()`` calls ``prepare``,
-``add`` for every frame and ``conclude``; the results are one :class:`Profiles`.
+``add`` for every frame and ``conclude``; the results are one :class:`Fields`.
 Frames are in-memory arrays (:class:`~granavg.io.frames.Frame`-like: ``timestep``,
 ``time``, ``atoms``, ``contacts``) from any source: a dump reader
 (:mod:`granavg.pipeline.dumps`), a running LAMMPS (:mod:`granavg.pipeline.insitu`) or
@@ -27,7 +27,8 @@ from granavg.engine.cells.base import Cells, layout_of
 from granavg.engine.channels import CONTACT_BLOCKS
 from granavg.engine.kernels import (BRANCHES, cell_sums, frame_rows, particle_channels,
                                    sector_sums, wall_points)
-from granavg.engine.profiles import Profiles, flags, standard_errors, values
+from granavg.engine.fields import Fields
+from granavg.engine.profiles import flags, standard_errors, values
 from granavg.engine.quantities import MICROPOLAR, MICROPOLAR_CONVENTIONS, QUANTITIES
 from granavg.engine.stationarity import DRIFT_Z, stationarity
 from granavg.engine.uncertainty import structure
@@ -80,12 +81,21 @@ class CellAverage:
         (:mod:`granavg.engine.uncertainty.structure`): K chosen from the data (``auto``),
         K pinned, or none (errors from time alone). Cells without a symmetry direction
         have none.
+    check : callable, optional
+        Called with the first frame added (the checks that need one; raises to
+        refuse).
+    source : optional
+        The frame source ``frames`` come from (its ``dropped`` counts the rows it left
+        out); default ``frames``.
+
+    Build it with :func:`granavg.engine.api.averager`, which makes every check.
     """
 
     def __init__(self, frames, cells: Cells, groups, rho_p: float, t_min: float,
                  block_time: float, series: FrameObserver | None = None,
-                 branch: str = "contact", sectors="auto"):
+                 branch: str = "contact", sectors="auto", check=None, source=None):
         self.frames, self.cells, self.groups = frames, cells, list(groups)
+        self.check, self.source = check, frames if source is None else source
         if branch not in BRANCHES:
             raise ParameterError("branch", f"{{param}} {branch!r}: choose from "
                                  f"{', '.join(BRANCHES)}")
@@ -110,10 +120,10 @@ class CellAverage:
         #: the channels held: only the blocks the quantities need
         self.layout = layout_of(cells.axes, self.channels)
         self.series = series
-        self.results: Profiles | None = None
+        self.results: Fields | None = None
         self.meta: dict = {}
 
-    def run(self, progress: bool | None = None) -> Profiles:
+    def run(self, progress: bool | None = None) -> Fields:
         """Accumulate every frame with t >= t_min; returns the profiles."""
         self.prepare()
         frames = self.frames
@@ -135,7 +145,11 @@ class CellAverage:
             self.series.rows = []
 
     def add(self, frame):
-        """Record the frame's state; accumulate it if t >= t_min."""
+        """Record the frame's state; accumulate it if t >= t_min (the first frame
+        checked by ``check``)."""
+        if self.check is not None:
+            self.check(frame)
+            self.check = None
         if self.series is not None:
             self.series.add(frame)
         if frame.time >= self.t_min:
@@ -157,8 +171,8 @@ class CellAverage:
         if self.replica_acc is not None:
             self.replica_acc = self.replica_acc.merge(reps)
 
-    def conclude(self) -> Profiles:
-        """Profiles of the frames added so far."""
+    def conclude(self) -> Fields:
+        """Fields of the frames added so far."""
         acc, V, layout = self.acc, self.cells.volume, self.layout
         if acc.n_frames == 0:
             raise ParameterError("t_min", f"no frame at t >= {self.t_min:g}, the start of "
@@ -230,7 +244,7 @@ class CellAverage:
         meta["errors"]["lower_bound"] = {
             n: [int(k) for k in np.flatnonzero(lb & np.isfinite(vals[n]))]
             for n, lb in lower.items() if np.any(lb & np.isfinite(vals[n]))}
-        dropped = dict(getattr(self.frames, "dropped", None) or {})
+        dropped = dict(getattr(self.source, "dropped", None) or {})
         if any(dropped.values()):
             meta["dropped"] = dropped
             log.warning("%d contact rows with overlap <= 0 (not touching: LAMMPS' pair/local "
@@ -241,7 +255,7 @@ class CellAverage:
             series = self.series.columns()
             meta["stationarity"] = stationarity(series, self.t_min, self.series.judged)
             warn_if_drifting(meta["stationarity"], self.t_min)
-        self.results = Profiles(self.cells, vals, sem, ring_flags, acc.n_frames, meta,
+        self.results = Fields(self.cells, vals, sem, ring_flags, acc.n_frames, meta,
                                 replicates, series=series)
         return self.results
 

@@ -7,12 +7,12 @@ import warnings
 
 import numpy as np
 
-from granavg.engine.profiles import Profiles, columns_of
+from granavg.engine.fields import Fields, columns_of
 from granavg.engine.uncertainty.blocking import Replicates
 from granavg.errors import UserError
 
 
-def combine_runs(profiles: list, names: list) -> Profiles:
+def combine_runs(profiles: list, names: list) -> Fields:
     """Ensemble profiles from the profiles of independent realisations.
 
     Each value is the mean over the runs with a finite value in that ring, its ``_sem``
@@ -25,7 +25,7 @@ def combine_runs(profiles: list, names: list) -> Profiles:
 
     Parameters
     ----------
-    profiles : list of Profiles
+    profiles : list of Fields
         One per realisation, over the same rings and quantities.
     names : list of str
         The runs (for the sidecar).
@@ -66,7 +66,7 @@ def combine_runs(profiles: list, names: list) -> Profiles:
                       "lower_bound": {}}
     meta["frames"] = {**first.meta.get("frames", {}),
                       "n": int(sum(p.n_frames for p in profiles))}
-    return Profiles(first.cells, values, sem, flags, int(sum(p.n_frames for p in profiles)),
+    return Fields(first.cells, values, sem, flags, int(sum(p.n_frames for p in profiles)),
                     meta, reps, n_runs, columns_of(pd.concat(series, ignore_index=True))
                     if series else None)
 

@@ -18,95 +18,11 @@ polar basis.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from granavg.engine.channels import CONTACT_BLOCKS, Layout, stacked
 from granavg.engine.quantities import QUANTITIES
 from granavg.engine.uncertainty.blocking import Replicates, blocking_errors, jackknife_sums
-
-if TYPE_CHECKING:
-    import pandas as pd
-
-    from granavg.engine.cells.base import Cells
-
-
-@dataclass
-class Profiles:
-    """Time-averaged profiles over cells (rings, slabs or a grid) and their standard errors,
-    in the frames' units (SI for granavg's runs).
-
-    Attributes
-    ----------
-    cells : Cells
-        The cells (:mod:`granavg.engine.cells`).
-    values, sem : dict of name -> ndarray, shape (n_rings,)
-        Values and standard errors (blocking analysis for one run, between-run for an
-        ensemble).
-    flags : ndarray of str, shape (n_rings,)
-    n_frames : int
-    meta : dict
-        The JSON sidecar (``meta["errors"]`` says how the errors were made and where
-        they are only lower bounds).
-    replicates : Replicates, optional
-        Profiles on parts of the data (jackknife blocks, or one per realisation): the
-        errors of derived numbers (fits, maxima) come from them.
-    n_runs : ndarray, optional
-        Realisations with a finite value per ring (ensembles only), shape (n_rings,).
-    series : dict of name -> ndarray, shape (n_frames_read,), optional
-        The state of every frame read (:mod:`granavg.engine.stationarity`), as columns;
-        written as ``<path>.timeseries.csv``; ``meta["stationarity"]`` judges the
-        averaging window. :attr:`timeseries` gives it as a DataFrame.
-    """
-
-    cells: Cells
-    values: dict
-    sem: dict
-    flags: np.ndarray
-    n_frames: int
-    meta: dict = field(default_factory=dict)
-    replicates: Replicates | None = None
-    n_runs: np.ndarray | None = None
-    series: dict | None = None
-
-    @property
-    def timeseries(self) -> pd.DataFrame | None:
-        """:attr:`series` as a new DataFrame (None without one); set from a DataFrame or
-        from columns. pandas is imported here, not by the engine's own path."""
-        if self.series is None:
-            return None
-        import pandas as pd
-        return pd.DataFrame(self.series)
-
-    @timeseries.setter
-    def timeseries(self, table) -> None:
-        self.series = None if table is None else columns_of(table)
-
-    def to_columns(self) -> dict:
-        """One row per cell, as columns: its coordinates (r_lo, r_hi, r for rings), V,
-        n_frames, [n_runs,] each value and ``<name>_sem``, flags."""
-        cols = {**self.cells.coordinates(), "V": self.cells.volume,
-                "n_frames": np.full(self.cells.n, self.n_frames)}
-        if self.n_runs is not None:
-            cols["n_runs"] = self.n_runs
-        for name, v in self.values.items():
-            cols[name], cols[f"{name}_sem"] = v, self.sem[name]
-        cols["flags"] = self.flags
-        return cols
-
-    def to_frame(self) -> pd.DataFrame:
-        """:meth:`to_columns` as a DataFrame."""
-        import pandas as pd
-        return pd.DataFrame(self.to_columns())
-
-
-def columns_of(table) -> dict:
-    """A table's columns, name -> 1-D ndarray: of a DataFrame, or of a mapping of
-    columns (returned as arrays)."""
-    return {str(name): np.asarray(table[name]) for name in table}
 
 
 def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups, layout: Layout) -> dict:

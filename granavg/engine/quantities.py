@@ -19,7 +19,7 @@ per-contact sums (docs/extending.md).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from typing import Callable
 
 import numpy as np
@@ -47,6 +47,10 @@ class Quantity:
     value : callable
         ``value(S, V, layout) -> dict of column -> ndarray (n_cells,)`` from the mean
         cell sums ``S`` (n_cells, n_channels) and the cell volumes ``V``.
+    unit : str
+        Its physical dimension, in the named units of a unit system
+        (:meth:`granavg.engine.unit_system.UnitSystem.unit`): ``"{force}/{length}^3"``,
+        ``"1/{time}"``, ``"1"`` for a pure number; its unit follows in any system.
     needs_mass : bool
         Its values need the particles' masses (a mass column or a material density).
     balanced : callable, optional
@@ -67,6 +71,8 @@ class Quantity:
     blocks: tuple
     shape: str
     value: Callable
+    _: KW_ONLY
+    unit: str
     needs_mass: bool = False
     balanced: Callable | None = None
     flag: Callable | None = None
@@ -285,89 +291,92 @@ def _rotational_temperature(S, V, layout, name):
 #: Every quantity, by name.
 QUANTITIES = {q.name: q for q in (
     Quantity("nu", ("vol",), "scalar", _values(_ratio("vol", "nu"), "nu"),
-             help="volume fraction, Eq. 2"),
+             unit="1", help="volume fraction, Eq. 2"),
     Quantity("rho", ("vol", "mass"), "scalar", _values(_ratio("mass", "rho"), "rho"),
-             needs_mass=True, help="density"),
+             needs_mass=True, unit="{mass}/{length}^3", help="density"),
     Quantity("v", ("vol", "mass", "mom"), "vector", _values(_per_mass_of_particles("mom"), "v"),
-             help="velocity (mass-weighted; Eq. 3 for one material)"),
+             unit="{length}/{time}", help="velocity (mass-weighted; Eq. 3 for one material)"),
     Quantity("omega", ("vol", "mass", "spin"), "axial",
-             _values(_per_mass_of_particles("spin"), "omega"), help="spin (mass-weighted)"),
+             _values(_per_mass_of_particles("spin"), "omega"), unit="rad/{time}", help="spin (mass-weighted)"),
     Quantity("coordination", ("vol", "ncontact"), "scalar",
-             _values(_coordination, "coordination"), help="contacts per particle"),
+             _values(_coordination, "coordination"), unit="1", help="contacts per particle"),
     Quantity("F", ("fab",), "tensor", _values(_per_cell_volume("fab"), "F"),
-             help="fabric, Eq. 4"),
+             unit="1", help="fabric, Eq. 4"),
     Quantity("sigma", ("sig",), "tensor", _values(_per_cell_volume("sig"), "sigma"),
-             balanced=_across_components, help="static stress, Eq. 5"),
+             balanced=_across_components, unit="{stress}", help="static stress, Eq. 5"),
     Quantity("dsigma", ("kin",), "tensor", _values(_per_cell_volume("kin"), "dsigma"),
-             needs_mass=True, help="dynamic stress, Eq. 6"),
+             needs_mass=True, unit="{momentum_flux}", help="dynamic stress, Eq. 6"),
     Quantity("dsigma_fluct", ("vol", "mass", "mom", "kin"), "tensor",
              _values(_fluctuation, "dsigma_fluct"), needs_mass=True,
-             help="kinetic stress about the mean flow"),
+             unit="{momentum_flux}", help="kinetic stress about the mean flow"),
     Quantity("eps", ("fab", "def"), "tensor", _values(_eps, "eps"), flag=_flagged_cells,
-             flag_name="singular_fabric", help="elastic strain, Eq. 7"),
+             flag_name="singular_fabric", unit="1", help="elastic strain, Eq. 7"),
     Quantity("boundary", ("wall",), "vector", _values(_per_cell_volume("wall"), "boundary"),
-             balanced=_all_components, help="force density of the walls"),
+             balanced=_all_components, unit="{force}/{length}^3", help="force density of the walls"),
     Quantity("body", ("body",), "vector", _values(_per_cell_volume("body"), "body"),
-             help="body force density: gravity, base-plate friction, a force column"),
+             unit="{force}/{length}^3", help="body force density: gravity, base-plate friction, a force column"),
     Quantity("gradv", ("vol", "mass", "mom", "dmass", "dmom", "rinv"), "tensor",
              _values(_gradv, "gradv"), smooth=True,
-             help="velocity gradient d v_i / d x_j (smoothing kernels only)"),
+             unit="1/{time}", help="velocity gradient d v_i / d x_j (smoothing kernels only)"),
     Quantity("D", ("vol", "mass", "mom", "dmass", "dmom", "rinv"), "tensor", _values(_rate, "D"),
-             smooth=True, help="deformation rate, Eq. 13 (smoothing kernels only)"),
+             smooth=True, unit="1/{time}", help="deformation rate, Eq. 13 (smoothing kernels only)"),
     Quantity("W", ("vol", "mass", "mom", "dmass", "dmom", "rinv"), "tensor",
              _values(_spin_rate, "W"), smooth=True,
-             help="rotation rate, Eq. 14 (smoothing kernels only)"),
+             unit="1/{time}", help="rotation rate, Eq. 14 (smoothing kernels only)"),
     Quantity("divsigma", ("vol", "sig", "dsig", "rinv"), "vector",
              _values(_divergence("sig", "dsig"), "divsigma"), smooth=True,
-             help="divergence of the static stress (smoothing kernels only)"),
+             unit="{stress}/{length}", help="divergence of the static stress (smoothing kernels only)"),
     Quantity("divdsigma", ("vol", "kin", "dkin", "rinv"), "vector",
              _values(_divergence("kin", "dkin"), "divdsigma"), needs_mass=True, smooth=True,
-             help="divergence of the dynamic stress (smoothing kernels only)"),
+             unit="{momentum_flux}/{length}", help="divergence of the dynamic stress (smoothing kernels only)"),
     # micropolar fields (granavg.analysis.spin_balance) and energy
     Quantity("mu", ("cst",), "couple", _values(_per_cell_volume("cst"), "mu"),
-             help="couple stress of the contact couples, sum l m / V (first index the "
+             unit="{force}/{length}", help="couple stress of the contact couples, sum l m / V (first index the "
                   "branch vector's)"),
     Quantity("dmu", ("kcpl",), "couple", _values(_per_cell_volume("kcpl"), "dmu"),
-             needs_mass=True, help="flux of spin angular momentum, sum v I omega / V"),
+             needs_mass=True, unit="{couple_flux}", help="flux of spin angular momentum, sum v I omega / V"),
     Quantity("spin_density", ("ispin",), "axial",
              _values(_per_cell_volume("ispin"), "spin_density"), needs_mass=True,
-             help="angular momentum density of the spins, sum I omega / V"),
+             unit="{mass}/({length} {time})", help="angular momentum density of the spins, sum I omega / V"),
     Quantity("lever", ("lever",), "axial", _values(_per_cell_volume("lever"), "lever"),
-             help="moment density (delta/2) n x f that a lever arm to the particle's "
+             unit="{stress}", help="moment density (delta/2) n x f that a lever arm to the particle's "
                   "surface (pair gran/*) adds to one to the contact point"),
     Quantity("couple_density", ("cnet",), "axial",
              _values(_per_cell_volume("cnet"), "couple_density"),
-             help="net contact couple on the particles, sum m / V: what the couple "
+             unit="{stress}", help="net contact couple on the particles, sum m / V: what the couple "
                   "stress's divergence stands for in a cell"),
     Quantity("boundary_couple", ("wcpl",), "axial",
              _values(_per_cell_volume("wcpl"), "boundary_couple"),
-             help="the walls' contact couples on the particles, per volume"),
+             unit="{stress}", help="the walls' contact couples on the particles, per volume"),
     Quantity("contact_power", ("ppow",), "scalar",
              _values(_ratio("ppow", "contact_power"), "contact_power"),
-             help="power the particles' contacts deliver, sum f.(v + omega x l) + m.omega "
+             unit="{force}/({length}^2 {time})", help="power the particles' contacts deliver, sum f.(v + omega x l) + m.omega "
                   "/ V: in a steady state's time average minus their dissipation rate"),
     Quantity("wall_power", ("wpow",), "scalar",
              _values(_ratio("wpow", "wall_power"), "wall_power"),
-             help="power the walls' contacts deliver to the particles"),
+             unit="{force}/({length}^2 {time})", help="power the walls' contacts deliver to the particles"),
     Quantity("lever_power", ("lpow",), "scalar",
              _values(_ratio("lpow", "lever_power"), "lever_power"),
-             help="power of the lever moment (delta/2) n x f (pair gran/* styles)"),
+             unit="{force}/({length}^2 {time})", help="power of the lever moment (delta/2) n x f (pair gran/* styles)"),
     Quantity("body_power", ("body", "bpow"), "scalar",
              _values(_ratio("bpow", "body_power"), "body_power"),
-             help="power of the body forces, sum b.v / V (minus the base plate's "
+             unit="{force}/({length}^2 {time})", help="power of the body forces, sum b.v / V (minus the base plate's "
                   "dissipation rate)"),
     Quantity("ekin", ("ekin",), "scalar", _values(_ratio("ekin", "ekin"), "ekin"),
-             needs_mass=True, help="translational kinetic energy density"),
+             needs_mass=True, unit="{momentum_flux}", help="translational kinetic energy density"),
     Quantity("erot", ("erot",), "scalar", _values(_ratio("erot", "erot"), "erot"),
-             needs_mass=True, help="rotational kinetic energy density"),
+             needs_mass=True, unit="{momentum_flux}", help="rotational kinetic energy density"),
     Quantity("temperature", ("vol", "mass", "mom", "kin"), "scalar",
              _values(_granular_temperature, "temperature"), needs_mass=True,
-             help="translational granular temperature"),
+             unit="({length}/{time})^2", help="translational granular temperature"),
     Quantity("temperature_rot", ("mass", "ispin", "inertia", "erot"), "scalar",
              _values(_rotational_temperature, "temperature_rot"), needs_mass=True,
-             help="rotational granular temperature"),
+             unit="({length}/{time})^2", help="rotational granular temperature"),
 )}
 
+
+#: granavg's own quantities (:func:`register` adds others).
+BUILT_IN = tuple(QUANTITIES)
 
 #: The micropolar and energy quantities the sidecar's ``micropolar`` entry explains.
 MICROPOLAR = ("mu", "dmu", "spin_density", "couple_density", "boundary_couple", "lever",
@@ -494,9 +503,11 @@ def groups_for(quantities, have_contacts: bool, have_body: bool = False,
                 and (smooth or not q.smooth)]
     rough = [q for q in quantities if q in QUANTITIES and QUANTITIES[q].smooth and not smooth]
     if rough:
+        from granavg.engine.smoothing import names
         raise ParameterError("quantities", f"{rough[0]} is a derivative of the coarse-"
                              "grained fields: it needs a smoothing kernel continuous at "
-                             "its edge ({kernel} lucy or gauss, with {width})")
+                             f"its edge ({{kernel}} {names(smooth_only=True)}, with "
+                             "{width})")
     unknown = [q for q in quantities if q not in QUANTITIES]
     if unknown:
         raise ParameterError("quantities", f"{{param}}: unknown quantity {unknown[0]!r}; "
@@ -514,7 +525,87 @@ def groups_for(quantities, have_contacts: bool, have_body: bool = False,
     return list(quantities)
 
 
+#: How a quantity's columns are named in a basis (:func:`columns`).
+SHAPES = ("scalar", "vector", "tensor", "axial", "couple")
+
+
+def contract(q: Quantity) -> None:
+    """What a quantity must declare (``ValueError`` with the reason): a name that is an
+    identifier; channel blocks that exist; a shape; a unit written in a unit system's
+    named units; a help text."""
+    from granavg.engine.unit_system import SI
+
+    if not q.name.isidentifier():
+        raise ValueError(f"its name {q.name!r} must be an identifier (a column prefix)")
+    unknown = [b for b in q.blocks if b not in BLOCK]
+    if unknown:
+        raise ValueError(f"block {unknown[0]!r} is not a channel block "
+                         f"(granavg.engine.channels: {', '.join(BLOCK)})")
+    if q.shape not in SHAPES:
+        raise ValueError(f"shape {q.shape!r}: choose from {', '.join(SHAPES)}")
+    try:
+        SI.unit(q.unit)
+    except (KeyError, IndexError, ValueError) as exc:
+        raise ValueError(f"unit {q.unit!r} is not written in a unit system's named units "
+                         f"({{length}}, {{time}}, {{mass}}, {{force}}, {{stress}}, ...): "
+                         f"{exc}") from None
+    if not q.help:
+        raise ValueError("it needs a help text (what it is, in words)")
+
+
+def register(q: Quantity) -> Quantity:
+    """Add a quantity of your own (checked against :func:`contract`); returns it."""
+    if q.name in QUANTITIES:
+        raise ValueError(f"quantity {q.name!r} exists")
+    try:
+        contract(q)
+    except ValueError as exc:
+        raise ValueError(f"quantity {q.name!r} breaks its contract: {exc}") from None
+    QUANTITIES[q.name] = q
+    return q
+
+
+def unregister(name: str) -> None:
+    """Remove a quantity added with :func:`register`."""
+    if name in BUILT_IN:
+        raise ValueError(f"{name!r} is one of granavg's own quantities")
+    QUANTITIES.pop(name, None)
+
+
+def quantity_of(column: str):
+    """The quantity a profile column (value or ``_sem``) belongs to: the one with the
+    longest name it starts with (``dsigma_fluct_rr`` -> dsigma_fluct); None for the
+    cells' own columns."""
+    name = column[:-4] if column.endswith("_sem") else column
+    found = [q for q in QUANTITIES if name == q or name.startswith(q + "_")]
+    return QUANTITIES[max(found, key=len)] if found else None
+
+
+#: Units of the columns every table has besides its cells' coordinates and quantities.
+CELL_COLUMNS = {"V": "{length}^3", "n_frames": "1", "n_runs": "1"}
+
+
+def column_units(columns, system, coordinates: dict) -> dict:
+    """The unit of each column in a unit system: ``coordinates`` the cells' own
+    (:meth:`~granavg.engine.cells.base.Cells.coordinate_units`), the table's counts and
+    volumes (:data:`CELL_COLUMNS`), each quantity's from its declared dimension (errors
+    as their values). A column of none of these is an error: every quantity declares its
+    unit."""
+    out = {}
+    for c in columns:
+        q = quantity_of(c)
+        dimension = coordinates.get(c) or CELL_COLUMNS.get(c) or (q.unit if q else None)
+        if dimension is None:
+            raise KeyError(f"column {c!r}: no quantity declares it")
+        out[c] = system.unit(dimension)
+    return out
+
+
 def catalogue() -> str:
     """The quantities in words, for help texts: ``nu (volume fraction, Eq. 2), ...``."""
     return ", ".join(f"{q.name} ({q.help})" if q.help else q.name
                      for q in QUANTITIES.values())
+
+
+for _q in QUANTITIES.values():           # granavg's own keep the contract too
+    contract(_q)

@@ -39,7 +39,8 @@ class Example:
 couette_2d = Example(
     "couette_2d", DATA / "couette_2d" / "atoms.dump.gz",
     DATA / "couette_2d" / "contacts.dump.gz",
-    "2D Couette cell, 290 disks, 13 frames of shear (granavg simulate --preset paper-hooke)",
+    "2D Couette cell, 290 disks, 13 frames of shear (the paper-hooke preset of granavg "
+    "simulate)",
     run=DATA / "couette_2d")
 
 pile_3d = Example(

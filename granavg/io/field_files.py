@@ -1,12 +1,11 @@
-"""Profiles as gridded fields for the tools of the 3D world: an xarray Dataset (written
-as NetCDF) and a VTK unstructured grid for ParaView.
+"""Fields as files for the tools of the 3D world: NetCDF and a VTK unstructured grid for
+ParaView.
 
-- :func:`to_dataset`: one dimension per axis of the cells (``r``; ``x``/``y``/``z`` for
-  slabs; ``x, y`` for a 2D grid; ``x, y, z`` for boxes; ``r, z`` for cylindrical shells),
-  each value and its ``<name>_sem`` as data variables with their ``units``, the cells'
-  edges and volumes, the flags, and in the attributes the geometry, the unit system and
-  how the errors were made (JSON text). :func:`write_netcdf` writes it (NetCDF 3 by
-  scipy, which granavg already needs; xarray and ParaView read it).
+- :func:`write_netcdf`: :meth:`granavg.engine.fields.Fields.to_xarray` (one dimension
+  per axis of the cells, each value and its ``<name>_sem`` with their ``units``, the
+  cells' edges and volumes, the flags; the geometry, the unit system and how the errors
+  were made in the attributes) as NetCDF 3, written by scipy, which granavg already
+  needs; xarray and ParaView read it.
 - :func:`write_vtk` (cells that fill a grid in space: their ``mesh()``): 2D grids and
   polar grids as quadrilaterals, boxes as hexahedra, cylindrical shells revolved into
   sectors so that they show as the cylinder they are; every value and error as cell
@@ -18,55 +17,18 @@ Nothing is converted: the units are the profiles' (the sidecar's ``columns``).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from granavg.engine.channels import pairs
-from granavg.engine.unit_system import SI, UnitSystem
-
-
-def _units(profiles) -> UnitSystem:
-    system = (profiles.meta or {}).get("unit_system")
-    return UnitSystem(**system) if system else SI
-
-
-def to_dataset(profiles):
-    """The profiles as an :class:`xarray.Dataset` (module docstring)."""
-    import xarray as xr
-
-    dims, shape, edges = profiles.cells.grid()
-    units = _units(profiles)
-    coords = {}
-    for d, e in zip(dims, edges):
-        coords[d] = (d, 0.5 * (e[1:] + e[:-1]), {"units": units.length,
-                                                 "long_name": f"cell centre, {d}"})
-        coords[f"{d}_edges"] = (f"{d}_edge", np.asarray(e, float),
-                                {"units": units.length, "long_name": f"cell edges, {d}"})
-    data = {"V": (dims, profiles.cells.volume.reshape(shape),
-                  {"units": units.volume, "long_name": "cell volume"})}
-    for name, value in profiles.values.items():
-        for key, arr in ((name, value), (f"{name}_sem", profiles.sem[name])):
-            data[key] = (dims, np.asarray(arr, float).reshape(shape), {"units": units.of(key)})
-    data["flags"] = (dims, np.asarray(profiles.flags, dtype=str).reshape(shape))
-    if profiles.n_runs is not None:
-        data["n_runs"] = (dims, np.asarray(profiles.n_runs).reshape(shape))
-    meta = profiles.meta or {}
-    attrs = {"title": "granavg profiles", "units": str(meta.get("units", units.label)),
-             "n_frames": int(profiles.n_frames),
-             "geometry": json.dumps(profiles.cells.describe()),
-             "unit_system": json.dumps(units.describe()),
-             "errors": json.dumps(meta.get("errors", {}), default=str),
-             "granavg_version": str(meta.get("granavg_version", ""))}
-    return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
 def write_netcdf(profiles, path) -> Path:
-    """:func:`to_dataset` as NetCDF, to ``path`` (the ``average`` command gives the
+    """The fields as NetCDF, to ``path`` (the ``average`` command gives the
     temporary name of its :class:`~granavg.io.output_set.OutputSet`)."""
     path = Path(path)
-    to_dataset(profiles).to_netcdf(path, engine="scipy")
+    profiles.to_xarray().to_netcdf(path, engine="scipy")
     return path
 
 

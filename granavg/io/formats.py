@@ -11,12 +11,11 @@ to it).
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from granavg.engine.plugins import Registry
 from granavg.errors import ParameterError, UserError, literal
 
 
@@ -44,17 +43,13 @@ class Format:
     options: tuple = ()
 
 
+#: The formats, by name.
+FORMATS = Registry("granavg.io", "FORMAT", lambda f: isinstance(f, Format), lambda f: f.name)
+
+
 def available() -> dict:
     """Every format, by name (modules of granavg.io that define ``FORMAT``)."""
-    import granavg.io as package
-
-    found = {}
-    for info in pkgutil.iter_modules(package.__path__):
-        module = importlib.import_module(f"{package.__name__}.{info.name}")
-        fmt = getattr(module, "FORMAT", None)
-        if isinstance(fmt, Format):
-            found[fmt.name] = fmt
-    return found
+    return FORMATS.all()
 
 
 def choose(atoms, fmt: str | None = None) -> Format:

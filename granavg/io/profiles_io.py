@@ -10,10 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from granavg.engine.profiles import Profiles, columns_of
-from granavg.engine.cells import restore
+from granavg.engine.fields import Fields, columns_of
+from granavg.engine.cells import restore_sidecar
 from granavg.engine.uncertainty.blocking import Replicates
-from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError
 from granavg.io.output_set import OutputSet
 
@@ -23,8 +22,8 @@ REPLICATES = ".replicates.npz"
 TIMESERIES = ".timeseries.csv"
 
 
-def read_profiles(path) -> Profiles:
-    """Profiles written by :func:`write_profiles` (CSV or Parquet, with its JSON sidecar),
+def read_profiles(path) -> Fields:
+    """Fields written by :func:`write_profiles` (CSV or Parquet, with its JSON sidecar),
     checked: a damaged table or sidecar is a one-line error naming the file."""
     import pandas as pd
 
@@ -51,14 +50,14 @@ def read_profiles(path) -> Profiles:
         raise UserError(f"{side}: not a text file; average again with 'granavg "
                         "average'") from None
     try:
-        rings = restore(meta.get("geometry") or meta["rings"])
+        rings = restore_sidecar(meta)
     except (KeyError, TypeError, ValueError, AttributeError):
         raise UserError(f"{side}: no ring geometry (rings.edges_m, rings.h_m); average "
                         "again with 'granavg average'") from None
     missing = [c for c in (*rings.coordinates(), "n_frames", "flags") if c not in table.columns]
     if missing or len(table) != rings.n:
         what = f"column {missing[0]} is missing" if missing else \
-            f"{len(table)} rows for {rings.n} rings"
+            f"{len(table)} rows for {rings.n} cells"
         raise UserError(f"{path}: {what} (the table is cut or not granavg's); average "
                         "again with 'granavg average'")
     names = [c for c in table.columns if f"{c}_sem" in table.columns]
@@ -76,7 +75,7 @@ def read_profiles(path) -> Profiles:
         except (OSError, ValueError, KeyError) as exc:
             raise UserError(f"{reps}: damaged replicates ({exc}); average again") from None
     series = path.with_name(path.name + TIMESERIES)
-    return Profiles(rings, {n: table[n].to_numpy() for n in names},
+    return Fields(rings, {n: table[n].to_numpy() for n in names},
                {n: table[f"{n}_sem"].to_numpy() for n in names},
                np.array([f if isinstance(f, str) else "" for f in table["flags"]], dtype=object),
                int(table["n_frames"].iloc[0]), meta, replicates,
@@ -84,7 +83,7 @@ def read_profiles(path) -> Profiles:
                columns_of(pd.read_csv(series)) if series.exists() else None)
 
 
-def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
+def write_profiles(profiles: Fields, path, parquet: bool = False) -> Path:
     """Write the table (CSV, or Parquet), a JSON sidecar ``<path>.json`` (with the unit
     of every column, ``columns``), the replicates ``<path>.replicates.npz`` and the time
     series ``<path>.timeseries.csv``, as one :class:`~granavg.io.output_set.OutputSet`:
@@ -95,20 +94,18 @@ def write_profiles(profiles: Profiles, path, parquet: bool = False) -> Path:
     return Path(path)
 
 
-def write_profile_files(profiles: Profiles, outputs: OutputSet, parquet: bool = False):
+def write_profile_files(profiles: Fields, outputs: OutputSet, parquet: bool = False):
     """The files of :func:`write_profiles` into the temporary names of ``outputs`` (the
     caller commits them, with its other outputs)."""
     table = profiles.to_columns()
-    system = profiles.meta.get("unit_system")
-    units = UnitSystem(**system) if system else SI
-    profiles.meta["columns"] = units.columns([c for c in table if c != "flags"])
+    profiles.meta["columns"] = profiles.units
     if parquet:
         try:
             import pyarrow  # noqa: F401  (pandas' Parquet engine)
         except ImportError:
             raise ParameterError("parquet", "{param} needs pyarrow: pip install "
                                  "'granavg[parquet]'") from None
-        profiles.to_frame().to_parquet(outputs.temp(""), index=False)
+        profiles.to_pandas().to_parquet(outputs.temp(""), index=False)
     else:
         write_csv(outputs.temp(""), table, "%.10g")
     outputs.temp(".json").write_text(json.dumps(profiles.meta, indent=2) + "\n")

@@ -10,11 +10,28 @@ import sys
 
 from granavg.errors import UserError, message, named
 
-#: Options that only plain dumps take (a run directory's manifest says them).
-PLAIN_ONLY = ("thickness", "density", "dt", "r_range", "slabs", "grid", "wall_types",
-              "atom_columns", "contact_columns", "units", "format", "gravity", "center",
-              "range", "length", "x_range", "y_range", "z_range", "layers", "area", "dim",
-              "inertia")
+#: Options of the frames that only plain dumps take (a run directory's manifest says
+#: them); and every cells option that does not declare it builds a run's cells too.
+PLAIN_ONLY = ("density", "dt", "wall_types", "atom_columns", "contact_columns", "units",
+              "format", "gravity", "dim", "inertia")
+
+
+def cell_options() -> list:
+    """The options that build cells, as their registry declares them
+    (:func:`granavg.engine.cells.option_specs`)."""
+    from granavg.engine.cells import option_specs
+
+    return list(option_specs().values())
+
+
+def catalogues() -> dict:
+    """The registries in words, for the command line's help: its placeholders
+    ``<quantities>``, ``<kernels>``, ``<widths>`` and ``<default kernel>``."""
+    from granavg.engine import smoothing
+    from granavg.engine.quantities import catalogue
+
+    return {"<quantities>": catalogue(), "<kernels>": smoothing.catalogue(),
+            "<widths>": smoothing.widths(), "<default kernel>": smoothing.DEFAULT}
 
 
 def names(text):
@@ -34,7 +51,8 @@ def simulate(o) -> str:
         omp=o["omp"], resume=o["resume"], start=o["start"], engine=o["engine"],
         average=o["average"], t_min=o["t_min"], block_time=o["block_time"],
         quantities=names(o["quantities"]), seeds=o["seeds"], workers=o["workers"],
-        scheduler=o["scheduler"], progress=_progress(o))
+        scheduler=o["scheduler"], progress=_progress(o), kernel=o["kernel"],
+        width=o["width"])
 
 
 def averaging(o, **extra) -> dict:
@@ -43,7 +61,9 @@ def averaging(o, **extra) -> dict:
     from granavg.io.lammps_dumps import parse_map
     from granavg.errors import ParameterError
 
-    given = [k for k in PLAIN_ONLY if o.get(k) not in (None, [], ())]
+    specs = cell_options()
+    plain = [*PLAIN_ONLY, *(s.name for s in specs if not s.runs)]
+    given = [k for k in plain if o.get(k) not in (None, [], ())]
     if o["run_dir"] and given:
         raise ParameterError(given[0], "{param} is for plain LAMMPS dumps; a run "
                              "directory's manifest already says it (drop the option or "
@@ -51,11 +71,9 @@ def averaging(o, **extra) -> dict:
     common = dict(t_min=o["t_min"], block_time=o["block_time"],
                   quantities=names(o["quantities"]), branch=o["branch"],
                   sectors=o["sectors"], kernel=o["kernel"], **extra)
+    cells = {s.name: o[s.name] for s in specs if o[s.name] is not None}
     if o["run_dir"]:
-        return dict(common, bins=o["bins"], edges=o["edges"], polar_grid=o["polar_grid"])
-    cells = {k: o[k] for k in ("thickness", "bins", "edges", "polar_grid", "center",
-                               "r_range", "slabs", "range", "length", "grid", "x_range",
-                               "y_range", "z_range", "layers", "area")}
+        return dict(common, cells=cells)
     return dict(common, cells=cells, fmt=o["format"], density=o["density"], dt=o["dt"],
                 units=o["units"], wall_types=o["wall_types"], dim=o["dim"],
                 gravity=o["gravity"], inertia=o["inertia"],

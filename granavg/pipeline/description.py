@@ -13,21 +13,17 @@ import math
 from dataclasses import dataclass, field, replace
 
 from granavg import __version__
+from granavg.engine.api import averager, resolvable
 from granavg.engine.average import MAX_BLOCKS, CellAverage
 from granavg.engine.body_forces import add_body_forces, base_plate
-from granavg.engine.cells import Space, from_options
+from granavg.engine.cells import Space, from_options, legacy_description
 from granavg.engine.cells.base import Cells
-from granavg.engine.quantities import catalogue, needs_body
+from granavg.engine.quantities import needs_body
 from granavg.engine.smoothing import smooth
 from granavg.engine.unit_system import SI
 from granavg.io.frames import Frame
 from granavg.io.prefetch import Prefetched
 from granavg.sim.couette_state import CouetteState
-
-def quantity_catalogue() -> str:
-    """The quantities that can be averaged, in words (the command line's help)."""
-    return catalogue()
-
 
 #: Inner-ring rotations discarded by manifests older than ``derived.t_discard_s``.
 OLD_DISCARD_ROTATIONS = 2.0
@@ -41,6 +37,15 @@ def discard_time(manifest: dict) -> float:
     if "t_discard_s" in derived:
         return float(derived["t_discard_s"])
     return scene.get("discard_rotations", OLD_DISCARD_ROTATIONS) * 2 * math.pi / scene["Omega"]
+
+
+def scene_diameters(scene: dict):
+    """The smallest and largest disk diameter of a scene (m): its two sizes, spread by
+    ``size_spread``."""
+    import numpy as np
+
+    spread = scene.get("size_spread", 0.0)
+    return np.array([scene["d_s"] * (1 - spread), scene["d_l"] * (1 + spread)])
 
 
 def scene_body_forces(manifest: dict) -> list:
@@ -101,37 +106,43 @@ class RunAverage:
 
     @classmethod
     def of(cls, manifest: dict, groups, *, t_min=None, block_time=None, branch="contact",
-           sectors="auto", kernel=None, width=None, **cells) -> "RunAverage":
+           sectors="auto", kernel=None, width=None, cells=None, **options) -> "RunAverage":
         """The average of the run ``manifest`` describes, options resolved. ``cells``:
-        options of the cells (:func:`granavg.engine.cells.from_options`; ``bins`` equal
-        rings or ``edges``, or any kind of 2D cells about the cell's axis), in the run's
-        annulus: the disks' height h, radii from R_i to R_o about the origin; with a
-        smoothing ``kernel`` of ``width`` (m), their nodes
-        (:func:`granavg.engine.smoothing.smooth`)."""
+        cells (:mod:`granavg.cells`), or options of the cells (a dict, or as keywords
+        ``options``; :func:`granavg.engine.cells.from_options`: ``bins`` equal rings or
+        ``edges``, or any kind of 2D cells about the cell's axis) in the run's annulus:
+        the disks' height h, radii from R_i to R_o about the origin; with a smoothing
+        ``kernel`` of ``width`` (m), their nodes (:func:`granavg.engine.smoothing.smooth`)."""
         scene, derived = manifest["scene"], manifest["derived"]
-        given = {k: v for k, v in cells.items() if v is not None}
-        rings = smooth(from_options(Space(2), **{"thickness": scene["h"],
-                                                 "r_range": (scene["R_i"], scene["R_o"]),
-                                                 **given}), kernel, width)
+        if isinstance(cells, Cells):
+            rings = smooth(cells, kernel, width)
+        else:
+            given = {k: v for k, v in {**(cells or {}), **options}.items() if v is not None}
+            rings = smooth(from_options(Space(2), **{"thickness": scene["h"],
+                                                     "r_range": (scene["R_i"], scene["R_o"]),
+                                                     **given}), kernel, width)
+        if kernel not in (None, "exact"):            # refused before any frame is read
+            resolvable(rings, 0.5 * scene_diameters(scene), warn=False)
         t_min = discard_time(manifest) if t_min is None else float(t_min)
         block_time = block_time or max(derived["dump_interval_s"],
                                        (derived["t_end_s"] - t_min) / MAX_BLOCKS)
         return cls(manifest, rings, list(groups), t_min, block_time, branch=branch,
                    body_forces=scene_body_forces(manifest), sectors=sectors)
 
-    @property
-    def meta(self) -> dict:
-        """The sidecar's description of this average."""
-        return {"granavg_version": __version__, "units": SI.label,
-                "unit_system": SI.describe(), "quantities": list(self.groups),
-                "rings": {"edges_m": list(self.geometry.edges), "h_m": self.geometry.h},
-                "geometry": self.geometry.describe(),
-                "frames": {"t_min_s": self.t_min, "block_time_s": self.block_time},
-                "run_manifest": self.manifest, **({"files": self.files} if self.files else {}),
+    def meta(self, engine: dict) -> dict:
+        """The sidecar's description of this average: the engine's (``engine``: its
+        units, quantities, geometry and frames), with the run's version, manifest, files
+        and body forces."""
+        first = {k: engine[k] for k in ("units", "unit_system", "quantities")}
+        rest = {k: v for k, v in engine.items() if k not in first}
+        return {"granavg_version": __version__, **first,
+                **legacy_description(self.geometry), **rest, "run_manifest": self.manifest,
+                **({"files": self.files} if self.files else {}),
                 "body_forces": [t.describe for t in self.body_forces]}
 
     def averager(self, frames=None, series: bool = True) -> CellAverage:
-        """A :class:`CellAverage` of ``frames`` with the Couette cell's per-frame state
+        """The :func:`~granavg.engine.api.averager` of ``frames`` (None: fed later, in
+        situ or by a dask client's merges) with the Couette cell's per-frame state
         (``series``; one is enough where several ring counts see the same frames)."""
         scene = self.manifest["scene"]
         state = CouetteState(scene["R_i"], scene["R_o"], scene["h"], scene["rho_p"],
@@ -140,8 +151,8 @@ class RunAverage:
             frames = WithBodyForces(frames, self.body_forces, self.geometry, scene["rho_p"])
         if frames is not None:
             frames = Prefetched(frames)
-        avg = CellAverage(frames, self.geometry, self.groups, scene["rho_p"], self.t_min,
-                          self.block_time, state, branch=self.branch,
-                          sectors=self.sectors)
-        avg.meta = self.meta
+        avg = averager(frames, self.geometry, rho_p=scene["rho_p"], quantities=self.groups,
+                       t_min=self.t_min, block_time=self.block_time, units=SI,
+                       branch=self.branch, sectors=self.sectors, series=state)
+        avg.meta = self.meta(avg.meta)
         return avg

@@ -1,4 +1,4 @@
-"""Profiles of anyone's dumps, no run directory, in any format :mod:`granavg.io.formats`
+"""Fields of anyone's dumps, no run directory, in any format :mod:`granavg.io.formats`
 knows and in the dumps' own units: the frame source, the cells the options choose
 (:func:`granavg.engine.cells.from_options` in the space the dumps give), the body
 forces asked for, and the averager."""
@@ -10,7 +10,8 @@ import logging
 from granavg.engine import body_forces
 from granavg.engine.api import averager
 from granavg.engine.cells import Space, from_options
-from granavg.engine.profiles import Profiles
+from granavg.engine.cells.base import Cells
+from granavg.engine.fields import Fields
 from granavg.engine.smoothing import smooth
 from granavg.errors import ParameterError, named
 from granavg.io import formats, validate
@@ -20,8 +21,8 @@ from granavg.io.prefetch import Prefetched
 log = logging.getLogger(__name__)
 
 
-def average_dumps(atoms, contacts=None, *, progress=None, **options) -> Profiles:
-    """Profiles of anyone's dumps (no run directory), in their own units
+def average_dumps(atoms, contacts=None, *, progress=None, **options) -> Fields:
+    """Fields of anyone's dumps (no run directory), in their own units
     (:func:`dump_averager`'s options; ``progress``: a progress bar, None on a terminal)."""
     avg, frames = dump_averager(atoms, contacts, **options)
     profiles = avg.run(progress)
@@ -30,7 +31,7 @@ def average_dumps(atoms, contacts=None, *, progress=None, **options) -> Profiles
     return profiles
 
 
-def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
+def dump_averager(atoms, contacts=None, *, cells=None, fmt=None, density=None,
                   quantities=None, t_min=None, block_time=None, gravity=None,
                   branch="contact", sectors="auto", check_cells=None, kernel=None,
                   width=None, scan_early=True, **source_options):
@@ -41,10 +42,11 @@ def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     ----------
     atoms, contacts : path
         Per-atom file; per-contact file or None.
-    cells : dict
-        Options of the cells (:func:`granavg.engine.cells.from_options`: ``thickness`` in
-        2D; ``bins``, ``edges``, ``r_range``, ``center`` for rings or shells; ``slabs``,
-        ``grid``, ``polar_grid``, the ranges, ...), lengths left to the dumps' box.
+    cells : Cells or dict
+        The cells (:mod:`granavg.cells`), or options of the cells
+        (:func:`granavg.engine.cells.from_options`: ``thickness`` in 2D; ``bins``,
+        ``edges``, ``r_range``, ``center`` for rings or shells; ``slabs``, ``grid``,
+        ``polar_grid``, the ranges, ...), lengths left to the dumps' box.
     fmt : str, optional
         Input format (:func:`granavg.io.formats.available`); default the one that claims
         the files.
@@ -88,7 +90,8 @@ def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     space = Space(dim, frames.box, getattr(frames, "periodic", None) or (lambda: (False,) * 3),
                   getattr(frames, "tilt", None) or (lambda: (0.0, 0.0, 0.0)),
                   getattr(frames, "dim_reason", None))
-    cells_of_options = smooth(from_options(space, **cells), kernel, width)
+    built = cells if isinstance(cells, Cells) else from_options(space, **(cells or {}))
+    cells_of_options = smooth(built, kernel, width)
     if check_cells is not None:
         check_cells(cells_of_options)
     if gravity and frames.units.momentum_flux:
@@ -110,7 +113,7 @@ def dump_averager(atoms, contacts=None, *, cells: dict, fmt=None, density=None,
     avg.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
                                else None},
                      "inputs": {"format": frames.format_name,
-                                **({"thickness": cells.get("thickness")} if dim == 2
+                                **({"thickness": getattr(built, "h", None)} if dim == 2
                                    else {}),
                                 "density": density, **frames.describe()},
                      "body_forces": [t.describe for t in terms]})

@@ -14,12 +14,17 @@ from pathlib import Path
 
 import numpy as np
 
-from granavg.analysis.claims import warn_if_inertial
+from granavg.analysis.regime import warn_if_inertial
 from granavg.engine.quantities import groups_for, needs_body
+from granavg.engine.smoothing import get as get_kernel
 from granavg.io.contacts import COLUMNS
 from granavg.io.frames import Frame
 from granavg.io.profiles_io import write_profiles
-from granavg.pipeline.description import RunAverage, WithBodyForces, scene_body_forces
+from granavg.engine.api import resolvable
+from granavg.engine.cells import Space, from_options
+from granavg.engine.smoothing import smooth
+from granavg.pipeline.description import (RunAverage, WithBodyForces, scene_body_forces,
+                                          scene_diameters)
 from granavg.pipeline.runs import chosen_sectors
 from granavg.sim.lammps_frames import atoms_by_id
 
@@ -55,14 +60,26 @@ class InSituAverage:
                 f"ring profiles over {n} rings, averaged in situ (docs/profiles.md)"
                 for n in bins}
 
+    @staticmethod
+    def check_kernel(scene, bins, kernel, width) -> None:
+        """Refuse, before the run, a kernel the in-situ averages cannot take: unknown,
+        without a width, or narrower than half the smallest disk radius."""
+        rings = smooth(from_options(Space(2), thickness=scene.h,
+                                    r_range=(scene.R_i, scene.R_o), bins=min(bins)),
+                       kernel, width)
+        resolvable(rings, 0.5 * scene_diameters(scene.to_dict()), warn=False)
+
     def __init__(self, manifest: dict):
         contacts = manifest["scene"].get("contacts", True)
         opts = manifest["average"]
+        kernel = opts.get("kernel")
         self.groups = groups_for(opts.get("quantities"), contacts,
-                                 bool(scene_body_forces(manifest)))
+                                 bool(scene_body_forces(manifest)),
+                                 smooth=bool(kernel) and get_kernel(kernel).smooth_edge)
         specs = [RunAverage.of(manifest, self.groups, bins=n, t_min=opts.get("t_min_s"),
                                block_time=opts.get("block_time_s"),
-                               branch=opts.get("branch", "contact")) for n in opts["bins"]]
+                               branch=opts.get("branch", "contact"), kernel=kernel,
+                               width=opts.get("width")) for n in opts["bins"]]
         self.body = WithBodyForces((), specs[0].body_forces if needs_body(self.groups) else [],
                                    specs[0].geometry, manifest["scene"]["rho_p"])
         self.averages = {n: spec.averager(series=k == 0)  # one time series serves all

@@ -16,7 +16,7 @@ import numpy as np
 
 from granavg.engine import threads
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.profiles import Profiles
+from granavg.engine.fields import Fields
 from granavg.dask_cluster import Cluster, cluster_client, refusal_safe
 from granavg.errors import ParameterError, literal
 from granavg.pipeline.dumps import dump_averager
@@ -63,7 +63,7 @@ def _chunk(run_dir, window, options):
 
 
 def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
-                     chunks: int | None = None, client=None, **options) -> Profiles:
+                     chunks: int | None = None, client=None, **options) -> Fields:
     """:func:`granavg.pipeline.averaging.average_run` on dask workers; identical profiles.
 
     Parameters
@@ -82,7 +82,7 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
 
     The profiles' ``meta["dask"]`` records the chunks and each worker's peak memory (B).
     """
-    base = run_averager(run_dir, **options)          # validates; reads no frame
+    base = run_averager(run_dir, fed=True, **options)      # validates; reads no frame
     windows = chunk_windows(base.meta["run_manifest"], base.t_min, base.block_time,
                             chunks or 2 * workers)
     with cluster_client(workers, scheduler, _threads_each(workers)) if client is None else \
@@ -156,7 +156,7 @@ def _dump_chunk(atoms, contacts, window, options):
 
 def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
                        scheduler: str | None = None, chunks: int | None = None,
-                       **options) -> Profiles:
+                       **options) -> Fields:
     """:func:`granavg.pipeline.averaging.average_dumps` on dask workers, for LAMMPS
     dumps each worker can read its own part of: a ``dump.*`` file series, or a plain
     (uncompressed) file (each worker skips to its frames by scanning). Identical

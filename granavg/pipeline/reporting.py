@@ -15,7 +15,7 @@ from granavg.analysis.fields import analyze_fields, write_field_report
 from granavg.analysis.figures import save_all
 from granavg.analysis.report import write_report, write_summary
 from granavg.engine.cells.rings import Rings
-from granavg.engine.profiles import Profiles
+from granavg.engine.fields import Fields
 from granavg.errors import ParameterError, UserError, literal
 from granavg.extras import require
 from granavg.io.profiles_io import read_profiles, write_profiles
@@ -25,7 +25,7 @@ from granavg.sim.packings import without_paths
 log = logging.getLogger(__name__)
 
 
-def report_profiles(coarse: Profiles, fine: Profiles, out, title="granavg report",
+def report_profiles(coarse: Fields, fine: Fields, out, title="granavg report",
                     density_series=()) -> dict:
     """Analyse two ring profiles of one run (or ensemble) and write figures, summary.json,
     report.html; ``density_series``: coarse profiles of the scene at other area

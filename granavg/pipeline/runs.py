@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from granavg.engine.profiles import Profiles
+from granavg.engine.fields import Fields
 from granavg.engine.quantities import (QUANTITIES, groups_for, needed_columns, needs_body,
                                        optional_columns)
 from granavg.engine.smoothing import get as get_kernel
@@ -20,7 +20,8 @@ from granavg.pipeline.description import RunAverage, scene_body_forces
 
 def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms=None,
                  contacts=None, steps=None, branch="contact", sectors="auto",
-                 check_cells=None, kernel=None, width=None, **cells):
+                 check_cells=None, kernel=None, width=None, fed=False, cells=None,
+                 **options):
     """The :class:`~granavg.engine.average.CellAverage` of a run directory, its frames
     read lazily (only those with time steps in ``steps = (first, last)`` if given).
 
@@ -48,9 +49,15 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
     check_cells : callable, optional
         Called with the cells before any frame is read (e.g. that an output can hold
         them); raises to refuse.
-    **cells
-        Options of the cells in the run's annulus (``bins`` equal rings between R_i and
-        R_o, or their ``edges`` in m; :meth:`~granavg.pipeline.description.RunAverage.of`).
+    fed : bool
+        No frame is read: the averager is fed later (a dask client merging its workers'
+        sums).
+    cells : Cells or dict, optional
+        The cells (:mod:`granavg.cells`), or options of the cells in the run's annulus
+        (``bins`` equal rings between R_i and R_o, or their ``edges`` in m;
+        :meth:`~granavg.pipeline.description.RunAverage.of`); default 20 rings.
+    **options
+        Options of the cells, as keywords (``bins=60``).
     """
     if run_dir is None:
         raise UserError("give the run directory: its manifest holds h, rho_p and the rings")
@@ -76,14 +83,15 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
         if need_contacts else None
     spec = RunAverage.of(manifest, groups, t_min=t_min, block_time=block_time,
                          branch=branch, sectors=sectors, kernel=kernel, width=width,
-                         **cells)
+                         cells=cells, **options)
     if check_cells is not None:
         check_cells(spec.geometry)
     spec.files = {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None}
-    return spec.averager(RunDumps(reader_a, reader_c, dt=manifest["derived"]["dt_s"]))
+    return spec.averager(None if fed else RunDumps(reader_a, reader_c,
+                                                   dt=manifest["derived"]["dt_s"]))
 
 
-def average_run(run_dir=None, *, progress=None, **options) -> Profiles:
+def average_run(run_dir=None, *, progress=None, **options) -> Fields:
     """Ring profiles of a run directory (options as for :func:`run_averager`)."""
     return run_averager(run_dir, **options).run(progress)
 

@@ -14,15 +14,14 @@ from pathlib import Path
 import numpy as np
 
 from granavg.analysis.scales import FLAT, plateau, steps
+from granavg.engine import smoothing
 from granavg.engine.smoothing import get
-from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError
 from granavg.io import formats, validate
 from granavg.io.output_set import OutputSet
 from granavg.io.profiles_io import write_csv
 from granavg.io.run_directory import read_manifest
-from granavg.pipeline.averaging import average_run_dirs
-from granavg.pipeline.dumps import average_dumps
+from granavg.pipeline import api
 from granavg.pipeline.runs import chosen_sectors
 
 log = logging.getLogger(__name__)
@@ -52,7 +51,7 @@ def diameters(run_dirs, atoms, options) -> tuple:
     raise ParameterError("atoms", "{param}: no frame holds particles")
 
 
-def scale_study(run_dirs, *, widths, kernel="lucy", diameter=None, atoms=None,
+def scale_study(run_dirs, *, widths, kernel=None, diameter=None, atoms=None,
                 contacts=None, progress=None, **options):
     """The exact weights' profiles and the kernel's at each width.
 
@@ -63,8 +62,8 @@ def scale_study(run_dirs, *, widths, kernel="lucy", diameter=None, atoms=None,
         ``contacts``.
     widths : sequence of float
         Kernel widths in mean diameters, increasing.
-    kernel : str
-        A smoothing kernel (:mod:`granavg.engine.smoothing`).
+    kernel : str, optional
+        A smoothing kernel (:mod:`granavg.engine.smoothing`; default its ``DEFAULT``).
     diameter : float, optional
         The mean diameter (length unit of the data); default :func:`diameters`.
     **options
@@ -72,13 +71,14 @@ def scale_study(run_dirs, *, widths, kernel="lucy", diameter=None, atoms=None,
 
     Returns
     -------
-    exact : Profiles
-    profiles : list of Profiles, one per width
+    exact : Fields
+    profiles : list of Fields, one per width
     diameter : float
     """
-    if kernel in (None, "exact"):
-        raise ParameterError("kernel", "{param} exact has no width: a scale study needs a "
-                             "smoothing kernel (lucy, gauss, heaviside)")
+    kernel = kernel or smoothing.DEFAULT
+    if kernel == smoothing.EXACT:
+        raise ParameterError("kernel", f"{{param}} {kernel} has no width: a scale study "
+                             f"needs a smoothing kernel ({smoothing.names()})")
     widths = [float(w) for w in widths]
     if any(b <= a for a, b in zip(widths, widths[1:])) or widths[0] <= 0:
         raise ParameterError("widths", f"{{param}} {' '.join(f'{w:g}' for w in widths)}: "
@@ -100,10 +100,8 @@ def scale_study(run_dirs, *, widths, kernel="lucy", diameter=None, atoms=None,
                              f"start at {0.5 * smallest / d:.3g} d or more")
 
     def average(**chosen):
-        if run_dirs:
-            return average_run_dirs(run_dirs, atoms, contacts, None, None, progress,
-                                    dict(options, **chosen))
-        return average_dumps(atoms, contacts, progress=progress, **dict(options, **chosen))
+        return api.average(list(run_dirs) or None, atoms=atoms, contacts=contacts,
+                           progress=progress, **dict(options, **chosen))
 
     exact = average(kernel="exact")
     sectors = chosen_sectors(exact, options.get("sectors", "auto"))   # the same replicas
@@ -114,12 +112,13 @@ def scale_study(run_dirs, *, widths, kernel="lucy", diameter=None, atoms=None,
     return exact, profiles, d
 
 
-def scale_study_to_file(run_dirs, out, *, widths, kernel="lucy", diameter=None,
+def scale_study_to_file(run_dirs, out, *, widths, kernel=None, diameter=None,
                         fields=None, progress=None, **options) -> Path:
     """The ``scales`` command: :func:`scale_study` written to ``out`` (table, one row per
     width and cell, the exact weights' rows first with width 0, empty in the columns
     only a kernel gives: the gradients), ``<out>.json`` (the diameter, widths, each
     field's steps and plateau) and ``<out>.png`` / ``.pdf``."""
+    kernel = kernel or smoothing.DEFAULT
     from granavg.analysis import figures          # matplotlib, only where drawn
 
     out = validate.free_output(Path(out), ("", ".json", ".png", ".pdf"))
@@ -143,10 +142,9 @@ def scale_study_to_file(run_dirs, out, *, widths, kernel="lucy", diameter=None,
                "flat_sigmas": FLAT,
                "fields": {n: {"plateau": flat[n], "steps": judged[n]} for n in names}}
     with OutputSet(out) as outputs:
-        system = exact.meta.get("unit_system")
-        of = (UnitSystem(**system) if system else SI).of
+        of = profiles[0].units
         ax = figures.fig_scales(widths, d, profiles, exact, drawn, flat, unit=units,
-                                units={n: of(n) for n in drawn})
+                                units={n: of[n] for n in drawn})
         fig = ax[0].figure
         fig.savefig(outputs.temp(".png"), dpi=130, format="png")
         fig.savefig(outputs.temp(".pdf"), format="pdf")

@@ -14,19 +14,26 @@ from granavg.pipeline.insitu import InSituAverage
 log = logging.getLogger(__name__)
 
 
-def simulate_run(scene, out, *, average=None, **options) -> Path:
+def simulate_run(scene, out, *, average=None, kernel=None, width=None, **options) -> Path:
     """:func:`granavg.sim.simulate.simulate`, averaging in situ over the ring counts
-    ``average`` (if given) with :class:`~granavg.pipeline.insitu.InSituAverage`."""
+    ``average`` (if given) with :class:`~granavg.pipeline.insitu.InSituAverage`, with a
+    smoothing ``kernel`` of ``width`` (m) if given (checked before the run)."""
     from granavg.sim.simulate import simulate
 
+    if kernel not in (None, "exact") or width is not None:
+        if not average:
+            raise ParameterError("kernel", "{param} and {width} smooth the in-situ "
+                                 "averages: give {average} N with them")
+        InSituAverage.check_kernel(scene, average, kernel, width)
     return simulate(scene, out, average=average,
-                    insitu=InSituAverage if average else None, **options)
+                    insitu=InSituAverage if average else None,
+                    kernel=None if kernel == "exact" else kernel, width=width, **options)
 
 
 def simulate_command(*, preset="demo", overrides=(), out, np=1, omp=1, resume=False,
                      start=None, engine="lammps", average=None, t_min=None, block_time=None,
                      quantities=None, seeds=None, workers=2, scheduler=None,
-                     progress=None) -> str:
+                     progress=None, kernel=None, width=None) -> str:
     """The ``simulate`` command: one run, a resumed run, or ``seeds`` realisations."""
     require("lammps", what="granavg simulate")
     if seeds is not None or scheduler:
@@ -54,4 +61,5 @@ def simulate_command(*, preset="demo", overrides=(), out, np=1, omp=1, resume=Fa
         return ", ".join(str(r) for r in runs)
     return str(simulate_run(scene, out, np_ranks=np, omp_threads=omp, progress=progress,
                             preset=preset, start=start, engine=engine, average=average,
-                            t_min=t_min, block_time=block_time, quantities=quantities))
+                            t_min=t_min, block_time=block_time, quantities=quantities,
+                            kernel=kernel, width=width))

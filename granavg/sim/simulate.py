@@ -61,7 +61,8 @@ ENGINES = ("lammps", "reference")
 def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
              progress: bool | None = None, preset: str | None = None, start=None,
              engine: str = "lammps", average=None, t_min: float | None = None,
-             block_time: float | None = None, quantities=None, insitu=None) -> Path:
+             block_time: float | None = None, quantities=None, insitu=None,
+             kernel: str | None = None, width: float | None = None) -> Path:
     """Run a new Couette simulation into the empty directory ``out``.
 
     Parameters
@@ -105,6 +106,9 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         ``add(step, atoms, table)`` and ``write(out)``; ``insitu.files(bins)`` names
         what it writes and ``insitu.RANK_MODULE`` is started on every MPI rank. The
         pipeline gives :class:`granavg.pipeline.insitu.InSituAverage`.
+    kernel, width : optional
+        The in-situ averages' smoothing kernel and its width (m), recorded for the sink
+        (``manifest["average"]``).
 
     Returns
     -------
@@ -141,7 +145,9 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
                                                  np_ranks=np_ranks, omp_threads=omp_threads)
         log.info("%s", trade.describe(manifest["forecast"]))
     manifest["average"] = {"bins": average, "t_min_s": t_min, "block_time_s": block_time,
-                           "quantities": quantities} if average else None
+                           "quantities": quantities,
+                           **({"kernel": kernel, "width": width} if kernel else {})} \
+        if average else None
     if average:
         manifest["files"].update(insitu.files(average))
     write_manifest(out, manifest)

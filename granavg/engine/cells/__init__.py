@@ -8,24 +8,36 @@ description; :func:`from_options` chooses and builds the cells that options desc
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-
 from granavg.engine.cells.base import Cells, Space
+from granavg.engine.plugins import Registry
 from granavg.errors import ParameterError, UserError
 
-_FOUND: dict = {}
+#: The kinds of cells, by kind.
+CELLS = Registry(__name__, "CELLS", lambda c: isinstance(c, type) and issubclass(c, Cells),
+                 lambda c: c.kind)
 
 
 def registry() -> dict:
-    """Every kind of cells, by kind (modules of this package that define ``CELLS``)."""
-    if not _FOUND:
-        for info in pkgutil.iter_modules(__path__):
-            module = importlib.import_module(f"{__name__}.{info.name}")
-            cells = getattr(module, "CELLS", None)
-            if isinstance(cells, type) and issubclass(cells, Cells):
-                _FOUND[cells.kind] = cells
-    return dict(_FOUND)
+    """Every kind of cells, by kind (modules of this package that define ``CELLS``, and
+    those given to :func:`register`)."""
+    return CELLS.all()
+
+
+def register(cells: type) -> type:
+    """Add a kind of cells of your own (a :class:`Cells` subclass); returns it."""
+    return CELLS.register(cells)
+
+
+def option_specs() -> dict:
+    """Every option that builds cells (:class:`~granavg.engine.cells.base.Option`), by
+    name, as the kinds of cells declare them; one name, one declaration."""
+    out = {}
+    for cls in registry().values():
+        for spec in cls.option_specs:
+            if out.setdefault(spec.name, spec) != spec:
+                raise ValueError(f"cells option {spec.name!r} is declared twice, "
+                                 f"differently ({cls.kind})")
+    return out
 
 
 def restore(description: dict) -> Cells:
@@ -45,6 +57,22 @@ def restore(description: dict) -> Cells:
         raise UserError(f"unknown kind of cells {kind!r} (granavg knows "
                         f"{', '.join(sorted(known))})")
     return known[kind].restore(description)
+
+
+#: The sidecar key older granavg wrote a run's cells under (their edges and disk height),
+#: still written beside ``geometry`` for readers of that time.
+LEGACY_KEY = "rings"
+
+
+def legacy_description(cells) -> dict:
+    """A run's cells as older sidecars described them: ``{LEGACY_KEY: {"edges_m",
+    "h_m"}}``."""
+    return {LEGACY_KEY: {"edges_m": list(cells.edges), "h_m": cells.h}}
+
+
+def restore_sidecar(meta: dict) -> Cells:
+    """The cells a sidecar describes: its ``geometry``, or an older one's rings."""
+    return restore(meta.get("geometry") or meta[LEGACY_KEY])
 
 
 def from_options(space: Space, **options) -> Cells:

@@ -105,6 +105,60 @@ class Space:
                                  "tilted box, and take no images across its faces)")
 
 
+@dataclass(frozen=True)
+class Option:
+    """An option that builds cells, as :meth:`Cells.from_options`, the Python API and the
+    command line (``--name-with-dashes``) take it.
+
+    Attributes
+    ----------
+    name : str
+    help : str
+        What it sets, in words (lengths in the data's unit); other options named as
+        ``{name}`` fields, which each front end names its way (the command line: its
+        flags).
+    kind : {"float", "int", "str"}
+    nargs : int or str, optional
+        How many values (argparse's: 2, "+"); None for one.
+    metavar : str or tuple, optional
+    choices : tuple, optional
+    runs : bool
+        A run directory's cells take it too (cells in the run's annulus); the others
+        are for anyone's dumps only.
+    """
+
+    name: str
+    help: str
+    kind: str = "float"
+    nargs: int | str | None = None
+    metavar: str | tuple | None = None
+    choices: tuple | None = None
+    runs: bool = False
+
+
+#: Options several kinds of cells take.
+THICKNESS = Option("thickness", "2D: the disks' height h (a disk's volume pi h a^2); "
+                   "required in 2D", metavar="H")
+BINS = Option("bins", "the number of equal cells across (rings from R_i to R_o of a run, "
+              "default 20, or over {r_range}; slabs over {range})", "int", runs=True)
+EDGES = Option("edges", "the cells' edges across, increasing (m for a run)", nargs="+",
+               metavar="E", runs=True)
+CENTER = Option("center", "the centre of rings (3D: the axis of cylindrical shells, "
+                "parallel to z; default 0 0)", nargs=2, metavar=("X", "Y"))
+R_RANGE = Option("r_range", "rings (3D: cylindrical shells): {bins} equal ones from R1 to "
+                 "R2", nargs=2, metavar=("R1", "R2"))
+SLABS = Option("slabs", "Cartesian slabs across x, y (or z in 3D): {bins} over {range}, or "
+               "{edges}", "str", choices=("x", "y", "z"))
+RANGE = Option("range", "slabs: from LO to HI (default the box)", nargs=2,
+               metavar=("LO", "HI"))
+GRID = Option("grid", "a grid: NX NY rectangles (2D) or NX NY NZ boxes (3D) over "
+              "{x_range}, {y_range} ({z_range})", "int", nargs="+", metavar="N")
+X_RANGE, Y_RANGE, Z_RANGE = (Option(f"{a}_range", f"the cells' range along {a} (default the "
+                                    "box)", nargs=2, metavar=(f"{a.upper()}1",
+                                                              f"{a.upper()}2"))
+                             for a in "xyz")
+
+
 class Cells(ABC):
     """The cells of one geometry. Subclasses are frozen dataclasses of their edges.
 
@@ -123,8 +177,9 @@ class Cells(ABC):
     selector : str or None
         The option that chooses these cells among those of their dimension (``slabs``,
         ``grid``, ...); None for the default of the dimension.
-    options : frozenset of str
-        The options :meth:`from_options` takes.
+    option_specs : tuple of Option
+        The options :meth:`from_options` takes, declared (:class:`Option`);
+        ``options`` names them.
 
     The error model's spatial replicas (:mod:`granavg.engine.uncertainty.structure`):
     ``symmetry`` (the direction along which a cell splits into sectors, or None),
@@ -138,10 +193,15 @@ class Cells(ABC):
     axes: ClassVar[tuple]
     position_names: ClassVar[tuple]
     selector: ClassVar[str | None] = None
+    option_specs: ClassVar[tuple] = ()
     options: ClassVar[frozenset] = frozenset()
     symmetry = None
     sectors_close = False
     across = None
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        cls.options = frozenset(o.name for o in cls.option_specs)
 
     # -- built from options, described and restored ------------------------------------
     @classmethod
@@ -199,6 +259,17 @@ class Cells(ABC):
     @abstractmethod
     def coordinates(self) -> dict:
         """The profile table's coordinate columns, name -> shape (n,)."""
+
+    #: Axes of the cells that are angles (their coordinates in rad, not lengths).
+    angles: ClassVar[tuple] = ()
+
+    def coordinate_units(self) -> dict:
+        """The physical dimension of each coordinate column
+        (:meth:`granavg.engine.unit_system.UnitSystem.unit`): lengths, or rad along
+        :attr:`angles`."""
+        def axis(c):
+            return c[:-3] if c.endswith(("_lo", "_hi")) else c
+        return {c: "rad" if axis(c) in self.angles else "{length}" for c in self.coordinates()}
 
     def sector_shares(self, pos, a, k: int) -> tuple:
         """Each particle's sector (of ``k`` along :attr:`symmetry`) and its neighbours',
@@ -372,6 +443,9 @@ def cuts(bins, edges, lo_hi, *, radial=False) -> np.ndarray:
     """Cell edges from the options: ``edges`` as given, else ``bins`` equal cells over
     ``lo_hi`` (checked: a count within 1..:data:`MAX_CELLS`; edges finite, increasing,
     and >= 0 for radii)."""
+    if bins is not None and edges is not None:
+        raise ParameterError("edges", "{param} and {bins} both set the cells across: give "
+                             "one")
     if bins is not None and not 1 <= bins <= MAX_CELLS:
         raise ParameterError("bins", f"{{param}} {bins}: give between 1 and {MAX_CELLS} "
                              "cells")

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granavg.engine.cells.base import (Cells, Imaged, Space, Spheres, cartesian_basis,
+from granavg.engine.cells.base import (GRID, X_RANGE, Y_RANGE, Z_RANGE, Cells, Imaged, Space, Spheres, cartesian_basis,
                                       cell_index, check_range, checked_edges, counts,
                                       divergence, edge_coordinates, periods_of, spans_of)
 from granavg.engine.sphere_weights import box_weights
@@ -26,7 +26,7 @@ class Boxes(Spheres, Imaged, Cells):
     title = "a box grid"
     axes = ("x", "y", "z")
     selector = "grid"
-    options = frozenset({"grid", "x_range", "y_range", "z_range"})
+    option_specs = (GRID, X_RANGE, Y_RANGE, Z_RANGE)
 
     @classmethod
     def from_options(cls, space: Space, *, grid=None, x_range=None, y_range=None,

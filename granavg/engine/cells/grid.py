@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granavg.engine.cells.base import (Cells, Disks, Imaged, Space, cartesian_basis,
+from granavg.engine.cells.base import (THICKNESS, GRID, X_RANGE, Y_RANGE, Cells, Disks, Imaged, Space, cartesian_basis,
                                       cell_index, check_range, checked_edges, counts,
                                       disk_height, edge_coordinates, periods_of, spans_of,
                                       without_suffix)
@@ -27,7 +27,7 @@ class Grid(Disks, Imaged, Cells):
     title = "a 2D grid"
     axes = ("x", "y")
     selector = "grid"
-    options = frozenset({"thickness", "grid", "x_range", "y_range"})
+    option_specs = (THICKNESS, GRID, X_RANGE, Y_RANGE)
 
     @classmethod
     def from_options(cls, space: Space, *, thickness=None, grid=None, x_range=None,

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.cells import sectors
-from granavg.engine.cells.base import (MAX_CELLS, Cells, Disks, Space, cell_index,
+from granavg.engine.cells.base import (THICKNESS, R_RANGE, CENTER, Option, MAX_CELLS, Cells, Disks, Space, cell_index,
                                       check_range, cuts, disk_height, faces, polar_basis,
                                       radial_flux, radii_edges, without_suffix)
 from granavg.engine.weights import ring_weights
@@ -27,6 +27,12 @@ from granavg.errors import ParameterError, UserError
 
 #: Mesh quadrilaterals per full turn in the VTK file (each cell's arc in several).
 MESH_SEGMENTS = 96
+
+
+#: The option that chooses a polar grid.
+POLAR_GRID = Option("polar_grid", "a polar grid: NR equal rings (from R_i to R_o of a run, "
+                    "or over {r_range} about {center}) in NPHI equal sectors each: maps "
+                    "over the annulus", "int", nargs=2, metavar=("NR", "NPHI"), runs=True)
 
 
 @dataclass(frozen=True)
@@ -43,8 +49,9 @@ class PolarGrid(Disks, Cells):
     kind = "polar_grid"
     title = "a polar grid"
     axes = ("r", "phi")
+    angles = ("phi",)
     selector = "polar_grid"
-    options = frozenset({"thickness", "polar_grid", "r_range", "center"})
+    option_specs = (THICKNESS, POLAR_GRID, R_RANGE, CENTER)
 
     @classmethod
     def from_options(cls, space: Space, *, thickness=None, polar_grid=None, r_range=None,

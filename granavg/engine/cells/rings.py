@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.cells import sectors
-from granavg.engine.cells.base import (Cells, Disks, Space, cell_index, check_range, cuts,
+from granavg.engine.cells.base import (THICKNESS, BINS, EDGES, R_RANGE, CENTER, Cells, Disks, Space, cell_index, check_range, cuts,
                                       disk_height, faces, polar_basis, radii_edges,
                                       without_suffix)
 from granavg.engine.weights import ring_weights
@@ -29,7 +29,7 @@ class Rings(Disks, Cells):
     kind = "rings"
     title = "rings"
     axes = ("r", "phi")
-    options = frozenset({"thickness", "bins", "edges", "r_range", "center"})
+    option_specs = (THICKNESS, BINS, EDGES, R_RANGE, CENTER)
     symmetry, sectors_close, across = "phi", True, "r"
 
     @classmethod

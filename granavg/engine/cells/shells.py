@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.cells import sectors
-from granavg.engine.cells.base import (MAX_CELLS, Cells, Imaged, Space, Spheres,
+from granavg.engine.cells.base import (BINS, EDGES, R_RANGE, CENTER, Z_RANGE, Option, MAX_CELLS, Cells, Imaged, Space, Spheres,
                                       cell_index, check_range, checked_edges, cuts,
                                       divergence, edge_coordinates, periods_of,
                                       polar_basis, radial_flux, radii_edges, spans_of)
@@ -17,6 +17,11 @@ from granavg.errors import ParameterError
 
 #: Sectors of a revolved cylindrical shell in the VTK mesh.
 MESH_SECTORS = 48
+
+
+#: Cylindrical shells' layers along z.
+LAYERS = Option("layers", "3D cylindrical shells: NZ layers over {z_range} (default 1)",
+                "int", metavar="NZ")
 
 
 @dataclass(frozen=True)
@@ -34,7 +39,7 @@ class Shells(Spheres, Imaged, Cells):
     kind = "shells"
     title = "cylindrical shells"
     axes = ("r", "phi", "z")
-    options = frozenset({"bins", "edges", "r_range", "center", "layers", "z_range"})
+    option_specs = (BINS, EDGES, R_RANGE, CENTER, LAYERS, Z_RANGE)
     symmetry, sectors_close, across = "phi", True, "r"
 
     @classmethod

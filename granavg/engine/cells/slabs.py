@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.cells import sectors
-from granavg.engine.cells.base import (Cells, Disks, Imaged, Space, cartesian_basis,
+from granavg.engine.cells.base import (THICKNESS, SLABS, BINS, EDGES, RANGE, Option, Cells, Disks, Imaged, Space, cartesian_basis,
                                       cell_index, check_range, checked_edges, cuts,
                                       disk_height, edge_coordinates, faces, periods_of,
                                       positive, spans_of, without_suffix)
@@ -56,6 +56,10 @@ class AcrossAxis:
             self.volume / (np.diff(self.edges) * (self.h if self.dim == 2 else 1.0))
 
 
+#: 2D slabs' length along them.
+LENGTH = Option("length", "2D slabs: their length along the other axis (default the box's)")
+
+
 @dataclass(frozen=True)
 class Slabs(Disks, Imaged, AcrossAxis, Cells):
     """Strips [u_k, u_k+1) across ``axis`` (``"x"`` or ``"y"``), each ``length`` long
@@ -79,7 +83,7 @@ class Slabs(Disks, Imaged, AcrossAxis, Cells):
     title = "slabs"
     axes = ("x", "y")
     selector = "slabs"
-    options = frozenset({"thickness", "slabs", "bins", "edges", "range", "length"})
+    option_specs = (THICKNESS, SLABS, BINS, EDGES, RANGE, LENGTH)
     sectors_close = False
 
     @classmethod

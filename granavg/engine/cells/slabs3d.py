@@ -7,12 +7,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.cells import sectors
-from granavg.engine.cells.base import (Cells, Imaged, Space, Spheres, cartesian_basis,
+from granavg.engine.cells.base import (SLABS, BINS, EDGES, RANGE, Option, Cells, Imaged, Space, Spheres, cartesian_basis,
                                       check_range, checked_edges, cuts, periods_of, positive,
                                       spans_of)
 from granavg.engine.cells.slabs import AcrossAxis
 from granavg.engine.sphere_weights import layer_weights
 from granavg.errors import ParameterError, UserError
+
+
+#: 3D slabs' cross-section.
+AREA = Option("area", "3D slabs: their cross-section (default the box's)")
 
 
 @dataclass(frozen=True)
@@ -36,7 +40,7 @@ class Slabs3D(Spheres, Imaged, AcrossAxis, Cells):
     title = "3D slabs"
     axes = ("x", "y", "z")
     selector = "slabs"
-    options = frozenset({"slabs", "bins", "edges", "range", "area"})
+    option_specs = (SLABS, BINS, EDGES, RANGE, AREA)
 
     @classmethod
     def from_options(cls, space: Space, *, slabs=None, bins=None, edges=None, range=None,

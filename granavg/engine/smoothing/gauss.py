@@ -20,4 +20,5 @@ def _norms():
 
 
 KERNEL = Kernel("gauss", 3.0, ((0.0, (-_CUT,)),), _norms(), True, 1, gauss=(1.0, 4.5),
-                help="Gaussian of standard deviation w, cut and shifted to zero at 3 w")
+                help="Gaussian of standard deviation w, cut and shifted to zero at 3 w",
+                width_is="the standard deviation")

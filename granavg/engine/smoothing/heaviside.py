@@ -9,4 +9,4 @@ from granavg.engine.smoothing.base import Kernel
 
 KERNEL = Kernel("heaviside", 1.0, ((0.0, (1.0,)),),
                 {1: 0.5, 2: 1.0 / math.pi, 3: 3.0 / (4.0 * math.pi)}, False, 0,
-                help="top hat of radius w")
+                help="top hat of radius w", width_is="the support radius")

@@ -70,6 +70,7 @@ class Smoothed(Cells):
     symmetry = property(lambda self: self.cells.symmetry)
     sectors_close = property(lambda self: self.cells.sectors_close)
     across = property(lambda self: self.cells.across)
+    angles = property(lambda self: self.cells.angles)
 
     @classmethod
     def from_options(cls, space, **options):

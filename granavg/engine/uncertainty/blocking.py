@@ -177,7 +177,7 @@ def jackknife_sums(counts, sums):
 
 @dataclass
 class Replicates:
-    """Profiles recomputed on parts of the data, to give derived numbers their errors.
+    """Fields recomputed on parts of the data, to give derived numbers their errors.
 
     Attributes
     ----------
