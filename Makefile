@@ -2,11 +2,12 @@
 #   make demo   builds .venv; simulates, averages and reports the demo scene into
 #               demo-out/<date-time>/ (open report.html there)
 #   make test   builds .venv, runs the test suite
+#   make check  builds .venv, runs the fast lane of the tests (no long simulation)
 VENV   ?= .venv
 PYTHON ?= python3
 BIN     = $(VENV)/bin
 
-.PHONY: demo test clean
+.PHONY: demo test check clean
 
 # compileall: an editable install leaves granavg's bytecode unwritten (and where
 # PYTHONDONTWRITEBYTECODE is set, Python never writes it): each command compiled it again.
@@ -16,7 +17,7 @@ BIN     = $(VENV)/bin
 # inside granavg (and MPI is loaded only with LAMMPS).
 PURELIB = $$($(BIN)/python -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
 
-$(VENV)/.installed: pyproject.toml
+$(VENV)/.installed: pyproject.toml granavg/sim/lammps_mpi.pth
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[all,test]'
@@ -29,6 +30,9 @@ demo: $(VENV)/.installed
 
 test: $(VENV)/.installed
 	$(BIN)/python -m pytest -q
+
+check: $(VENV)/.installed
+	$(BIN)/python -m pytest -q -m "not slow"
 
 clean:
 	rm -rf $(VENV) demo-out

@@ -20,7 +20,7 @@ from pathlib import Path
 STEPS = [("python -c pass", [sys.executable, "-c", "pass"]),
          ("+ import numpy", [sys.executable, "-c", "import numpy"]),
          ("+ granavg's engine and reader (compiled kernels)",
-          [sys.executable, "-c", "import granavg.engine.average, granavg.io.reader"]),
+          [sys.executable, "-c", "import granavg.engine.cell_average, granavg.io.reader"]),
          ("+ everything `granavg average` imports",
           [sys.executable, "-c", "import granavg.cli, granavg.pipeline.averaging"])]
 

@@ -1,47 +1,21 @@
-"""Shared helpers: the real CLI in a subprocess, and one small real Couette run."""
+"""Shared fixtures: one small real Couette run, each LAMMPS deck of tests/decks run once
+per session for every set of variables that several modules read, and granavg's wheel
+built once. The helpers (the real CLI in a subprocess, the decks' runners, dumps read
+without granavg) live in tests/helpers.py and are re-exported here.
 
-import os
+A session fixture's directory is read, never written, by the tests: they write their
+outputs into their own tmp_path."""
+
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-#: The preset the small cell derives from: the plain gran/hooke/history law, grown from
-#: random positions (the shipped sheared packings are of the full cell).
-SMALL_PRESET = "paper-hooke"
-#: A few hundred disks at the paper's area fraction (0.8136) in a smaller annulus,
-#: sheared faster (Omega = 0.5 rad/s) for 4 s so the drag shows in a short run.
-SMALL_CELL = ["R_i=0.04", "R_o=0.0826", "n_small=250", "n_large=40", "Omega=0.5",
-              "t_grow=1", "t_relax=1", "t_end=4", "t_dump_start=1", "dump_dt=0.25",
-              "restart_dt=1"]
+from .helpers import (SMALL_CELL, SMALL_PRESET, dump_positions, run_cli, run_pile2d,  # noqa: F401
+                      run_pile3d, small_cell_args)
 
-
-def run_cli(*args, timeout=600, **kwargs):
-    """Run ``python -m granavg ARGS`` for real; returns the CompletedProcess."""
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
-    return subprocess.run([sys.executable, "-m", "granavg", *map(str, args)],
-                          capture_output=True, text=True, timeout=timeout, env=env, **kwargs)
-
-
-def dump_positions(run):
-    """The disks' (x, y) in every frame of a run's atom dump, ordered by id; shape
-    (frames, disks, 2)."""
-    import numpy as np
-
-    from granavg.io.reader import DumpReader
-
-    out = []
-    for frame in DumpReader(Path(run) / "atoms.dump.gz"):
-        a = frame.as_dict()
-        order = np.argsort(a["id"])
-        out.append(np.stack([a["x"][order], a["y"][order]], axis=1))
-    return np.asarray(out)
-
-
-def small_cell_args(out, *extra_sets, np=1):
-    sets = [a for s in (*SMALL_CELL, *extra_sets) for a in ("--set", s)]
-    return ["simulate", "--preset", SMALL_PRESET, "--out", out, "--no-progress", "--np", np, *sets]
+ROOT = Path(__file__).resolve().parent.parent
 
 
 @pytest.fixture(scope="session")
@@ -53,12 +27,73 @@ def small_run(tmp_path_factory) -> Path:
     return out
 
 
-@pytest.fixture(scope="session")
-def pile3d_soft(tmp_path_factory) -> Path:
-    """tests/decks/pile_3d_si.lmp at rest with k_n = 20 N/m (overlaps of 1-3% of a
-    diameter near the floor), default %g dumps: one run per session."""
-    from .test_3d_dumps import run_deck
+# -- tests/decks/pile_2d_lj.lmp ------------------------------------------------------------
 
-    out = tmp_path_factory.mktemp("pile3d_soft")
-    run_deck(out, kn=20.0)
+@pytest.fixture(scope="session")
+def pile2d_run(tmp_path_factory):
+    """tests/decks/pile_2d_lj.lmp with its defaults (k_n = 2000, a fix wall/gran floor, no
+    ITEM: UNITS): (directory, LAMMPS' summed pair virial of the last dumped frame)."""
+    out = tmp_path_factory.mktemp("pile2d")
+    return out, run_pile2d(out)
+
+
+@pytest.fixture(scope="session")
+def pile2d(pile2d_run) -> Path:
+    """The directory of :func:`pile2d_run`."""
+    return pile2d_run[0]
+
+
+@pytest.fixture(scope="session")
+def pile2d_on_disks(tmp_path_factory) -> Path:
+    """tests/decks/pile_2d_lj.lmp on a floor of fixed type-2 disks (k_n = 2000)."""
+    out = tmp_path_factory.mktemp("pile2d_on_disks")
+    run_pile2d(out, floor="disks")
     return out
+
+
+# -- tests/decks/pile_3d_si.lmp ------------------------------------------------------------
+
+@pytest.fixture(scope="session")
+def pile3d_soft_run(tmp_path_factory):
+    """tests/decks/pile_3d_si.lmp at rest with k_n = 20 N/m (overlaps of 1-3% of a
+    diameter near the floor), default %g dumps: (directory, LAMMPS' summed pair virial
+    of the last dumped frame)."""
+    out = tmp_path_factory.mktemp("pile3d_soft")
+    return out, run_pile3d(out, kn=20.0)
+
+
+@pytest.fixture(scope="session")
+def pile3d_soft(pile3d_soft_run) -> Path:
+    """The directory of :func:`pile3d_soft_run`: one run per session."""
+    return pile3d_soft_run[0]
+
+
+@pytest.fixture(scope="session")
+def pile3d_one(tmp_path_factory) -> Path:
+    """tests/decks/pile_3d_si.lmp with k_n = 100 N/m, single dumps (atoms.dump,
+    contacts.dump)."""
+    out = tmp_path_factory.mktemp("pile3d_one")
+    run_pile3d(out, kn=100.0)
+    return out
+
+
+@pytest.fixture(scope="session")
+def pile3d_series(tmp_path_factory) -> Path:
+    """The same run as :func:`pile3d_one` written one file per frame (atoms.<step>.txt,
+    contacts.<step>.txt)."""
+    out = tmp_path_factory.mktemp("pile3d_series")
+    run_pile3d(out, series="yes", kn=100.0)
+    return out
+
+
+# -- granavg's wheel -----------------------------------------------------------------------
+
+@pytest.fixture(scope="session")
+def wheel(tmp_path_factory) -> Path:
+    """granavg's wheel, built once per session (``pip wheel --no-deps``)."""
+    wheels = tmp_path_factory.mktemp("wheels")
+    build = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w",
+                            str(wheels), str(ROOT)], capture_output=True, text=True,
+                           timeout=600)
+    assert build.returncode == 0, build.stderr
+    return next(wheels.glob("granavg-*.whl"))

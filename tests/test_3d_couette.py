@@ -14,11 +14,13 @@ from granavg.analysis.balance import balance
 from granavg.io.profiles_io import read_profiles
 from granavg.sim.lammps_session import lammps_session
 
-from .conftest import run_cli
-from .test_3d_dumps import MAP
+from .helpers import MAP3 as MAP, run_cli
 
 DECK = Path(__file__).parent / "decks" / "couette_3d_si.lmp"
 R_I, R_O, L = 0.008, 0.018, 0.006
+
+#: Every test here reads the 3D Couette cell's run (several seconds of LAMMPS).
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")

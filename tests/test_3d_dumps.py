@@ -11,50 +11,24 @@ file series reads as the single dump; the CLI refuses 2D-only options in one lin
 
 import gzip
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from granavg.cells import Boxes
 from granavg.io.profiles_io import read_profiles
-from granavg.sim.lammps_session import lammps_session
 
-from .conftest import run_cli
-from .test_default_dumps import frames
+from .helpers import MAP3 as MAP, average_pile3d as average, frames, run_cli
 
-DECK = Path(__file__).parent / "decks" / "pile_3d_si.lmp"
-MAP = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
-       "force=c_pl[5],ftx=c_pl[6],fty=c_pl[7],ftz=c_pl[8]")
 SIDE, G = 0.016, 9.81
 #: Relative error of a number printed with LAMMPS' default %g (6 digits), with margin.
 PRINTED = 1e-4
 
 
-def run_deck(out, series="no", kn=100.0, heavy=1.0):
-    """The user's deck in-process (``heavy``: the odd ids' material that many times as
-    dense); LAMMPS' summed pair virial (xx + yy + zz) of the last dumped frame."""
-    out.mkdir(parents=True, exist_ok=True)
-    with lammps_session(["-log", str(out / "log.lammps"), "-var", "out", str(out),
-                         "-var", "series", series, "-var", "kn", str(kn),
-                         "-var", "heavy", str(heavy)]) as lmp:
-        lmp.file(str(DECK))
-        last = lmp.last_thermo()
-    return last["c_t[1]"] + last["c_t[2]"] + last["c_t[3]"]
-
-
 @pytest.fixture(scope="module")
-def pile(tmp_path_factory):
+def pile(pile3d_soft_run):
     """The soft pile (k_n = 20 N/m: overlaps of 1-3% of a diameter near the floor)."""
-    out = tmp_path_factory.mktemp("pile3d")
-    return out, run_deck(out, kn=20.0)
-
-
-def average(pile_dir, dest, *extra, atoms="atoms.dump", contacts="contacts.dump"):
-    proc = run_cli("average", "--atoms", pile_dir / atoms, "--contacts", pile_dir / contacts,
-                   "--contact-columns", MAP, "--out", dest, "--no-progress", *extra)
-    assert proc.returncode == 0, proc.stderr
-    return read_profiles(dest)
+    return pile3d_soft_run
 
 
 def weight_above(rows, cols, edges, samples=400):
@@ -133,12 +107,10 @@ def test_boxes_over_the_periodic_box_hold_every_sphere(pile, tmp_path):
     assert w.sum() < len(a) - 1                           # spheres do cross the faces
 
 
-def test_a_dump_series_reads_as_one_dump(tmp_path):
+def test_a_dump_series_reads_as_one_dump(pile3d_one, pile3d_series, tmp_path):
     """The deck with one file per frame (dump atoms.*.txt): the same profiles as the
     single dump of the same run."""
-    one, many = tmp_path / "one", tmp_path / "many"
-    run_deck(one, kn=100.0)
-    run_deck(many, series="yes", kn=100.0)
+    one, many = pile3d_one, pile3d_series
     assert len(list(many.glob("atoms.*.txt"))) == 11
     args = ("--slabs", "z", "--range", 0, 0.024, "--bins", 6)
     a = average(one, tmp_path / "a.csv", *args)
@@ -166,11 +138,9 @@ def test_2d_options_on_a_3d_dump_are_one_line(pile, tmp_path, extra, message):
     assert not (tmp_path / "x.csv").exists()
 
 
-def test_the_dimension_comes_from_the_dump(tmp_path):
+def test_the_dimension_comes_from_the_dump(pile2d, tmp_path):
     """A 2D dump (no z column, or every z alike) is 2D; --dim 3 on it is refused."""
-    from .test_default_dumps import run_deck as run_2d
-    out = tmp_path / "pile2d"
-    run_2d(out)
+    out = pile2d
     proc = run_cli("average", "--atoms", out / "atoms.dump", "--dim", "3", "--slabs", "z",
                    "--out", tmp_path / "x.csv")
     assert proc.returncode == 2 and "--dim 3 needs a z column" in proc.stderr
@@ -197,14 +167,16 @@ def test_the_piles_slabs_balance_with_gravity(pile, tmp_path):
     assert np.all(np.abs(bare["residual"][2, inner]) > 0.05), bare["residual"]
 
 
-def test_dask_workers_average_a_series_and_a_plain_dump_as_one_process_does(tmp_path):
+@pytest.mark.slow
+def test_dask_workers_average_a_series_and_a_plain_dump_as_one_process_does(pile3d_one,
+                                                                           pile3d_series,
+                                                                           tmp_path):
     """`--workers 2` on the deck's dump.* series and on its single uncompressed dumps:
     the chunks (whole time blocks) merge into the serial profiles bit for bit."""
     args = ("--slabs", "z", "--range", 0, 0.024, "--bins", 6)
     for name, files in (("many", dict(atoms="atoms.*.txt", contacts="contacts.*.txt")),
                         ("one", {})):
-        run = tmp_path / name
-        run_deck(run, series="yes" if files else "no", kn=100.0)
+        run = pile3d_series if files else pile3d_one
         serial = average(run, tmp_path / f"{name}-s.csv", *args, **files)
         parallel = average(run, tmp_path / f"{name}-p.csv", *args, "--workers", 2, **files)
         assert len(parallel.meta["dask"]["chunks"]) > 1

@@ -18,8 +18,7 @@ from granavg.cells import Slabs
 from granavg.io.frames import Frame
 from granavg.io.profiles_io import read_profiles
 
-from .conftest import run_cli
-from .test_default_dumps import MAP, frames, run_deck
+from .helpers import PILE2D_MAP as MAP, frames, run_cli, run_pile2d, small_cell_args
 
 W, H = 20.0, 1.0                       # the deck's box width (periodic) and disk height
 
@@ -27,7 +26,15 @@ W, H = 20.0, 1.0                       # the deck's box width (periodic) and dis
 @pytest.fixture(scope="module")
 def pile(tmp_path_factory):
     out = tmp_path_factory.mktemp("pile_balance")
-    run_deck(out, kn=200.0)
+    run_pile2d(out, kn=200.0)
+    return out
+
+
+@pytest.fixture(scope="module")
+def pile_on_disks(tmp_path_factory):
+    """The same soft pile (k_n = 200) on its floor of fixed type-2 disks."""
+    out = tmp_path_factory.mktemp("pile_balance_on_disks")
+    run_pile2d(out, floor="disks", kn=200.0)
     return out
 
 
@@ -107,7 +114,6 @@ def test_the_paper_branch_misses_a_pair_by_the_overlap_ratio(a1, a2, dist):
 def plated(tmp_path_factory):
     """The small Couette cell sheared with base-plate friction (a real LAMMPS run),
     averaged over 8 rings from R_i to R_o."""
-    from .conftest import small_cell_args
     out = tmp_path_factory.mktemp("plated")
     proc = run_cli(*small_cell_args(out / "run", "mu_base=0.03", "t_end=6"))
     assert proc.returncode == 0, proc.stderr
@@ -117,6 +123,7 @@ def plated(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_the_couette_walls_balance_with_the_boundary_and_plate_forces(plated):
     """Without the force densities the wall rings miss by about the whole wall stress
     (measured 1.05 of the stress scale); with the walls' boundary force density (at the
@@ -141,13 +148,13 @@ def test_the_couette_walls_balance_with_the_boundary_and_plate_forces(plated):
     assert ts.torque_in_Nm.mean() < 0 < ts.torque_out_Nm.mean() < -ts.torque_in_Nm.mean()
 
 
-def test_analyze_runs_on_slab_profiles_of_plain_dumps(tmp_path):
+@pytest.mark.slow
+def test_analyze_runs_on_slab_profiles_of_plain_dumps(pile_on_disks, tmp_path):
     """`granavg analyze` on a slab profile of anyone's dumps (no run manifest): the
     fields, the balance figure and a summary; the pile on its floor of wall disks, cells
     from the floor's top, closes in every slab with gravity and the floor's boundary
     force, and misses at the floor without them."""
-    pile = tmp_path / "pile"
-    run_deck(pile, floor="disks", kn=200.0)
+    pile = pile_on_disks
     proc = run_cli("average", "--atoms", pile / "atoms.dump", "--contacts",
                    pile / "contacts.dump", "--contact-columns", MAP, "--thickness", H,
                    "--slabs", "y", "--range", 1, 15, "--bins", 7, "--gravity", 0, -1,
@@ -172,7 +179,7 @@ def test_walls_without_contact_rows_are_said_to_be_missing(pile, tmp_path):
     assert np.all(p.values["boundary_y"] == 0)
 
 
-def test_a_grid_over_the_pile_balances_its_interior_cells(tmp_path):
+def test_a_grid_over_the_pile_balances_its_interior_cells(pile_on_disks, tmp_path):
     """A grid of 5 x 7 cells (4 x 2 diameters) over the pile on its floor of wall disks:
     the interior cells (the edges are the periodic sides and the free top) balance with
     gravity to a median |residual| of a tenth of what they miss without it (measured
@@ -180,8 +187,7 @@ def test_a_grid_over_the_pile_balances_its_interior_cells(tmp_path):
     packing, up to 0.4)."""
     from granavg.analysis.balance import balance
 
-    pile = tmp_path / "pile"
-    run_deck(pile, floor="disks", kn=200.0)
+    pile = pile_on_disks
     proc = run_cli("average", "--atoms", pile / "atoms.dump", "--contacts",
                    pile / "contacts.dump", "--contact-columns", MAP, "--thickness", H,
                    "--grid", 5, 7, "--x-range", 0, 20, "--y-range", 1, 15, "--gravity", 0, -1,

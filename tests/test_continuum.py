@@ -108,7 +108,7 @@ def test_orientation_of_a_rotated_tensor(theta):
 
 def test_crystal_stiffness_is_linear_in_the_fabric():
     """For the compressed hexagonal crystal, tr sigma / tr eps / k_n = tr F / (2 pi h)."""
-    from tests.test_engine_analytic import H, average, hex_crystal
+    from tests.helpers import HEX_H as H, hex_crystal, ring_average as average
     from granavg.engine.cells.rings import Rings
 
     p = average([hex_crystal(k=10.0)], Rings.count(6, 0.03, 0.09, H))

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from granavg.analysis.spin_balance import spin_balance
-from granavg.engine.average import CellAverage
+from granavg.engine.cell_average import CellAverage
 from granavg.engine.cells.slabs import Slabs
 from granavg.engine.cells.slabs3d import Slabs3D
 from granavg.engine.channels import Layout
@@ -32,9 +32,7 @@ from granavg.io.lammps_dumps import LammpsDumps, parse_map
 from granavg.io.profiles_io import read_profiles
 from granavg.sim.lammps_session import lammps_session
 
-from .conftest import run_cli
-from .test_default_dumps import frames
-from .test_engine_lammps import live_frame_and_virial
+from .helpers import frames, live_frame_and_virial, run_cli
 
 DECKS = Path(__file__).parent / "decks"
 #: The piles' contact columns (pair/local dist dx dy [dz] fx fy [fz] p1 p2 [p3] p5 p6 [p7
@@ -417,6 +415,7 @@ def test_2d_sphere_masses_turn_as_spheres_as_in_lammps(tmp_path):
         1.25 * lammps_erot, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_analyze_shows_the_spins_balance_beside_the_forces(pile, tmp_path):
     """``granavg analyze`` on the pile's slabs: the report and summary hold the spins'
     balance beside the force balance, closed to the dumps' rounding with the contact

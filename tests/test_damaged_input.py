@@ -445,6 +445,7 @@ def long_run(small_run, dumps, tmp_path_factory):
     return d
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_a_signal_stops_averaging_with_one_line_and_no_output(long_run, tmp_path, sig, code):
     out = tmp_path / "p.csv"

@@ -16,13 +16,9 @@ import numpy as np
 import pytest
 
 from granavg.io.profiles_io import read_profiles
-from granavg.sim.lammps_session import lammps_session
 
-from .conftest import run_cli
+from .helpers import PILE2D_MAP as MAP, frames, run_cli, run_pile2d
 
-DECK = Path(__file__).parent / "decks" / "pile_2d_lj.lmp"
-MAP = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
-       "ftx=c_pl[5],fty=c_pl[6]")
 H = 1.0                         # disk height (sigma): the user's choice for a 2D run
 #: A number printed with 6 significant digits is off by at most 5e-6 of itself; a
 #: contact's term f.n (r1 + r2) multiplies three such numbers (the normal's length is
@@ -30,36 +26,10 @@ H = 1.0                         # disk height (sigma): the user's choice for a 2
 PRINTED = 3 * 5e-6
 
 
-def run_deck(out, units_header="no", floor="wall", kn=2000.0):
-    """The user's deck in-process; LAMMPS' summed pair virial (xx + yy) of the last
-    dumped frame."""
-    out.mkdir(parents=True, exist_ok=True)
-    with lammps_session(["-log", str(out / "log.lammps"), "-var", "out", str(out),
-                         "-var", "units_header", units_header, "-var", "floor", floor,
-                         "-var", "kn", str(kn)]) as lmp:
-        lmp.file(str(DECK))
-        last = lmp.last_thermo()
-    return last["c_t[1]"] + last["c_t[2]"]
-
-
 @pytest.fixture(scope="module")
-def pile(tmp_path_factory):
-    out = tmp_path_factory.mktemp("pile")
-    return out, run_deck(out)
-
-
-def frames(path):
-    """(header lines, column names, rows) of every frame, read here without granavg."""
-    text = Path(path).read_text()
-    out = []
-    for block in text.split("ITEM: TIMESTEP\n")[1:]:
-        lines = ("ITEM: TIMESTEP\n" + block).splitlines()
-        k = next(i for i, ln in enumerate(lines) if ln.startswith(("ITEM: ATOMS", "ITEM: ENTRIES")))
-        end = next((i for i in range(k + 1, len(lines)) if lines[i].startswith("ITEM:")),
-                   len(lines))
-        body = [ln for ln in lines[k + 1:end] if ln.strip()]
-        out.append((lines[:k], lines[k].split()[2:], np.array([ln.split() for ln in body], float)))
-    return out
+def pile(pile2d_run):
+    """The deck with its defaults: (directory, LAMMPS' summed pair virial)."""
+    return pile2d_run
 
 
 def average(atoms, contacts, dest, *extra):
@@ -172,6 +142,7 @@ def sidecar(path):
     return json.loads(Path(str(path) + ".json").read_text())
 
 
+@pytest.mark.slow
 def test_units_are_the_dumps_never_si_by_default(pile, tmp_path):
     """No ITEM: UNITS: labelled 'unstated' (dimensions only); --units lj names them;
     a dump that says lj is lj, and --units si against it is refused naming its line."""
@@ -190,7 +161,7 @@ def test_units_are_the_dumps_never_si_by_default(pile, tmp_path):
     assert meta["columns"]["rho"] == "m/sigma^3" and meta["columns"]["V"] == "sigma^3"
 
     said = tmp_path / "said"
-    run_deck(said, units_header="yes")
+    run_pile2d(said, units_header="yes")
     text = (said / "atoms.dump").read_text()
     assert text.startswith("ITEM: UNITS\nlj\n") and text.count("ITEM: UNITS") == 1
     proc = average(said / "atoms.dump", None, tmp_path / "c.csv", "--bins", 4)
@@ -260,12 +231,11 @@ def test_a_force_between_disks_apart_names_the_radius_column(pile, tmp_path):
     assert f"{out / 'contacts.dump'}:" in proc.stderr and victim in proc.stderr
 
 
-def test_wall_atoms_of_a_default_dump(tmp_path):
+def test_wall_atoms_of_a_default_dump(pile2d_on_disks, tmp_path):
     """The same pile on a row of fixed type-2 disks (wall atoms whose contacts are in the
     pair/local dump): accepted with --wall-types 2; the packing's area is that of the
     type-1 disks alone, and the disks resting on the floor count its contacts."""
-    out = tmp_path / "floor"
-    run_deck(out, floor="disks")
+    out = pile2d_on_disks
     proc = average(out / "atoms.dump", out / "contacts.dump", tmp_path / "w.csv",
                    "--contact-columns", MAP, "--bins", 30, "--wall-types", 2,
                    "--quantities", "nu,coordination,sigma")

@@ -10,40 +10,7 @@ from granavg.cells import Boxes, Shells, Slabs3D
 from granavg.engine.sphere_weights import box_weights
 from granavg.io.frames import Frame
 
-RHO_P = 2500.0
-
-
-def cubic_crystal(a=0.002, delta=5e-5, k=100.0, n=14):
-    """Spheres of radius a on a simple cubic lattice of spacing 2a - delta, every
-    touching pair pushed apart by k delta along the line of centres (no friction)."""
-    s = 2 * a - delta
-    g = (np.arange(n) - (n - 1) / 2) * s
-    x, y, z = (c.ravel() + 1e-7 for c in np.meshgrid(g, g, g, indexing="ij"))
-    ids = np.arange(1, len(x) + 1, dtype=float)
-    pos = np.column_stack([x, y, z])
-    i, j = [], []
-    idx = np.arange(len(x)).reshape(n, n, n)
-    for ax in range(3):
-        sl = [slice(None)] * 3
-        lo, hi = list(sl), list(sl)
-        lo[ax], hi[ax] = slice(0, -1), slice(1, None)
-        i.append(idx[tuple(lo)].ravel())
-        j.append(idx[tuple(hi)].ravel())
-    i, j = np.concatenate(i), np.concatenate(j)
-    d = pos[j] - pos[i]
-    dist = np.linalg.norm(d, axis=1)
-    nrm = d / dist[:, None]
-    f = -k * delta * nrm                                  # on the first, away from j
-    atoms = {"id": ids, "x": x, "y": y, "z": z, "radius": np.full(len(x), a),
-             "vx": np.zeros(len(x)), "vy": np.zeros(len(x)), "vz": np.zeros(len(x)),
-             "omegax": np.zeros(len(x)), "omegay": np.zeros(len(x)),
-             "omegaz": np.zeros(len(x))}
-    contacts = {"id1": ids[i], "id2": ids[j], "wall": np.zeros(len(i)),
-                **{f"fn{c}": f[:, k] for k, c in enumerate("xyz")},
-                **{f"ft{c}": np.zeros(len(i)) for c in "xyz"},
-                **{f"n{c}": nrm[:, k] for k, c in enumerate("xyz")},
-                "overlap": 2 * a - dist}
-    return Frame(0, 0.0, atoms, contacts)
+from .helpers import CUBIC_RHO_P as RHO_P, cubic_crystal
 
 
 def test_a_compressed_cubic_crystal_gives_fabric_stress_and_strain_exactly():
@@ -152,7 +119,7 @@ def test_shell_sectors_split_each_sphere_by_its_volume_beyond_the_planes():
     """A sphere straddling a sector boundary (a plane through the axis) goes to the two
     sectors by the exact cap volumes (against Monte Carlo), and a frame's sector sums
     add up to its shells' sums."""
-    from granavg.engine.average import frame_sums
+    from granavg.engine.cell_average import frame_sums
     from granavg.engine.channels import BLOCKS
 
     cells = Shells(np.linspace(0.02, 0.1, 5), np.linspace(-0.02, 0.02, 3))

@@ -4,45 +4,13 @@ import numpy as np
 import pytest
 
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.average import CellAverage, frame_sums
+from granavg.engine.cell_average import frame_sums
 from granavg.engine.cells.base import layout_of
 from granavg.engine.cells.rings import Rings
-from granavg.engine.quantities import QUANTITIES
 from granavg.io.frames import Frame
 from granavg.engine.weights import ring_weights
 
-H, RHO_P = 0.006, 1060.0
-ALL = [g for g in QUANTITIES if "body" not in QUANTITIES[g].blocks]  # no body forces here
-
-
-def hex_crystal(a=0.004, delta=1e-4, k=10.0, extent=0.12):
-    """A hexagonal crystal of disks of radius a, spacing 2a - delta, every touching pair
-    pushed apart by a normal force k*delta (no friction), centred on the axis."""
-    s = 2 * a - delta
-    i, j = np.meshgrid(np.arange(-60, 61), np.arange(-70, 71))
-    x = (s * (i + 0.5 * (j % 2))).ravel()
-    y = (s * np.sqrt(3) / 2 * j).ravel()
-    keep = np.hypot(x, y) < extent
-    x, y = x[keep] + 1e-7, y[keep] + 2e-7          # no disk exactly on the axis
-    ids = np.arange(1, len(x) + 1, dtype=float)
-    dx = x[None, :] - x[:, None]
-    dy = y[None, :] - y[:, None]
-    dist = np.hypot(dx, dy)
-    p, q = np.nonzero(np.triu((dist < 2 * a) & (dist > 0)))
-    n = np.column_stack([dx[p, q], dy[p, q]]) / dist[p, q][:, None]
-    fn = -k * delta * n                                # on the first disk, away from q
-    atoms = {"id": ids, "x": x, "y": y, "radius": np.full(len(x), a),
-             "vx": np.zeros(len(x)), "vy": np.zeros(len(x)), "omegaz": np.zeros(len(x))}
-    contacts = {"id1": ids[p], "id2": ids[q], "wall": np.zeros(len(p)),
-                "fnx": fn[:, 0], "fny": fn[:, 1], "ftx": np.zeros(len(p)),
-                "fty": np.zeros(len(p)), "nx": n[:, 0], "ny": n[:, 1],
-                "overlap": 2 * a - dist[p, q]}
-    return Frame(0, 0.0, atoms, contacts)
-
-
-def average(frames, rings, groups=ALL, block_time=1.0, branch="contact"):
-    return CellAverage(frames, rings, groups, RHO_P, t_min=0.0, block_time=block_time,
-                       branch=branch).run(progress=False)
+from .helpers import HEX_H as H, HEX_RHO_P as RHO_P, hex_crystal, ring_average as average
 
 
 @pytest.mark.parametrize("branch, reach", [("contact", 0.5), ("paper", 0.0)])

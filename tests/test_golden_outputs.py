@@ -104,7 +104,8 @@ def numbers_of(text):
     return rows[0], rows[1:]
 
 
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n == "kboxes"
+                                  else n for n in CASES])
 def test_todays_outputs_are_kept(name, tmp_path):
     """Every file of the case as it was, the unit labels corrected; a kernel's numbers
     to their last printed digit (tables, 10 digits) or 1e-12 relative (sidecar)."""

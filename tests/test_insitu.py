@@ -112,6 +112,7 @@ def test_in_situ_refusals(tmp_path, args, message):
     assert not (tmp_path / "r").exists()
 
 
+@pytest.mark.slow
 def test_in_situ_with_base_plate_friction_gives_the_body_force_of_the_dumps(tmp_path):
     """The demo scene's base-plate friction (a body force computed from the disks'
     velocities, with masses from the rings' disk volumes) averaged in situ equals the

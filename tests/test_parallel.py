@@ -5,6 +5,7 @@ import json
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from granavg.pipeline.runs import average_run
 from granavg.pipeline.on_dask import average_run_dask, chunk_windows
@@ -27,6 +28,7 @@ def test_chunk_windows_cover_every_frame_once_and_cut_at_blocks(small_run):
             assert int((b * dt - t_min) / block + 1e-9) < int((a * dt - t_min) / block + 1e-9)
 
 
+@pytest.mark.slow
 def test_dask_chunks_equal_the_serial_average_bit_for_bit(small_run):
     opts = dict(bins=12, t_min=1.0, block_time=0.5)
     serial = average_run(small_run, progress=False, **opts)
@@ -42,6 +44,7 @@ def test_dask_chunks_equal_the_serial_average_bit_for_bit(small_run):
     assert parallel.timeseries.equals(window)
 
 
+@pytest.mark.slow
 def test_cli_average_on_local_workers(small_run, tmp_path):
     out = tmp_path / "p.csv"
     proc = run_cli("average", small_run, "--bins", "8", "--t-min", "1", "--workers", "2",

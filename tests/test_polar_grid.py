@@ -82,6 +82,7 @@ def demo_run(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_on_the_demo_run_the_sectors_add_up_to_the_rings(demo_run):
     """Every quantity that is a sum over the cell's particles (not dsigma_fluct and the
     temperatures, whose mean flow and spin are each cell's own, nor eps, a ratio of
@@ -127,6 +128,7 @@ def test_an_axisymmetric_field_balances_as_in_rings():
     assert not np.allclose(other[0].reshape(3, 6), expected[0][:, None])   # dT/dphi counts
 
 
+@pytest.mark.slow
 def test_a_run_through_the_cli_with_netcdf_vtk_and_analyze(demo_run, tmp_path):
     meshio = pytest.importorskip("meshio")
     xr = pytest.importorskip("xarray")
@@ -153,6 +155,7 @@ def test_a_run_through_the_cli_with_netcdf_vtk_and_analyze(demo_run, tmp_path):
     assert (report / "figures" / "profiles0.png").exists()
 
 
+@pytest.mark.slow
 def test_plain_dumps_take_a_polar_grid_about_a_centre(demo_run, tmp_path):
     args = ("average", "--atoms", demo_run / "atoms.dump.gz", "--thickness", H,
             "--density", 1060, "--dt", 1e-4, "--polar-grid", 4, 4, "--r-range", 0.11, 0.24,
@@ -164,6 +167,7 @@ def test_plain_dumps_take_a_polar_grid_about_a_centre(demo_run, tmp_path):
     assert proc.returncode == 2 and "--bins does not apply to a polar grid" in proc.stderr
 
 
+@pytest.mark.slow
 def test_on_the_demo_run_the_spins_balance_in_every_polar_cell(demo_run):
     """The demo scene has rolling resistance: with its couples passed, the spins'
     balance closes in every cell of the polar grid (and of the rings) within 0.1 of the

@@ -152,6 +152,7 @@ def reverse_rolling_springs_of_swapped_pairs(dem, before, after):
     return len(swapped)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mu_roll,deck,base", [(0.0, True, None), (0.1, True, None),
                                                (0.1, False, None), (0.1, True, (0.03, 0.002)),
                                                (0.1, True, (0.03, 0.002, 7))],

@@ -20,6 +20,9 @@ from granavg.io.reader import DumpReader
 
 from .conftest import SMALL_CELL, run_cli, small_cell_args
 
+#: Every test here reads two runs of the cell for 5 s (LAMMPS and the reference engine).
+pytestmark = pytest.mark.slow
+
 D = 0.00742
 #: 5 s of shear at 0.5 rad/s, dumps every 0.05 s (the first at t = 0)
 CELL = [*SMALL_CELL, "t_end=5", "t_dump_start=0", "dump_dt=0.05", "restart_dt=5"]

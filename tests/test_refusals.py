@@ -48,6 +48,7 @@ def test_a_non_empty_directory_is_not_used(tmp_path):
     assert (tmp_path / "notes.txt").read_text() == "mine"
 
 
+@pytest.mark.slow
 def test_disks_that_cannot_be_inserted_stop_the_run_and_mark_it_failed(tmp_path):
     """Inserted at full size, a packing at area fraction 0.81 cannot be placed at random."""
     out = tmp_path / "run"

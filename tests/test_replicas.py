@@ -11,7 +11,7 @@ import pytest
 from granavg.engine import average
 from granavg.cells import Grid, Rings, Slabs
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.average import CellAverage, frame_sums
+from granavg.engine.cell_average import CellAverage, frame_sums
 from granavg.engine.cells.base import layout_of
 from granavg.engine.channels import BLOCKS, Layout
 from granavg.engine.uncertainty import structure as replicas
@@ -298,6 +298,7 @@ def test_the_sectors_option_is_checked(sectors, ok):
             CellAverage([], rings, ["nu"], 1060.0, 0.0, 1.0, sectors=sectors)
 
 
+@pytest.mark.slow
 def test_a_report_of_tables_with_different_sectors_falls_back_to_time(small_run, tmp_path):
     """The real CLI: a run averaged twice with different --sectors; the report says its
     derived numbers carry time errors, with a warning, instead of failing or mixing."""

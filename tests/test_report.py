@@ -35,6 +35,7 @@ def report(profiles, tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_every_figure_is_a_valid_image_in_png_and_pdf(report):
     for name in FIGURES:
         img = mpimg.imread(report / "figures" / f"{name}.png")
@@ -90,6 +91,7 @@ def test_the_axes_hold_the_plotted_profiles(profiles):
     assert np.allclose(err, summary["series"]["errors_8"]["orientation_sigma"])
 
 
+@pytest.mark.slow
 def test_report_and_summary_hold_the_headline_numbers(report):
     summary = json.loads((report / "summary.json").read_text())
     html = (report / "report.html").read_text()
@@ -129,6 +131,7 @@ def test_report_and_summary_hold_the_headline_numbers(report):
     assert "accuracy class of the settings" in html and "not measured: the studies measured other scenes" in html
 
 
+@pytest.mark.slow
 def test_a_band_that_cannot_be_fitted_leaves_its_numbers_undefined(profiles, tmp_path):
     """No flow, or an all-NaN v_phi on the finer profile: the report is made, the band's
     numbers are NaN, its claims inconclusive, and one warning says why."""
@@ -205,6 +208,7 @@ def test_fig1_draws_every_disk_and_every_contact_in_thirds(small_run, tmp_path):
     ax[0].figure.clf()
 
 
+@pytest.mark.slow
 def test_the_report_of_a_run_includes_fig1(report):
     assert (report / "figures" / "fig1.png").exists() and (report / "figures" / "fig1.pdf").exists()
 
@@ -216,6 +220,7 @@ def test_a_shipped_packings_description_names_no_path_of_the_machine_that_made_i
     assert not [w for w in text.split() if w.startswith("/")], text
 
 
+@pytest.mark.slow
 def test_the_report_of_anyones_dumps_labels_every_axis_with_its_unit(pile3d_soft, tmp_path):
     """``analyze`` of slab profiles of a user's 3D pile (no run manifest): every axis
     names its quantity and unit, each panel holds one unit (no power beside the force

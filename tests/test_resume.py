@@ -29,6 +29,7 @@ def start_and_stop(out, sig):
     return proc.returncode, err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
 def test_resume_after_interruption_reaches_the_same_final_step(tmp_path, sig):
     out = tmp_path / "run"

@@ -16,8 +16,7 @@ from granavg.engine.fields import Fields
 from granavg.engine.uncertainty.blocking import Replicates
 from granavg.io.profiles_io import read_profiles
 
-from .conftest import run_cli
-from .test_smoothing import MAP3
+from .helpers import MAP3, last_rows, run_cli
 
 CELLS = Slabs3D(np.linspace(0.0, 1.0, 11), "z", 1.0)
 
@@ -62,15 +61,13 @@ def test_paired_replicates_see_a_change_the_independent_errors_hide():
 
 
 @pytest.fixture(scope="module")
-def pile3d(tmp_path_factory):
-    from .test_3d_dumps import run_deck
-    out = tmp_path_factory.mktemp("spile3d")
-    run_deck(out, kn=20.0)
-    return out
+def pile3d(pile3d_soft):
+    """tests/decks/pile_3d_si.lmp with k_n = 20 N/m (a session's run)."""
+    return pile3d_soft
 
 
+@pytest.mark.slow
 def test_the_piles_stress_does_not_depend_on_the_width_its_floor_does(pile3d, tmp_path):
-    from .test_user_3d_dumps import last_rows
     out = tmp_path / "study" / "pile.csv"
     args = ("--atoms", pile3d / "atoms.dump", "--contacts", pile3d / "contacts.dump",
             "--contact-columns", MAP3, "--gravity", 0, 0, -9.81, "--slabs", "z",
@@ -145,6 +142,7 @@ def test_3d_slabs_errors_count_a_static_piles_frozen_structure(pile3d, tmp_path)
     assert np.array_equal(strips.sem["sigma_zz"], time.sem["sigma_zz"])
 
 
+@pytest.mark.slow
 def test_a_runs_scale_study_takes_the_scenes_diameter(small_run, tmp_path):
     """On a run directory the mean diameter is the scene's (its counts and diameters);
     the table holds the exact weights' rows (width 0) and each width's."""

@@ -11,20 +11,16 @@ import pytest
 
 from granavg.io.lammps_dumps import parse_map
 from granavg.pipeline.dumps import dump_averager
-from tests.conftest import run_cli
-from tests.test_3d_dumps import MAP, run_deck
+from tests.helpers import MAP3 as MAP, run_cli
 
 CELLS = dict(slabs="z", range=(0.0, 0.024), bins=6)
 
 
 @pytest.fixture(scope="module")
-def pile(tmp_path_factory):
+def pile(pile3d_one, pile3d_series):
     """The 3D pile deck's dumps (atoms with ITEM: TIME, contacts without), single files
-    and a dump.* series."""
-    out = tmp_path_factory.mktemp("scan_early")
-    run_deck(out / "one", kn=100.0)
-    run_deck(out / "many", series="yes", kn=100.0)
-    return out
+    and a dump.* series (the session's runs)."""
+    return {"one": pile3d_one, "many": pile3d_series}
 
 
 def profiles(atoms, contacts, scan_early, **options):
@@ -46,7 +42,7 @@ def same(a, b):
 
 @pytest.mark.parametrize("layout", ["one", "many"])
 def test_scanning_past_the_early_frames_gives_the_same_profiles(pile, layout):
-    d = pile / layout
+    d = pile[layout]
     atoms, contacts = (d / "atoms.dump", d / "contacts.dump") if layout == "one" else \
         (d / "atoms.*.txt", d / "contacts.*.txt")
     first = sorted(d.glob("atoms*"))[0]
@@ -63,7 +59,7 @@ def test_scanning_past_the_early_frames_gives_the_same_profiles(pile, layout):
 
 
 def test_by_time_step_and_dt_where_the_dumps_have_no_time(pile, tmp_path):
-    d = pile / "one"
+    d = pile["one"]
     text = re.sub(r"ITEM: TIME\n\S+\n", "", (d / "atoms.dump").read_text())
     (tmp_path / "atoms.dump").write_text(text)
     steps = [int(s) for s in re.findall(r"ITEM: TIMESTEP\n(\d+)", text)]
@@ -81,7 +77,7 @@ def test_by_time_step_and_dt_where_the_dumps_have_no_time(pile, tmp_path):
 def test_rows_before_t_min_are_not_parsed(pile, tmp_path):
     # a frame before t_min with a row of junk (the right number of rows): scanned past, it
     # is not read; read, it is refused with its file:line - so the skip is a scan
-    d = pile / "one"
+    d = pile["one"]
     lines = (d / "atoms.dump").read_text().splitlines(keepends=True)
     heads = [k for k, ln in enumerate(lines) if ln.startswith("ITEM: ATOMS")]
     lines[heads[1] + 2] = "junk " * 13 + "\n"
@@ -100,7 +96,7 @@ def test_rows_before_t_min_are_not_parsed(pile, tmp_path):
 
 
 def test_a_t_min_past_the_last_frame_is_refused_in_one_line(pile, tmp_path):
-    d = pile / "one"
+    d = pile["one"]
     proc = run_cli("average", "--atoms", d / "atoms.dump", "--contacts",
                    d / "contacts.dump", "--contact-columns", MAP, "--slabs", "z",
                    "--t-min", 1000, "--out", tmp_path / "p.csv", "--no-progress")

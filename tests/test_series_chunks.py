@@ -13,17 +13,16 @@ from granavg.errors import UserError
 from granavg.io.prefetch import ReadAhead
 from granavg.io.reader import DumpReader, numbered_series
 from granavg.pipeline.on_dask import series_windows
-from tests.test_3d_dumps import average, run_deck
+from tests.helpers import average_pile3d as average
 
 ARGS = ("--slabs", "z", "--range", 0, 0.024, "--bins", 6)
 
 
 @pytest.fixture(scope="module")
-def many(tmp_path_factory):
-    """The 3D pile deck writing one file per frame (atoms.<step>.txt, contacts.<step>.txt)."""
-    out = tmp_path_factory.mktemp("series")
-    run_deck(out, series="yes", kn=100.0)
-    return out
+def many(pile3d_series):
+    """The 3D pile deck writing one file per frame (atoms.<step>.txt, contacts.<step>.txt):
+    the session's run."""
+    return pile3d_series
 
 
 def test_the_windows_split_the_files_whole_from_their_first_headers(many):
@@ -47,6 +46,7 @@ def test_the_windows_split_the_files_whole_from_their_first_headers(many):
         assert named == scanned and len(named) == len(files_)
 
 
+@pytest.mark.slow
 def test_names_that_are_not_time_steps_are_listed_by_a_scan_with_the_same_profiles(
         many, tmp_path):
     renamed = tmp_path / "renamed"

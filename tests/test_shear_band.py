@@ -9,7 +9,7 @@ from granavg.analysis import shear_band as sb
 from granavg.analysis.claims import analyze
 from granavg.engine.uncertainty.blocking import Replicates
 from granavg.errors import UserError
-from tests.test_claims import D_MEAN, SCENE, profiles
+from tests.helpers import D_MEAN, SCENE, profiles
 
 R_I, R_O, OMEGA = SCENE["R_i"], SCENE["R_o"], SCENE["Omega"]
 V0 = 0.645 * OMEGA * R_I
@@ -134,6 +134,7 @@ def ensemble(n, s, runs, rng, rel=0.1, absolute=2e-5, v0_ratio=0.645):
     return p
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("s", [0.006, 0.0127])
 def test_the_stated_errors_cover_the_s_the_profiles_were_made_with(s):
     """40 synthetic ensembles of 6 realisations each, first-layer staircase and noise:

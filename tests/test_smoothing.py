@@ -16,7 +16,7 @@ from scipy import integrate, optimize
 
 from granavg.engine import average
 from granavg.cells import Boxes, Grid, PolarGrid, Rings, Shells, Slabs, Slabs3D
-from granavg.engine.average import frame_sums
+from granavg.engine.cell_average import frame_sums
 from granavg.engine.cells.base import layout_of
 from granavg.engine.smoothing import get, registry, smooth
 from granavg.engine.smoothing.circles import RingTables, moments_at
@@ -24,13 +24,9 @@ from granavg.engine.smoothing.points import point_pairs
 from granavg.engine.smoothing.smoothed import Smoothed
 from granavg.io.profiles_io import read_profiles
 
-from .conftest import run_cli
+from .helpers import MAP3, PILE2D_MAP as MAP2, last_rows, run_cli
 
 KERNELS = sorted(registry())
-MAP2 = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[4],"
-        "ftx=c_pl[5],fty=c_pl[6]")
-MAP3 = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
-        "force=c_pl[5],ftx=c_pl[6],fty=c_pl[7],ftz=c_pl[8]")
 
 
 def quad(f, a, b, points=None):
@@ -234,7 +230,8 @@ def test_a_segments_line_integral_is_the_quadrature_of_its_points(cells, name):
     assert line_errors(cells, name, width, starts, rng.normal(0, 0.04, (8, D))) < 1e-10
 
 
-@pytest.mark.parametrize("name", KERNELS)
+@pytest.mark.parametrize("name", [pytest.param(k, marks=pytest.mark.slow)
+                                  if k == "heaviside" else k for k in KERNELS])
 @pytest.mark.parametrize("beyond", [0.0, 1e-6, 1e-3, 0.02, 0.1])
 def test_a_kink_just_beyond_a_segments_end_costs_no_accuracy(name, beyond):
     """Segments ending a little short of a ring's kinks (the support's edges, the
@@ -288,6 +285,7 @@ def synthetic_frame(rng, n=60, contacts=30, touching=10):
 ALPHA = 16384
 
 
+@pytest.mark.slow
 def test_a_ring_node_is_the_circle_mean_of_the_polar_components():
     """The sums of ring nodes (velocity, kinetic tensor, contact stress, wall forces)
     against the Cartesian coarse-grained fields computed here with point nodes on
@@ -433,19 +431,15 @@ def test_a_rigid_rotation_has_no_deformation_and_its_rotation_rate(cells):
 # -- LAMMPS piles of our own decks ---------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def pile2d(tmp_path_factory):
-    from .test_default_dumps import run_deck
-    out = tmp_path_factory.mktemp("kpile2d")
-    run_deck(out, floor="disks")
-    return out
+def pile2d(pile2d_on_disks):
+    """tests/decks/pile_2d_lj.lmp on its floor of wall disks (a session's run)."""
+    return pile2d_on_disks
 
 
 @pytest.fixture(scope="module")
-def pile3d(tmp_path_factory):
-    from .test_3d_dumps import run_deck
-    out = tmp_path_factory.mktemp("kpile3d")
-    run_deck(out, kn=20.0)
-    return out
+def pile3d(pile3d_soft):
+    """tests/decks/pile_3d_si.lmp with k_n = 20 N/m (a session's run)."""
+    return pile3d_soft
 
 
 def survival(kernel, w, u):
@@ -458,14 +452,14 @@ def survival(kernel, w, u):
     return quad(lambda t: kernel.value(np.array([abs(t)]), w, 1)[0], u, c)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["2d", "3d"])
-def test_a_pile_balances_at_every_node_and_carries_its_weight(case, pile2d, pile3d):
+def test_a_pile_balances_at_every_node_and_carries_its_weight(case, pile2d, pile3d, tmp_path):
     """A pile at rest, default dump format, Lucy of width one diameter across slabs:
     div(sigma) + b + t = 0 at every bulk node to 0.5% of rho g (from the kernel's own
     derivative, no differences between nodes), and the slabs carry the weight above,
     -sigma_zz(z) A = g sum_p m_p S(z - z_p) with S the kernel's survival function, to
     0.5%."""
-    from .test_user_3d_dumps import last_rows
     if case == "2d":
         d, up, g, width = pile2d, "y", 1.0, 1.0
         args = ("--contact-columns", MAP2, "--thickness", 1.0, "--wall-types", 2,
@@ -476,7 +470,7 @@ def test_a_pile_balances_at_every_node_and_carries_its_weight(case, pile2d, pile
         args = ("--contact-columns", MAP3, "--gravity", 0, 0, -g, "--slabs", "z",
                 "--range", 0.002, 0.02, "--bins", 18)
         section = 0.016 * 0.016
-    out = d / f"k{case}.csv"
+    out = tmp_path / f"k{case}.csv"
     proc = run_cli("average", "--atoms", d / "atoms.dump", "--contacts", d / "contacts.dump",
                    *args, "--kernel", "lucy", "--width", width, "--out", out, "--no-progress",
                    "--quantities", "nu,rho,sigma,divsigma,body,boundary,dsigma,divdsigma")
@@ -499,6 +493,7 @@ def test_a_pile_balances_at_every_node_and_carries_its_weight(case, pile2d, pile
     assert np.all(np.abs(ratio - 1) < 0.005), ratio
 
 
+@pytest.mark.slow
 def test_the_stress_divergence_is_the_derivative_of_the_segments_stress(pile3d, tmp_path):
     """divsigma comes from the particles' net contact forces and the walls' forces at
     their points, sigma from the line integrals along the segments: on planes 50 um
@@ -528,7 +523,6 @@ def test_the_top_hat_across_slabs_counts_the_centres_where_exact_weights_split(p
     granavg); the exact weights split each straddling particle by its volume in each
     slab. Across curved cells there is no such limit: a circle's mean of the top hat is
     no annulus."""
-    from .test_user_3d_dumps import last_rows
     edges = np.linspace(0.004, 0.016, 7)
     rows, cols = last_rows(pile3d / "atoms.dump")
     last = float(open(pile3d / "atoms.dump").read().split("ITEM: TIME\n")[-1].split()[0])
@@ -548,6 +542,7 @@ def test_the_top_hat_across_slabs_counts_the_centres_where_exact_weights_split(p
     assert not np.allclose(h.values["nu"], e.values["nu"], rtol=1e-3)
 
 
+@pytest.mark.slow
 def test_the_couette_torque_passes_through_every_circle(tmp_path):
     """Rings with Lucy of width one small diameter on a run of the demo scene: the
     torque through each circle, 2 pi r^2 h (sigma_phir - dsigma_phir), is the inner
@@ -598,6 +593,7 @@ def test_refusals_in_one_line(pile2d, tmp_path, extra, needle):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_kernel_averages_on_dask_are_the_serial_ones_bit_for_bit(pile3d, tmp_path):
     pytest.importorskip("distributed")
     args = ("average", "--atoms", pile3d / "atoms.dump", "--contacts",

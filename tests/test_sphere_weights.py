@@ -37,6 +37,7 @@ def volume_below(X, Y, Z, a=1.0):
                           limit=400)[0]
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::scipy.integrate.IntegrationWarning")
 def test_the_volume_below_three_planes_against_quadrature():
     """The closed form (antiderivatives of the slices' areas) against adaptive quadrature

@@ -139,6 +139,7 @@ def ensemble(n_runs, rng, drift=0.0, phi=0.97, frames=44):
             for _ in range(n_runs)]
 
 
+@pytest.mark.slow
 def test_an_ensemble_of_steady_runs_is_steady_where_single_runs_cannot_tell():
     rng = np.random.default_rng(21)
     runs = [ensemble(4, rng) for _ in range(120)]
@@ -211,7 +212,7 @@ def test_one_runs_undetermined_verdict_is_information_and_a_drift_a_warning(capl
     fluctuations: its "undetermined" is logged as information, a drift as a warning."""
     import logging
 
-    from granavg.engine.average import warn_if_drifting
+    from granavg.engine.cell_average import warn_if_drifting
     rng = np.random.default_rng(25)
     steady = ensemble(40, rng)
     unsure = next(r for r in steady if r["C_bulk"]["undetermined"])

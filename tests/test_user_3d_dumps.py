@@ -28,11 +28,9 @@ import pytest
 
 from granavg.cli import _finite, _parser, main
 from granavg.io.profiles_io import read_profiles
-from granavg.sim.lammps_session import lammps_session
 
-DECKS = Path(__file__).parent / "decks"
-MAP3 = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
-        "force=c_pl[5],ftx=c_pl[6],fty=c_pl[7],ftz=c_pl[8]")
+from .helpers import MAP3, frame_lines as frames, last_rows, run_user_deck
+
 NO_FT = "id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],force=c_pl[5]"
 MAP2 = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[5],"
         "ftx=c_pl[6],fty=c_pl[7]")
@@ -40,22 +38,11 @@ MAP2 = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[5
 PRINTED = 1e-4
 
 
-def run_deck(deck, out, **variables):
-    """A deck in-process; the last thermo line."""
-    out.mkdir(parents=True, exist_ok=True)
-    args = ["-log", str(out / "log.lammps"), "-screen", "none", "-var", "out", str(out)]
-    for k, v in variables.items():
-        args += ["-var", k, str(v)]
-    with lammps_session(args) as lmp:
-        lmp.file(str(DECKS / deck))
-        return lmp.last_thermo()
-
-
 @pytest.fixture(scope="module")
 def pour(tmp_path_factory):
     """600 spheres poured and settled: 101 frames, the first before any insertion."""
     out = tmp_path_factory.mktemp("pour")
-    run_deck("pour_3d_lj.lmp", out, steps=50000, every=500)
+    run_user_deck("pour_3d_lj.lmp", out, steps=50000, every=500)
     return out
 
 
@@ -67,7 +54,8 @@ def tilted(tmp_path_factory):
     for dim in (3, 2):
         for scaled in ("no", "yes"):
             d = tmp_path_factory.mktemp(f"tilted{dim}{scaled}")
-            out[dim, scaled] = (d, run_deck("tilted_lj.lmp", d, dim=dim, scaled=scaled)["c_p"])
+            last = run_user_deck("tilted_lj.lmp", d, dim=dim, scaled=scaled)
+            out[dim, scaled] = (d, last["c_p"])
     return out
 
 
@@ -100,20 +88,6 @@ def pour_args(pour, out, *extra, contacts=True, cmap=MAP3):
     more = ("--contacts", pour / "contacts.dump", "--contact-columns", cmap) if contacts else ()
     return ("average", "--atoms", pour / "atoms.dump", *more, "--dt", 0.001, "--out", out,
             "--no-progress", *extra)
-
-
-def frames(path):
-    """The frames of a dump as lists of lines."""
-    lines = Path(path).read_text().splitlines(keepends=True)
-    starts = [k for k, ln in enumerate(lines) if ln.startswith("ITEM: TIMESTEP")]
-    return [lines[a:b] for a, b in zip(starts, starts[1:] + [len(lines)])]
-
-
-def last_rows(path):
-    """The last frame's rows as an array, and its column names."""
-    f = frames(path)[-1]
-    head = next(k for k, ln in enumerate(f) if ln.startswith("ITEM: ATOMS"))
-    return np.array([ln.split() for ln in f[head + 1:]], float), f[head].split()[2:]
 
 
 def drop_columns(src, dest, names):
@@ -396,6 +370,7 @@ def dask_average(series, out, *extra):
             str(out), "--no-progress", "--workers", "2", *extra]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", [1.0, 4.0])
 def test_sigterm_with_workers_is_one_line_and_quick(long_series, tmp_path, delay):
     proc = subprocess.Popen(dask_average(long_series, tmp_path / "p.csv"),
@@ -414,6 +389,7 @@ def test_sigterm_with_workers_is_one_line_and_quick(long_series, tmp_path, delay
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_a_workers_refusal_of_a_damaged_file_is_one_line(long_series, tmp_path):
     bad = tmp_path / "series"
     bad.mkdir()

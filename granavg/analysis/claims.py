@@ -499,6 +499,7 @@ def _power(a: Analysis) -> dict | None:
     if t_in is None:
         return None
     P, P_err = -geo.Omega * t_in["mean"], geo.Omega * t_in["err"]
+    W = "inner_wall_contacts_dissipation_W"
     pw.update({"inner_wall_power_W": P, "inner_wall_power_W_err": P_err,
                "inner_wall_contacts_dissipation_W": P - pw["inner_wall_delivered_W"],
                "inner_wall_contacts_dissipation_W_err": float(np.hypot(
@@ -515,7 +516,7 @@ def _power(a: Analysis) -> dict | None:
         f"the disks' contacts "
         f"{pm(pw['contact_dissipation_W'], pw['contact_dissipation_W_err'], 'W')}, "
         f"the inner wall's contacts "
-        f"{pm(pw['inner_wall_contacts_dissipation_W'], pw['inner_wall_contacts_dissipation_W_err'], 'W')}"
+        f"{pm(pw[W], pw[W + '_err'], 'W')}"
         f", the outer wall's "
         f"{pm(-pw['outer_wall_delivered_W'], pw['outer_wall_delivered_W_err'], 'W')}"
         f"{plate}: unbalanced {pm(pw['closure'], pw['closure_err'])} of the wall's "

@@ -22,7 +22,7 @@ import logging
 
 import numpy as np
 
-from granavg.engine.average import CellAverage
+from granavg.engine.cell_average import CellAverage
 from granavg.engine.fields import Fields
 from granavg.engine.quantities import (QUANTITIES, groups_for, missing_columns,
                                        optional_columns)
@@ -157,7 +157,7 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
     Returns
     -------
     CellAverage
-        Its fields (:meth:`~granavg.engine.average.CellAverage.conclude`): values,
+        Its fields (:meth:`~granavg.engine.cell_average.CellAverage.conclude`): values,
         standard errors, flags and jackknife replicates per cell, in ``units``.
     """
     source = frames
@@ -195,9 +195,12 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         groups = [g for g in groups if g not in massive]
     # without masses the mass-weighted means (velocity, spin) weigh by volume: one
     # material, of a density that cancels (UNWEIGHED)
+    if head:                              # checked now; frames fed later: on the first
+        check_frame(head[0], cells, groups)
     avg = CellAverage(frames, cells, groups, rho_p if rho_p is not None else 1.0, t_min,
                       block_time, series, branch=branch, sectors=sectors,
-                      check=lambda frame: check_frame(frame, cells, groups), source=source)
+                      check=None if head else (lambda frame: check_frame(frame, cells, groups)),
+                      source=source)
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
                 "geometry": cells.describe(),
                 "frames": {"t_min_s": t_min, "block_time_s": block_time}}

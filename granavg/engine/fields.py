@@ -4,7 +4,7 @@ declares. Every output - the table (CSV, Parquet), NetCDF, VTK, the figures and 
 report - is written from it, and the Python API returns it.
 
 >>> import granavg
->>> fields = granavg.average(granavg.examples.couette_2d.run, cells={"bins": 8})
+>>> fields = granavg.average(granavg.examples.couette_2d.run, cells={"bins": 8}, t_min=1.0)
 >>> fields.dims, fields.units["sigma_rr"]
 (('r',), 'Pa')
 >>> fields.to_xarray()["v_phi"]                                  # doctest: +SKIP

@@ -58,7 +58,7 @@ def values(S: np.ndarray, V: np.ndarray, rho_p: float, groups, layout: Layout) -
 def flags(S: np.ndarray, groups, layout: Layout) -> np.ndarray:
     """Per-cell flags (';'-joined): ``empty`` (no particle), ``no_contacts``, and each
     quantity's own (``singular_fabric``: eps undefined);
-    :class:`~granavg.engine.average.CellAverage` adds ``one_block`` when the frames span a
+    :class:`~granavg.engine.cell_average.CellAverage` adds ``one_block`` when the frames span a
     single time block (no standard errors)."""
     out = [[] for _ in range(S.shape[0])]
     vol = S[:, layout.index["vol"]]

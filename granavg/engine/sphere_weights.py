@@ -8,7 +8,8 @@ The weight of sphere p in a cell is the fraction of its volume inside the cell:
 - **boxes**: differences, over the box's 8 corners, of the volume of the sphere with
   x < X, y < Y, z < Z, in closed form: by inclusion-exclusion from the volumes beyond
   one, two and three planes, the last two the integral over z of the area of a disk
-  beyond two lines (antiderivatives with acos, asin and atan; :func:`_beyond3`);
+  beyond two lines (antiderivatives with acos, asin and atan; ``_beyond3`` of
+  ``_sphere_weights.pyx``);
 - **cylindrical shells** (rings about the z axis times layers in z): the integral over
   z of the exact area of the sphere's slice, a disk of radius sqrt(a^2 - t^2), inside
   each ring (the 2D lens of :mod:`granavg.engine.weights`), by Gauss-Legendre quadrature

@@ -1,7 +1,7 @@
 """The engine's threads: the chunks of a frame's particles summed on several cores.
 
 The compiled kernels release the GIL, so chunks of a frame's particles
-(:data:`granavg.engine.average.CHUNK` each) run on threads of one pool. Their partial
+(:data:`granavg.engine.cell_average.CHUNK` each) run on threads of one pool. Their partial
 sums are added in chunk order, and the chunks' bounds do not depend on the thread count,
 so the result is bit-identical for any thread count (tests/test_threads.py).
 

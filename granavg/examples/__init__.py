@@ -3,8 +3,10 @@ first average: LAMMPS runs of decks in the repository, made by
 ``workflows/make_examples.py`` (SI units).
 
 >>> from granavg import examples
->>> examples.couette_2d.run            # a run directory of granavg simulate
-PosixPath('.../granavg/examples/data/couette_2d')
+>>> examples.couette_2d.run.name       # a run directory of granavg simulate
+'couette_2d'
+>>> sorted(examples.pile_3d.contact_map)[:3]
+['dist', 'dx', 'dy']
 
 - :data:`couette_2d`: the Couette cell of the test suite (290 disks between R_i = 0.04 m
   and R_o = 0.0826 m, the inner ring turning at 0.5 rad/s), 13 frames every 0.25 s of

@@ -21,7 +21,7 @@ of contacts into the frames the engine averages (in the dumps' own units):
   force times the same unit vector, the overlap r_1 + r_2 - dist from the atoms' own
   radii;
 - LAMMPS' default ``%g`` (6 significant digits) is read as it is: numbers that must
-  agree (|d| and dist) are compared within :data:`~granavg.io.reader.CONSISTENCY`, never
+  agree (|d| and dist) are compared within :data:`~granavg.io.frames.CONSISTENCY`, never
   to the last digit;
 - a row is a contact where the particles overlap or the pair carries a normal force
   (pair/local lists neighbours within the cutoff, with zero force): a pair touching by
@@ -286,8 +286,10 @@ class LammpsDumps(PairedDumps):
     def __init__(self, atoms, contacts=None, *, atom_map=None, contact_map=None,
                  wall_types=(), dt=None, units=None, dim=None, steps=None, inertia=None,
                  named_steps=False):
-        unit_system = choose_units(dump_header(atoms)[1], units)
-        if contacts is not None and (said := dump_header(contacts)[1]) is not None:
+        stated = dump_header(atoms)[1]
+        said = dump_header(contacts)[1] if contacts is not None else None
+        unit_system = choose_units(stated or said, units)   # one dump saying them is enough
+        if said is not None and stated is not None:
             if choose_units(said, None).style != unit_system.style:
                 raise UserError(f"{said[1]}: the contact dump says 'units {said[0]}', the "
                                 f"atom dump's units are {unit_system.style}; use the dumps "

@@ -11,5 +11,9 @@ situ, dask, ensembles, reports.
   running LAMMPS;
 - :mod:`granavg.pipeline.simulation`: simulations with or without in-situ averages;
 - :mod:`granavg.pipeline.reporting`: profiles -> analysis -> figures and report;
-- :mod:`granavg.pipeline.interrupts`: signals as clean stops.
+- :mod:`granavg.pipeline.session`: one command as a process: logging, signals as clean
+  stops;
+- :mod:`granavg.pipeline.commands`: the command line's commands, as functions of its
+  options;
+- :mod:`granavg.pipeline.api`: the Python API (``granavg.average``, ``granavg.read``).
 """

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import logging
 
-from granavg.engine.average import warn_if_drifting
+from granavg.engine.cell_average import warn_if_drifting
 from granavg.engine.combine import combine_runs
 from granavg.engine.fields import Fields
 from granavg.engine.stationarity import ensemble_stationarity

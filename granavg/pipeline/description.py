@@ -2,7 +2,7 @@
 every default computed here and nowhere else: rings (or other cells of the annulus) from R_i to R_o
 (default :data:`~granavg.engine.cells.base.DEFAULT_BINS`), t_min the scene's discarded
 transient (:func:`discard_time`), base time blocks of one dump interval (at most
-:data:`~granavg.engine.average.MAX_BLOCKS`), the Couette cell's per-frame state and its
+:data:`~granavg.engine.cell_average.MAX_BLOCKS`), the Couette cell's per-frame state and its
 body forces. Anyone's dumps build their cells from options instead
 (:mod:`granavg.pipeline.dumps`).
 """
@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 
 from granavg import __version__
 from granavg.engine.api import averager, resolvable
-from granavg.engine.average import MAX_BLOCKS, CellAverage
+from granavg.engine.cell_average import MAX_BLOCKS, CellAverage
 from granavg.engine.body_forces import add_body_forces, base_plate
 from granavg.engine.cells import Space, from_options, legacy_description
 from granavg.engine.cells.base import Cells

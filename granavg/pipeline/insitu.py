@@ -2,7 +2,7 @@
 
 At every dump step the driver hands the frame (atoms and contacts taken from LAMMPS
 through its Python module, gathered to rank 0 under MPI) to :class:`InSituAverage`,
-which feeds the same :class:`~granavg.engine.average.CellAverage` steps the file reader feeds:
+which feeds the same :class:`~granavg.engine.cell_average.CellAverage` steps the file reader feeds:
 the profiles equal those of averaging the same run's dumps, up to the dumps' 12-digit
 rounding. SI units.
 """

@@ -64,7 +64,7 @@ def _chunk(run_dir, window, options):
 
 def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
                      chunks: int | None = None, client=None, **options) -> Fields:
-    """:func:`granavg.pipeline.averaging.average_run` on dask workers; identical profiles.
+    """:func:`granavg.pipeline.runs.average_run` on dask workers; identical profiles.
 
     Parameters
     ----------
@@ -157,7 +157,7 @@ def _dump_chunk(atoms, contacts, window, options):
 def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
                        scheduler: str | None = None, chunks: int | None = None,
                        **options) -> Fields:
-    """:func:`granavg.pipeline.averaging.average_dumps` on dask workers, for LAMMPS
+    """:func:`granavg.pipeline.dumps.average_dumps` on dask workers, for LAMMPS
     dumps each worker can read its own part of: a ``dump.*`` file series, or a plain
     (uncompressed) file (each worker skips to its frames by scanning). Identical
     profiles; ``meta["dask"]`` records the chunks. A single gzip file is refused: it is

@@ -1,4 +1,4 @@
-"""One run directory (manifest + dumps) -> its :class:`~granavg.engine.average.CellAverage`
+"""One run directory (manifest + dumps) -> its :class:`~granavg.engine.cell_average.CellAverage`
 and profiles, with granavg's defaults (:class:`~granavg.pipeline.description.RunAverage`)."""
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
                  contacts=None, steps=None, branch="contact", sectors="auto",
                  check_cells=None, kernel=None, width=None, fed=False, cells=None,
                  **options):
-    """The :class:`~granavg.engine.average.CellAverage` of a run directory, its frames
+    """The :class:`~granavg.engine.cell_average.CellAverage` of a run directory, its frames
     read lazily (only those with time steps in ``steps = (first, last)`` if given).
 
     Parameters

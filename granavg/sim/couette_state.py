@@ -6,7 +6,7 @@ reduces one frame to scalars that show a transient (SI units): coordination over
 per radial zone, rattler fraction, bulk static pressure, overlaps, kinetic energy, wall
 contacts, the torques on the two walls and the bulk hexatic order (over the contact
 network: one pass over the contacts, no triangulation). :class:`CouetteState` records
-them per frame for the averaging (:class:`~granavg.engine.average.CellAverage`'s
+them per frame for the averaging (:class:`~granavg.engine.cell_average.CellAverage`'s
 ``series``) and names the ones whose steadiness is judged
 (:func:`~granavg.engine.stationarity.stationarity`).
 

@@ -6,8 +6,8 @@ random stream distinct), or, for a scene with a shipped ``packing`` set, the she
 packing grown from that seed. The runs are independent tasks on a dask cluster (a local one
 of single-threaded processes by default, or ``scheduler``): there is no scheduler of
 granavg's own. ``OUT/ensemble.json`` lists the runs and their status.
-:func:`combine_runs` turns the profiles of the realisations into ensemble profiles with
-between-run errors (``granavg average RUN [RUN ...]``).
+:func:`granavg.engine.combine.combine_runs` turns the profiles of the realisations
+into ensemble profiles with between-run errors (``granavg average RUN [RUN ...]``).
 """
 
 from __future__ import annotations

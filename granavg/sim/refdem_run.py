@@ -1,7 +1,7 @@
 """Shear a prepared packing with the reference DEM and write a granavg run directory.
 
 The same dumps as a LAMMPS run (per-atom and per-contact, granavg's formats, SI units),
-so :func:`granavg.pipeline.averaging.average_run` and the analysis read both. Used through
+so :func:`granavg.pipeline.runs.average_run` and the analysis read both. Used through
 ``granavg simulate --engine reference --start RUN/prepared.data``; see docs/refdem.md.
 """
 

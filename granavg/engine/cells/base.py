@@ -302,7 +302,7 @@ class Cells(ABC):
     @abstractmethod
     def nodes(self) -> tuple:
         """Where a smoothing kernel evaluates the fields of these cells (their centres;
-        :mod:`granavg.engine.smoothing.nodes`): ``("lattice", (x, y[, z]))`` points on
+        :class:`granavg.engine.smoothing.smoothed.Smoothed`): ``("lattice", (x, y[, z]))`` points on
         a rectilinear lattice of node coordinates (node k the C-order index),
         ``("planes", axis, u, section)`` planes across the axis (index 0, 1, 2) at u,
         of the cells' extent along them (length in 2D, area in 3D),

@@ -6,9 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granavg.engine.cells.base import (GRID, X_RANGE, Y_RANGE, Z_RANGE, Cells, Imaged, Space, Spheres, cartesian_basis,
-                                      cell_index, check_range, checked_edges, counts,
-                                      divergence, edge_coordinates, periods_of, spans_of)
+from granavg.engine.cells.base import (GRID, X_RANGE, Y_RANGE, Z_RANGE, Cells, Imaged, Space,
+                                       Spheres, cartesian_basis, cell_index, check_range,
+                                       checked_edges, counts, divergence, edge_coordinates,
+                                       periods_of, spans_of)
 from granavg.engine.sphere_weights import box_weights
 
 

@@ -6,10 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granavg.engine.cells.base import (THICKNESS, GRID, X_RANGE, Y_RANGE, Cells, Disks, Imaged, Space, cartesian_basis,
-                                      cell_index, check_range, checked_edges, counts,
-                                      disk_height, edge_coordinates, periods_of, spans_of,
-                                      without_suffix)
+from granavg.engine.cells.base import (GRID, THICKNESS, X_RANGE, Y_RANGE, Cells, Disks, Imaged,
+                                       Space, cartesian_basis, cell_index, check_range,
+                                       checked_edges, counts, disk_height, edge_coordinates,
+                                       periods_of, spans_of, without_suffix)
 from granavg.engine.weights import grid_weights
 
 
@@ -86,7 +86,7 @@ class Grid(Disks, Imaged, Cells):
         return edge_coordinates({"x": (self.xedges, i), "y": (self.yedges, j)})
 
     def describe(self) -> dict:
-        out = {"kind": "grid", "xedges": list(self.xedges), "yedges": list(self.yedges),
+        out = {"kind": self.kind, "xedges": list(self.xedges), "yedges": list(self.yedges),
                "h": self.h}
         return out if self.periods is None else {**out, "periods": spans_of(self.periods)}
 

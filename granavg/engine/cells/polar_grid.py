@@ -19,9 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.cells import sectors
-from granavg.engine.cells.base import (THICKNESS, R_RANGE, CENTER, Option, MAX_CELLS, Cells, Disks, Space, cell_index,
-                                      check_range, cuts, disk_height, faces, polar_basis,
-                                      radial_flux, radii_edges, without_suffix)
+from granavg.engine.cells.base import (CENTER, MAX_CELLS, R_RANGE, THICKNESS, Cells, Disks, Option,
+                                       Space, cell_index, check_range, cuts, disk_height, faces,
+                                       polar_basis, radial_flux, radii_edges, without_suffix)
 from granavg.engine.weights import ring_weights
 from granavg.errors import ParameterError, UserError
 

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.cells import sectors
-from granavg.engine.cells.base import (THICKNESS, BINS, EDGES, R_RANGE, CENTER, Cells, Disks, Space, cell_index, check_range, cuts,
-                                      disk_height, faces, polar_basis, radii_edges,
-                                      without_suffix)
+from granavg.engine.cells.base import (BINS, CENTER, EDGES, R_RANGE, THICKNESS, Cells, Disks, Space,
+                                       cell_index, check_range, cuts, disk_height, faces,
+                                       polar_basis, radii_edges, without_suffix)
 from granavg.engine.weights import ring_weights
 from granavg.errors import ParameterError
 
@@ -97,7 +97,7 @@ class Rings(Disks, Cells):
         return sectors.about_axis(pos, a, self.center, k, self.dim)
 
     def describe(self) -> dict:
-        return {"kind": "rings", "edges": list(self.edges), "h": self.h,
+        return {"kind": self.kind, "edges": list(self.edges), "h": self.h,
                 "center": list(self.center)}
 
     def grid(self) -> tuple:

@@ -8,10 +8,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.cells import sectors
-from granavg.engine.cells.base import (BINS, EDGES, R_RANGE, CENTER, Z_RANGE, Option, MAX_CELLS, Cells, Imaged, Space, Spheres,
-                                      cell_index, check_range, checked_edges, cuts,
-                                      divergence, edge_coordinates, periods_of,
-                                      polar_basis, radial_flux, radii_edges, spans_of)
+from granavg.engine.cells.base import (BINS, CENTER, EDGES, MAX_CELLS, R_RANGE, Z_RANGE, Cells,
+                                       Imaged, Option, Space, Spheres, cell_index, check_range,
+                                       checked_edges, cuts, divergence, edge_coordinates,
+                                       periods_of, polar_basis, radial_flux, radii_edges, spans_of)
 from granavg.engine.sphere_weights import shell_weights
 from granavg.errors import ParameterError
 

@@ -7,10 +7,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.cells import sectors
-from granavg.engine.cells.base import (THICKNESS, SLABS, BINS, EDGES, RANGE, Option, Cells, Disks, Imaged, Space, cartesian_basis,
-                                      cell_index, check_range, checked_edges, cuts,
-                                      disk_height, edge_coordinates, faces, periods_of,
-                                      positive, spans_of, without_suffix)
+from granavg.engine.cells.base import (BINS, EDGES, RANGE, SLABS, THICKNESS, Cells, Disks, Imaged,
+                                       Option, Space, cartesian_basis, cell_index, check_range,
+                                       checked_edges, cuts, disk_height, edge_coordinates, faces,
+                                       periods_of, positive, spans_of, without_suffix)
 from granavg.engine.weights import strip_weights
 from granavg.errors import ParameterError, UserError
 
@@ -160,7 +160,7 @@ class Slabs(Disks, Imaged, AcrossAxis, Cells):
         return sectors.along_line(along, a, self.span, k, self.dim)
 
     def describe(self) -> dict:
-        out = {"kind": "slabs", "edges": list(self.edges), "h": self.h,
+        out = {"kind": self.kind, "edges": list(self.edges), "h": self.h,
                "axis": self.axis, "length": self.length}
         out = out if self.span is None else {**out, "span": list(self.span)}
         return out if self.periods is None else {**out, "periods": spans_of(self.periods)}

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from granavg.engine.cells import sectors
-from granavg.engine.cells.base import (SLABS, BINS, EDGES, RANGE, Option, Cells, Imaged, Space, Spheres, cartesian_basis,
-                                      check_range, checked_edges, cuts, periods_of, positive,
-                                      spans_of)
+from granavg.engine.cells.base import (BINS, EDGES, RANGE, SLABS, Cells, Imaged, Option, Space,
+                                       Spheres, cartesian_basis, check_range, checked_edges, cuts,
+                                       periods_of, positive, spans_of)
 from granavg.engine.cells.slabs import AcrossAxis
 from granavg.engine.sphere_weights import layer_weights
 from granavg.errors import ParameterError, UserError

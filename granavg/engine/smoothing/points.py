@@ -28,8 +28,9 @@ _THROUGH = 1e-9
 
 @njit(cache=True, nogil=True, inline="always")
 def profile(K, q):
-    """(g, dg/dq) at q of the kernel packed in K (:attr:`Kernel.packed`: pieces,
-    row length, a, b, then per piece its start and coefficients)."""
+    """(g, dg/dq) at q of the kernel packed in K
+    (:attr:`granavg.engine.smoothing.base.Kernel.packed`: pieces, row length, a, b, then
+    per piece its start and coefficients)."""
     pieces, row = int(K[0]), int(K[1])
     p = 0
     while p + 1 < pieces and q >= K[4 + (p + 1) * row]:

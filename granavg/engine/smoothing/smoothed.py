@@ -7,7 +7,7 @@ circle of a ring) the fields at it: a particle's weight in node k is
 
     w_pk = (V_k / depth) phi_k(x_p),
 
-phi_k the kernel at the node (:mod:`granavg.engine.smoothing.nodes`), depth the disks'
+phi_k the kernel at the node (:meth:`~granavg.engine.cells.base.Cells.nodes`), depth the disks'
 height in 2D (1 in 3D), so that the engine's sum over the particles, divided by V_k as
 for cells, is the field: nu(x_k) = sum_p V^p phi_k(x_p) / depth, rho = sum_p m_p phi_k,
 v = <m^p v> / <m^p>, and every other quantity alike. The static stress spreads each

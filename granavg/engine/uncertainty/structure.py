@@ -283,12 +283,12 @@ def structure_errors(counts, sums, V, rho_p, groups, layout, sem_time, jackknife
     Returns
     -------
     sem : dict of name -> ndarray (n_cells,)
-        :func:`~granavg.engine.uncertainty.combine_errors` of the three parts; the time
+        :func:`~granavg.engine.uncertainty.blocking.combine_errors` of the three parts; the time
         part alone for the components the balance of forces fixes in a whole cell.
     replicates : Replicates
         Kind ``structure``: the sectors, the time blocks, the interaction cells, for
         every quantity (a balance law's residual takes the time blocks alone:
-        :meth:`~granavg.engine.uncertainty.Replicates.in_time`).
+        :meth:`~granavg.engine.uncertainty.blocking.Replicates.in_time`).
     info : dict
         For the sidecar: K (common and per quantity), how it was chosen, the frozen
         structure's correlations and share, the two-way table's shape, the unresolved
