@@ -186,6 +186,9 @@ def _parser() -> argparse.ArgumentParser:
                      "default) or the particle's surface (pair gran/hooke, "
                      "gran/hooke/history, gran/hertz/history)")
     ana.add_argument("--out", required=True, help="directory for the report (must be new)")
+    ana.add_argument("--no-figures", action="store_true", help="the numbers, claims, "
+                     "summary.json and report.html without figures (drawing them takes "
+                     "most of the time)")
     ana.add_argument("--density-series", nargs="+", metavar="PROFILES", default=[],
                      help="coarse profiles of the same scene at other area fractions: "
                      "Fig. 5's master curve is judged on their collapse")

@@ -310,7 +310,7 @@ def test_a_report_of_tables_with_different_sectors_falls_back_to_time(small_run,
                        "--out", tmp_path / f"p{n}.csv", "--no-progress")
         assert proc.returncode == 0, proc.stderr
     proc = run_cli("analyze", tmp_path / "p8.csv", tmp_path / "p16.csv", "--out",
-                   tmp_path / "r")
+                   tmp_path / "r", "--no-figures")
     assert proc.returncode == 0, proc.stderr
     assert "do not split their rings into the same sectors" in proc.stderr
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
@@ -321,7 +321,7 @@ def test_a_report_of_tables_with_different_sectors_falls_back_to_time(small_run,
                        "--out", tmp_path / f"s{n}.csv", "--no-progress")
         assert proc.returncode == 0, proc.stderr
     proc = run_cli("analyze", tmp_path / "s8.csv", tmp_path / "s16.csv", "--out",
-                   tmp_path / "s")
+                   tmp_path / "s", "--no-figures")
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "s" / "summary.json").read_text())
     assert summary["errors"]["kind"] == "structure"

@@ -36,6 +36,19 @@ def report(profiles, tmp_path_factory):
 
 
 @pytest.mark.slow
+def test_no_figures_gives_the_same_numbers_and_claims(report, profiles, tmp_path):
+    """--no-figures: the same summary.json as the full report, a report.html that says
+    it has no figures, and no figure written."""
+    out = tmp_path / "r"
+    proc = run_cli("analyze", *profiles, "--out", out, "--no-figures")
+    assert proc.returncode == 0, proc.stderr
+    assert (out / "summary.json").read_text() == (report / "summary.json").read_text()
+    assert not (out / "figures").exists()
+    assert "No figures" in (out / "report.html").read_text()
+    assert "No figures" not in (report / "report.html").read_text()
+
+
+@pytest.mark.slow
 def test_every_figure_is_a_valid_image_in_png_and_pdf(report):
     for name in FIGURES:
         img = mpimg.imread(report / "figures" / f"{name}.png")
@@ -141,7 +154,8 @@ def test_a_band_that_cannot_be_fitted_leaves_its_numbers_undefined(profiles, tmp
         bad = tmp_path / f"{name}.csv"
         edit(p16).to_csv(bad, index=False)
         (tmp_path / f"{name}.csv.json").write_text((profiles[1].parent / "p16.csv.json").read_text())
-        proc = run_cli("analyze", profiles[0], bad, "--out", tmp_path / f"out-{name}")
+        proc = run_cli("analyze", profiles[0], bad, "--out", tmp_path / f"out-{name}",
+                       "--no-figures")
         assert proc.returncode == 0, proc.stderr
         assert proc.stderr.count("the shear band is not fitted") == 1
         assert "no decay to fit" in proc.stderr and "Traceback" not in proc.stderr

@@ -191,38 +191,48 @@ def analyze_fields(profiles, names, closed=False, arm="contact") -> dict:
     return out
 
 
-def _spin_row(p, s, k, out) -> str:
+def _saved(draw, path, figures: bool) -> str:
+    """``draw()``'s figure saved as ``path`` and its ``<img>`` tag, or nothing without
+    ``figures``."""
+    if not figures:
+        return ""
+    fig = draw().figure
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return f"<img src='figures/{path.name}'>"
+
+
+def _spin_row(p, s, k, out, figures: bool = True) -> str:
     """The spins' balance of one profile: its panel (saved) and sentence."""
     sb = s.get("spin_balance")
     if not sb:
         return ""
-    ax = balance_panel(p, {"residual": np.array(sb["residual"]),
-                           "residual_err": np.array(sb["residual_err"]), "form": sb["form"],
-                           "arm": sb["arm"]}, spins=True)
-    ax.figure.savefig(out / "figures" / f"spin_balance{k}.png", dpi=110)
-    plt.close(ax.figure)
+    img = _saved(lambda: balance_panel(p, {
+        "residual": np.array(sb["residual"]), "residual_err": np.array(sb["residual_err"]),
+        "form": sb["form"], "arm": sb["arm"]}, spins=True),
+        out / "figures" / f"spin_balance{k}.png", figures)
     return (f"<p>Balance of the spins ({sb['form']} form, the law's lever arm to the "
             f"{html.escape(sb['arm'])}): median |residual| {sb['median_abs_residual']:.3g}, "
             f"largest {sb['max_abs_residual']:.3g} of the stress scale; the forces' moment "
-            f"density alone reaches {sb['terms']['tau']:.3g}.</p>"
-            f"<img src='figures/spin_balance{k}.png'>")
+            f"density alone reaches {sb['terms']['tau']:.3g}.</p>" + img)
 
 
-def write_field_report(summary, profiles, out) -> Path:
-    """Figures (PNG), ``summary.json`` and a small ``report.html`` into ``out``."""
+def write_field_report(summary, profiles, out, figures: bool = True) -> Path:
+    """Figures (PNG; none without ``figures``), ``summary.json`` and a small
+    ``report.html`` into ``out``."""
     out = Path(out)
-    (out / "figures").mkdir(parents=True, exist_ok=True)
+    if figures:
+        (out / "figures").mkdir(parents=True, exist_ok=True)
     rows = []
     for k, (p, s) in enumerate(zip(profiles, summary["profiles"])):
-        ax = profile_panels(p) if position(p) else slice_panels(p).ravel()
-        ax[0].figure.savefig(out / "figures" / f"profiles{k}.png", dpi=110)
-        plt.close(ax[0].figure)
         res = {"residual": np.array(s["balance"]["residual"]),
                "residual_err": np.array(s["balance"]["residual_err"]),
                "terms": s["balance"]["terms"]}
-        ax = balance_panel(p, res)
-        ax.figure.savefig(out / "figures" / f"balance{k}.png", dpi=110)
-        plt.close(ax.figure)
+        imgs = _saved(lambda: (profile_panels(p) if position(p) else
+                               slice_panels(p).ravel())[0],
+                      out / "figures" / f"profiles{k}.png", figures) + \
+            _saved(lambda: balance_panel(p, res), out / "figures" / f"balance{k}.png",
+                   figures)
         b = s["balance"]
         rows.append(f"<h2>{html.escape(s['profile'])}</h2><p>{s['n_cells']} "
                     f"{html.escape(p.cells.kind)}, {s['n_frames']} frames, units "
@@ -233,8 +243,7 @@ def write_field_report(summary, profiles, out) -> Path:
                     f"median |residual| {b['median_abs_residual']:.3g}, largest "
                     f"{b['max_abs_residual']:.3g} (without the force densities "
                     f"{b['max_abs_residual_without_forces']:.3g}) of the stress scale "
-                    f"{b['stress_scale']:.4g}.</p><img src='figures/profiles{k}.png'>"
-                    f"<img src='figures/balance{k}.png'>" + _spin_row(p, s, k, out))
+                    f"{b['stress_scale']:.4g}.</p>" + imgs + _spin_row(p, s, k, out, figures))
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     (out / "report.html").write_text(
         "<!doctype html><meta charset='utf-8'><title>granavg fields</title><body>"

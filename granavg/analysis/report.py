@@ -242,7 +242,8 @@ def write_report(summary: dict, figures: dict, path, title="granavg report") -> 
                      f"<td>{e(cl.get('tolerance', ''))}</td><td>{e(cl['evidence'])}</td></tr>")
     parts.append("</table>")
     parts += stationarity_table(summary, e)
-    parts.append("<h2>Figures</h2>")
+    parts.append("<h2>Figures</h2>" if figures else
+                 "<p>No figures: the analysis was asked for its numbers alone.</p>")
     for name, png in figures.items():
         data = base64.b64encode(Path(png).read_bytes()).decode()
         title = "Figs. 8-9 in micropolar terms" if name == "spins" else name.replace("fig", "Fig. ")

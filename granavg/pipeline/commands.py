@@ -103,7 +103,7 @@ def analyze(o):
     from granavg.pipeline.reporting import analyze_command
 
     return analyze_command(o["profiles"], o["out"], o["density_series"], o["closed"],
-                           o["torque_arm"])
+                           o["torque_arm"], figures=not o["no_figures"])
 
 
 def demo(o):

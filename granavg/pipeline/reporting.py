@@ -26,10 +26,10 @@ log = logging.getLogger(__name__)
 
 
 def report_profiles(coarse: Fields, fine: Fields, out, title="granavg report",
-                    density_series=()) -> dict:
-    """Analyse two ring profiles of one run (or ensemble) and write figures, summary.json,
-    report.html; ``density_series``: coarse profiles of the scene at other area
-    fractions, for Fig. 5's master curve."""
+                    density_series=(), figures: bool = True) -> dict:
+    """Analyse two ring profiles of one run (or ensemble) and write figures (none
+    without ``figures``), summary.json, report.html; ``density_series``: coarse profiles
+    of the scene at other area fractions, for Fig. 5's master curve."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     manifest = (coarse.meta or {}).get("run_manifest")
@@ -40,14 +40,14 @@ def report_profiles(coarse: Fields, fine: Fields, out, title="granavg report",
     # the report names no path of the machine that made a shipped packing
     manifest = {**manifest, "preparation": without_paths(manifest.get("preparation"))}
     summary = analyze(coarse, fine, manifest, density_series)
-    figures = save_all(coarse, fine, summary, out / "figures")
-    run = _run_dir_of(coarse)
+    drawn = save_all(coarse, fine, summary, out / "figures") if figures else {}
+    run = _run_dir_of(coarse) if figures else None
     if run is not None:
-        figures = {"fig1": fig1_of_run(run, out / "figures"), **figures}
-    else:
+        drawn = {"fig1": fig1_of_run(run, out / "figures"), **drawn}
+    elif figures:
         log.info("Fig. 1 not drawn: the profiles' run directory (with its dumps) is not at hand")
     write_summary(summary, out / "summary.json")
-    write_report(summary, figures, out / "report.html", title)
+    write_report(summary, drawn, out / "report.html", title)
     log.debug("report written: %s", out / "report.html")
     return summary
 
@@ -117,14 +117,15 @@ def report_run(run_dir, out, bins=(20, 60), t_min=None, progress=None, title="gr
 ANALYSED = ("nu", "rho", "v_phi", "omega", "F_rr", "sigma_rr", "dsigma_rr", "eps_rr")
 
 
-def analyze_command(profiles, out, density_series=(), closed=None, arm="contact") -> Path:
+def analyze_command(profiles, out, density_series=(), closed=None, arm="contact",
+                    figures: bool = True) -> Path:
     """The ``analyze`` command -> ``out/report.html`` and its companions (``out`` must be
     new or empty, and is written only when complete): two ring profiles of one granavg
     run or ensemble (and coarse profiles at other area fractions) get the paper's
     analysis; profiles of any other cells, or without a run manifest, the fields and the
     balance of forces and of the spins (:mod:`granavg.analysis.fields`; ``closed``:
     their outer faces are walls or empty space; ``arm``: the contact law's lever arm for
-    the torque, :data:`~granavg.analysis.spin_balance.ARMS`)."""
+    the torque, :data:`~granavg.analysis.spin_balance.ARMS`; ``figures``: draw them)."""
     out = Path(out)
     if out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise ParameterError("out", f"{{param}} {literal(out)}: exists and is not an empty "
@@ -139,7 +140,7 @@ def analyze_command(profiles, out, density_series=(), closed=None, arm="contact"
                                  "granavg run")
         with staged_directory(out) as tmp:
             summary = analyze_fields(inputs, profiles, closed=bool(closed), arm=arm)
-            write_field_report(summary, inputs, tmp)
+            write_field_report(summary, inputs, tmp, figures)
         log.info("report: %s", out / "report.html")
         return out / "report.html"
     series = [read_profiles(p) for p in density_series]
@@ -152,7 +153,7 @@ def analyze_command(profiles, out, density_series=(), closed=None, arm="contact"
             raise UserError(f"{name}: the profiles lack {missing[0]}; average with all "
                             "quantities (the contact dump is needed)")
     with staged_directory(out) as tmp:
-        report_profiles(*inputs, tmp, density_series=series)
+        report_profiles(*inputs, tmp, density_series=series, figures=figures)
     log.info("report: %s", out / "report.html")
     return out / "report.html"
 
