@@ -39,8 +39,8 @@ def flag(name: str) -> str:
 
 #: Where the help names the quantities and the kernels: filled in from their registries
 #: when help is shown (they are not imported for anything else the command line does).
-CATALOGUE, KERNELS, WIDTHS, DEFAULT_KERNEL = ("<quantities>", "<kernels>", "<widths>",
-                                              "<default kernel>")
+CATALOGUE, KERNELS, WIDTHS, DEFAULT_KERNEL, TIME_KERNELS = (
+    "<quantities>", "<kernels>", "<widths>", "<default kernel>", "<time kernels>")
 
 
 class _Formatter(argparse.HelpFormatter):
@@ -112,6 +112,7 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--quantities", help="comma-separated quantities the run is for, of: "
                      + CATALOGUE + "; if none needs contact forces, LAMMPS computes and "
                      "writes no contact output")
+    _time(sim, "with --average: ")
     sim.add_argument("--seeds", type=int, metavar="K", help="run K independent "
                      "realisations (different random packings) into OUT/seed<N>/, on a "
                      "dask cluster; average them together with 'granavg average RUN RUN ...'")
@@ -132,6 +133,7 @@ def _parser() -> argparse.ArgumentParser:
     avg.add_argument("--width", type=_finite, metavar="W", help="the smoothing kernel's "
                      "width, in the data's length unit (m for runs): " + WIDTHS)
     _branch_and_errors(avg)
+    _time(avg)
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
     avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
@@ -139,7 +141,8 @@ def _parser() -> argparse.ArgumentParser:
                      "profiles as a NetCDF (xarray) dataset on the cells' grid, with units "
                      "and errors")
     avg.add_argument("--vtk", action="store_true", help="also write <out>.vtu for ParaView "
-                     "(grids, boxes and cylindrical shells)")
+                     "(grids, boxes and cylindrical shells; fields in time: <out>.pvd, one "
+                     "animation, and its folder <out>.vtu.d)")
     avg.add_argument("--workers", type=int, help="average on a local dask cluster of this "
                      "many processes (frames split in chunks; same result as serial): run "
                      "directories, LAMMPS dump.* series and uncompressed dumps")
@@ -272,6 +275,25 @@ def _branch_and_errors(avg):
         "spatial replicas for the errors: each ring (slab) split into K sectors along phi "
         "(its length) to count the packing's frozen structure; auto (default: K from the "
         "sectors' correlation), a number from 4 to 48, or off (errors from time alone)"))
+
+
+def _time(p, prefix=""):
+    """The fields in time (average; simulate --average): --t-max, windows, time kernels."""
+    t = p.add_argument_group("fields in time (docs/time.md)")
+    t.add_argument("--t-max", type=_finite, help=prefix + "average frames with t <= T "
+                   "(with --t-min: exactly the frames in [t_min, t_max])")
+    t.add_argument("--windows", type=_finite, metavar="DT", help=prefix + "a field per "
+                   "window of DT from t_min (one pass; the table gains t, t_lo, t_hi)")
+    t.add_argument("--window-frames", type=int, metavar="N", help=prefix + "a field per "
+                   "N frames")
+    t.add_argument("--time-kernel", help=prefix + "fields smoothed in time, at --times: "
+                   + TIME_KERNELS + "; with their time derivatives (drho_dt, "
+                   "dmomentum_dt) and, with a smoothing --kernel, the residuals of the "
+                   "continuity and momentum balance (continuity, momentum_balance)")
+    t.add_argument("--time-width", type=_finite, metavar="WT", help="the time kernel's "
+                   "width (at least the frames' interval)")
+    t.add_argument("--times", type=_finite, nargs=3, metavar=("START", "STOP", "STEP"),
+                   help="the times of the smoothed fields")
 
 
 def _threads(p):

@@ -350,10 +350,13 @@ def docstring_ids(tree) -> set:
 
 
 def registered() -> tuple:
-    """(kinds of cells, their class names, kernel names) as the registries hold them."""
+    """(kinds of cells, their class names, kernel names - in space and in time) as the
+    registries hold them."""
     from granavg.engine.cells import registry as cells
     from granavg.engine.smoothing import registry as kernels
-    return set(cells()), {c.__name__ for c in cells().values()}, set(kernels())
+    from granavg.engine.timing import registry as time_kernels
+    return (set(cells()), {c.__name__ for c in cells().values()},
+            set(kernels()) | set(time_kernels()))
 
 
 def plugin_names(path: Path, kinds, classes, kernels) -> list:
@@ -380,10 +383,10 @@ def plugin_names(path: Path, kinds, classes, kernels) -> list:
 
 def test_no_kernel_or_geometry_is_named_outside_its_registry():
     """Messages, help and choices name kernels and kinds of cells from their registries
-    (granavg/engine/smoothing, granavg/engine/cells): a new kernel or geometry is one
-    module there, and appears everywhere else by itself."""
+    (granavg/engine/smoothing, granavg/engine/timing, granavg/engine/cells): a new
+    kernel or geometry is one module there, and appears everywhere else by itself."""
     names = registered()
-    own = (ROOT / "engine" / "cells", ROOT / "engine" / "smoothing")
+    own = (ROOT / "engine" / "cells", ROOT / "engine" / "smoothing", ROOT / "engine" / "timing")
     found = {str(p.relative_to(ROOT)): hits for p in sorted(ROOT.rglob("*.py"))
              if not any(d in p.parents for d in own) and (hits := plugin_names(p, *names))}
     assert not found, found

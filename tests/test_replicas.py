@@ -101,6 +101,7 @@ def synthetic_average(rng, frozen, common, local, k=24, n_cells=3, frames=512, t
     rings = Rings.count(n_cells, 0.1, 0.25, 0.006)
     avg = CellAverage([], rings, ["nu"], 1060.0, 0.0, 1.0, sectors="auto")
     avg.prepare()
+    slot = avg._slot(0)                          # the whole average's accumulators
     rho = math.exp(-1.0 / tau)
     F = rng.normal(0, frozen, (n_cells, k))
     T, e = 0.0, np.zeros((n_cells, k))
@@ -110,10 +111,10 @@ def synthetic_average(rng, frozen, common, local, k=24, n_cells=3, frames=512, t
         e = rho * e + math.sqrt(1 - rho**2) * rng.normal(0, local, e.shape)
         sums = np.zeros((n_cells, k, avg.layout.n))       # the channels nu needs
         sums[:, :, avg.layout.index["vol"]] = (0.8 + F + T + e) * vol
-        avg.replica_acc.add(t, float(t), sums)
-        avg.acc.add(t, float(t), sums.sum(axis=1))
+        slot.replicas.add(t, float(t), sums)
+        slot.acc.add(t, float(t), sums.sum(axis=1))
     structure = avg.conclude()
-    avg.replica_acc = None
+    slot.replicas = None
     return structure, avg.conclude()
 
 
@@ -250,7 +251,8 @@ def test_replica_accumulators_merge_exactly_across_chunks():
         p.run(False)
     parts[0].merge(parts[1].state())
     merged = parts[0].conclude()
-    assert whole.replica_acc.level == parts[0].replica_acc.level == 2   # 160 blocks -> 32 max
+    assert whole.slots[0].replicas.level == parts[0].slots[0].replicas.level == 2   # 160
+    # blocks -> 32 at most
     for q in one.values:
         assert np.allclose(merged.values[q], one.values[q], rtol=1e-12, equal_nan=True)
         assert np.allclose(merged.sem[q], one.sem[q], rtol=1e-9, equal_nan=True)

@@ -27,11 +27,13 @@ def dynamic_over_static(p) -> np.ndarray:
 
 def warn_if_inertial(p) -> float | None:
     """Log a warning when the dynamic stress is no longer small against the static
-    stress in some cell; returns the largest ratio (None without both stresses)."""
+    stress in some cell (at some time); returns the largest ratio (None without both
+    stresses)."""
     axes = p.cells.axes
     if not all(c in p.values for c in (*columns("sigma", axes), *columns("dsigma", axes))):
         return None
-    ratio = float(np.nanmax(dynamic_over_static(p)))
+    each = [p.at(j) for j in range(len(p.times))] if p.in_time else [p]   # every time
+    ratio = float(np.nanmax([np.nanmax(dynamic_over_static(f)) for f in each]))
     if ratio > QUASI_STATIC_LIMIT:
         what = "reaches %.2f of the static stress (above %.2f)" % (ratio, QUASI_STATIC_LIMIT) \
             if np.isfinite(ratio) else "is not zero where the static stress is (cells " \

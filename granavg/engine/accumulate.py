@@ -40,21 +40,28 @@ class CellAccumulator:
         self.origin = None                  # the first frame's base block
         self.blocks: dict[int, list] = {}
         self.first = self.last = None
+        self.n_frames = 0                   # frames added (their weights: the counts)
 
     def block_of(self, time: float) -> int:
         """Index of the (base) block holding time ``time`` (s)."""
         return int(math.floor((time - self.t_min) / self.block_time + 1e-9))
 
-    def add(self, timestep: int, time: float, sums: np.ndarray) -> None:
-        """Add one frame's ring sums, shape ``shape``."""
+    def add(self, timestep: int, time: float, sums: np.ndarray, weight: float = 1.0) -> None:
+        """Add one frame's ring sums, shape ``shape``, with a weight (a time kernel's;
+        a block's count is the sum of its frames' weights)."""
         if time < self.t_min:
             raise ValueError(f"frame at t={time} s is before t_min={self.t_min} s")
         base = self.block_of(time)
         self.origin = base if self.origin is None else min(self.origin, base)
         self._fit(base)
         entry = self.blocks.setdefault(base >> self.level, [0, np.zeros(self.shape)])
-        entry[0] += 1
-        entry[1] += sums
+        if weight == 1.0:
+            entry[0] += 1
+            entry[1] += sums
+        else:
+            entry[0] += weight
+            entry[1] += weight * sums
+        self.n_frames += 1
         self._span(timestep, time, timestep, time)
 
     def _fit(self, base) -> None:
@@ -88,6 +95,7 @@ class CellAccumulator:
                 entry[1] = entry[1] + s if entry[0] > n else s.copy()
             if src.first is not None:
                 out._span(*src.first, *src.last)
+            out.n_frames += src.n_frames
         origins = [o for o in (self.origin, other.origin) if o is not None]
         if origins:
             out.origin = min(origins)
@@ -101,13 +109,14 @@ class CellAccumulator:
             self.last = (step1, t1)
 
     @property
-    def n_frames(self) -> int:
-        """Frames accumulated."""
+    def weight(self) -> float:
+        """The frames' summed weights (their number, unweighted)."""
         return sum(n for n, _ in self.blocks.values())
 
     def mean(self) -> np.ndarray:
-        """Mean ring sums over all frames, shape ``shape`` (NaN without frames)."""
-        n = self.n_frames
+        """Weighted mean ring sums over all frames, shape ``shape`` (NaN without
+        frames)."""
+        n = self.weight
         if n == 0:
             return np.full(self.shape, np.nan)
         total = np.zeros(self.shape)

@@ -22,6 +22,7 @@ import logging
 
 import numpy as np
 
+from granavg.engine import timing
 from granavg.engine.cell_average import CellAverage
 from granavg.engine.fields import Fields
 from granavg.engine.quantities import (QUANTITIES, groups_for, missing_columns,
@@ -106,7 +107,11 @@ def resolvable(cells, radius, warn: bool = True) -> None:
 
 def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
              t_min: float = 0.0, block_time: float | None = None, units: UnitSystem = SI,
-             branch: str = "contact", sectors="auto", series=None) -> CellAverage:
+             branch: str = "contact", sectors="auto", series=None,
+             t_max: float | None = None, windows: float | None = None,
+             window_frames: int | None = None, time_kernel: str | None = None,
+             time_width: float | None = None, times=None,
+             interval: float | None = None) -> CellAverage:
     """The averager of ``frames`` over ``cells`` (Eqs. 1-7): the one way every route
     (anyone's dumps, run directories, in situ, dask, ensembles, the scale study) builds
     its average, with every check and the same metadata. ``run()`` it, or
@@ -132,8 +137,22 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         v, omega, F, sigma, eps, coordination).
     quantities : sequence of str, optional
         Keys of :data:`granavg.engine.quantities.QUANTITIES`; default all the frames allow.
-    t_min : float
-        Frames before t_min (s) are left out.
+    t_min, t_max : float
+        The frames averaged: t_min <= t <= t_max (s; t_max None: to the last).
+    windows : float, optional
+        A field per window of this length (s), from t_min: fields in time
+        (:class:`~granavg.engine.timing.axes.Windows`).
+    window_frames : int, optional
+        A field per this many frames.
+    time_kernel, time_width, times : optional
+        Fields at ``times`` (START STOP STEP, s) smoothed by a time kernel
+        (:mod:`granavg.engine.timing`: ``gauss`` of standard deviation ``time_width``,
+        ``lucy`` of half-length ``time_width``), with their time derivatives
+        (``drho_dt``, ``dmomentum_dt``) and, with a smoothing kernel in space, the
+        residuals of the continuity and momentum balance (``continuity``,
+        ``momentum_balance``). The frames must be evenly spaced.
+    interval : float, optional
+        The frames' spacing (s); default the first two frames'.
     block_time : float, optional
         Base block length (s) of the blocking analysis; default the spacing of the first
         two frames (one frame per block).
@@ -165,6 +184,10 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         if quantities is None or block_time is None:
             raise ValueError("an averager fed later needs its quantities and block time")
         head, groups, lacking, has_mass = [], list(quantities), {}, True
+        axis = timing.axis(t_min=t_min, t_max=t_max, windows=windows,
+                           window_frames=window_frames, time_kernel=time_kernel,
+                           time_width=time_width, times=times, interval=interval)
+        groups_for(groups, True, True, smooth=True, in_time=axis.derivative)
     else:
         it = iter(frames)
         head = list(itertools.islice(it, 2))
@@ -174,14 +197,20 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         if not head:
             raise UserError("no frame to average")
         has_mass = "mass" in head[0].atoms
+        spacing = head[1].time - head[0].time if len(head) == 2 else None
+        if spacing is not None and not spacing > 0:
+            raise UserError("frames must come in increasing time")
+        interval = interval if interval is not None else spacing
+        axis = timing.axis(t_min=t_min, t_max=t_max, windows=windows,
+                           window_frames=window_frames, time_kernel=time_kernel,
+                           time_width=time_width, times=times, interval=interval)
         kernel = getattr(cells, "kernel", None)
         groups = groups_for(quantities, head[0].contacts is not None, "bx" in head[0].atoms,
-                            smooth=bool(kernel and kernel.smooth_edge))
+                            smooth=bool(kernel and kernel.smooth_edge),
+                            in_time=axis.derivative)
         groups, lacking = _with_columns(groups, quantities is not None, head[0], cells.dim)
         if block_time is None:
-            block_time = head[1].time - head[0].time if len(head) == 2 else 1.0
-            if not block_time > 0:
-                raise UserError("frames must come in increasing time")
+            block_time = spacing if spacing is not None else 1.0
         frames = itertools.chain(head, it)
     if rho_p is not None and head and has_mass:
         log.info("the masses come from the atoms' mass column; the material density "
@@ -200,10 +229,11 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
     avg = CellAverage(frames, cells, groups, rho_p if rho_p is not None else 1.0, t_min,
                       block_time, series, branch=branch, sectors=sectors,
                       check=None if head else (lambda frame: check_frame(frame, cells, groups)),
-                      source=source)
+                      source=source, t_max=t_max, axis=axis)
+    window = {"t_min_s": t_min, **({"t_max_s": t_max} if t_max is not None else {}),
+              "block_time_s": block_time}
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,
-                "geometry": cells.describe(),
-                "frames": {"t_min_s": t_min, "block_time_s": block_time}}
+                "geometry": cells.describe(), "frames": window}
     if lacking:
         avg.meta["left_out"] = {g: f"no {' '.join(c)} in the data" for g, c in lacking.items()}
     if unweighed:

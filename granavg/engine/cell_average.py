@@ -24,13 +24,14 @@ import numpy as np
 from granavg.engine import threads
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.cells.base import Cells, layout_of
-from granavg.engine.channels import CONTACT_BLOCKS
+from granavg.engine.channels import CONTACT_BLOCKS, TIME_BLOCKS
 from granavg.engine.kernels import (BRANCHES, cell_sums, frame_rows, particle_channels,
                                    sector_sums, wall_points)
 from granavg.engine.fields import Fields
 from granavg.engine.profiles import flags, standard_errors, values
 from granavg.engine.quantities import MICROPOLAR, MICROPOLAR_CONVENTIONS, QUANTITIES
 from granavg.engine.stationarity import DRIFT_Z, stationarity
+from granavg.engine.timing import Whole
 from granavg.engine.uncertainty import structure
 from granavg.errors import ParameterError, named
 
@@ -38,6 +39,67 @@ log = logging.getLogger(__name__)
 
 #: Base time blocks of the blocking analysis: one per frame, at most this many.
 MAX_BLOCKS = 512
+#: Time blocks of each window or time of a time axis (:mod:`granavg.engine.timing`),
+#: and of its sectors: memory grows with times x cells, not with frames.
+SLOT_BLOCKS, SLOT_REPLICA_BLOCKS = 16, 4
+#: A time kernel's support is cut into this many time blocks for the errors.
+KERNEL_BLOCKS = 8
+
+
+class Slot:
+    """The accumulators of one field in time (the whole average, a window, a time of a
+    time kernel): the cells' sums in time blocks, their sectors' (``k`` > 0), and the
+    time derivative's weighted sums of the mass and momentum channels (``dcols``).
+
+    Parameters
+    ----------
+    shape : tuple
+        One frame's sums, (n_cells, n_channels).
+    t0, block_time : float
+        The slot's first block's start and the blocks' length.
+    max_blocks, replica_blocks : int or None
+        At most this many blocks (cells, sectors).
+    k : int
+        Sectors per cell (0: none).
+    dcols : list of int or None
+        The channels whose time derivative is kept (None: none).
+    """
+
+    def __init__(self, shape, t0, block_time, max_blocks, k, replica_blocks, dcols=None):
+        self.acc = CellAccumulator(shape, t0, block_time, max_blocks)
+        self.replicas = CellAccumulator((shape[0], k, shape[1]), t0, block_time,
+                                        replica_blocks) if k else None
+        self.dcols = dcols
+        self.dsum = np.zeros((shape[0], len(dcols))) if dcols is not None else None
+        self.dweight = 0.0
+
+    def add(self, step, t, sums, w=1.0, dw=0.0) -> None:
+        """Add a frame's sums (with the sectors' when ``sums`` has them) of weight w and
+        time-derivative weight dw."""
+        if self.replicas is not None:
+            self.replicas.add(step, t, sums, w)
+            sums = sums.sum(axis=1)
+        self.acc.add(step, t, sums, w)
+        if self.dsum is not None and dw != 0.0:
+            self.dsum += dw * sums[:, self.dcols]
+            self.dweight += dw
+
+    def merge(self, other: "Slot") -> "Slot":
+        """The slot of both slots' frames (disjoint; exact)."""
+        self.acc = self.acc.merge(other.acc)
+        if self.replicas is not None:
+            self.replicas = self.replicas.merge(other.replicas)
+        if self.dsum is not None:
+            self.dsum = self.dsum + other.dsum
+            self.dweight += other.dweight
+        return self
+
+    def rates(self) -> np.ndarray:
+        """d/dt of the weighted mean sums of the kept channels, shape (n_cells,
+        len(dcols)): (sum dw S - mean sum dw) / sum w, the exact derivative of the
+        smoothed sums sampled at the frames."""
+        W = self.acc.weight
+        return (self.dsum - self.acc.mean()[:, self.dcols] * self.dweight) / W
 
 
 class FrameObserver(Protocol):
@@ -87,14 +149,22 @@ class CellAverage:
     source : optional
         The frame source ``frames`` come from (its ``dropped`` counts the rows it left
         out); default ``frames``.
+    t_max : float, optional
+        Frames after t_max are not averaged (nor read further, frames being in time
+        order).
+    axis : optional
+        The time axis (:mod:`granavg.engine.timing`): one average (default), windows,
+        or fields smoothed in time.
 
     Build it with :func:`granavg.engine.api.averager`, which makes every check.
     """
 
     def __init__(self, frames, cells: Cells, groups, rho_p: float, t_min: float,
                  block_time: float, series: FrameObserver | None = None,
-                 branch: str = "contact", sectors="auto", check=None, source=None):
+                 branch: str = "contact", sectors="auto", check=None, source=None,
+                 t_max: float | None = None, axis=None):
         self.frames, self.cells, self.groups = frames, cells, list(groups)
+        self.t_max, self.axis = t_max, axis if axis is not None else Whole()
         self.check, self.source = check, frames if source is None else source
         if branch not in BRANCHES:
             raise ParameterError("branch", f"{{param}} {branch!r}: choose from "
@@ -117,69 +187,176 @@ class CellAverage:
                        else self.sectors or 0)
         self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
         self.channels = sorted({b for g in self.groups for b in QUANTITIES[g].blocks})
-        #: the channels held: only the blocks the quantities need
+        #: the channels of the values: only the blocks the quantities need
         self.layout = layout_of(cells.axes, self.channels)
+        #: the channels a frame fills (the first of :attr:`layout`'s)
+        self.frame_channels = [b for b in self.channels if b not in TIME_BLOCKS]
+        self.frame_layout = layout_of(cells.axes, self.frame_channels)
+        self.dcols = None
+        if {"dtmass", "dtmom"} & set(self.channels):
+            fl = self.frame_layout
+            self.dcols = [fl.index["mass"], *range(fl.first("mom"), fl.first("mom") + fl.dim)]
         self.series = series
         self.results: Fields | None = None
         self.meta: dict = {}
 
     def run(self, progress: bool | None = None) -> Fields:
-        """Accumulate every frame with t >= t_min; returns the profiles."""
+        """Accumulate every frame with t_min <= t <= t_max; returns the fields."""
         self.prepare()
         frames = self.frames
         if progress or (progress is None and sys.stderr.isatty()):
             from tqdm.auto import tqdm          # only where a bar shows: its import is 0.04 s
             frames = tqdm(frames, desc="averaging", unit="frame")
         for frame in frames:
+            if self.t_max is not None and frame.time > self.t_max:
+                break                           # frames come in time order
             self.add(frame)
+            if self.span is not None and self.span[2] == 1 and self.axis.kind == "smoothed":
+                self.axis.reach(self.span[0], np.inf)    # a time before the first frame:
+                # refused now, not after the pass
         return self.conclude()
 
     def prepare(self):
-        """Start with an empty accumulator (and time series)."""
-        n_channels = self.layout.n
-        self.acc = CellAccumulator((self.cells.n, n_channels), self.t_min, self.block_time)
-        self.replica_acc = CellAccumulator(
-            (self.cells.n, self.k_fine, n_channels), self.t_min, self.block_time,
-            structure.REPLICA_BLOCKS) if self.k_fine else None
+        """Start with no accumulator (each slot of the time axis gets its own with its
+        first frame) and an empty time series."""
+        self.slots: dict[int, Slot] = {}
+        self.span = None                # the first and last frame times added, and their number
+        self.previous = None            # the last frame time added (their spacing)
         if self.series is not None:
             self.series.rows = []
 
+    def _slot(self, j: int) -> Slot:
+        """The accumulators of slot ``j`` of the time axis (made on first use)."""
+        if j not in self.slots:
+            shape, axis = (self.cells.n, self.frame_layout.n), self.axis
+            if axis.kind == "whole":
+                self.slots[j] = Slot(shape, self.t_min, self.block_time, None, self.k_fine,
+                                     structure.REPLICA_BLOCKS)
+            elif axis.kind == "windows":     # (the start a hair early: a frame on the
+                # window's edge falls in it, whatever the rounding of start + j length)
+                self.slots[j] = Slot(shape, axis.start + (j - 1e-6) * axis.length,
+                                     self.block_time, SLOT_BLOCKS, self.k_fine,
+                                     SLOT_REPLICA_BLOCKS)
+            else:
+                c = axis.cutoff
+                self.slots[j] = Slot(shape, axis.times[j] - c, 2 * c / KERNEL_BLOCKS,
+                                     KERNEL_BLOCKS, self.k_fine, SLOT_REPLICA_BLOCKS,
+                                     self.dcols)
+        return self.slots[j]
+
     def add(self, frame):
-        """Record the frame's state; accumulate it if t >= t_min (the first frame
-        checked by ``check``)."""
+        """Record the frame's state; accumulate it if t_min <= t <= t_max into the slots
+        of the time axis it falls in (the first frame checked by ``check``)."""
         if self.check is not None:
             self.check(frame)
             self.check = None
         if self.series is not None:
             self.series.add(frame)
-        if frame.time >= self.t_min:
-            sums = frame_sums(frame, self.cells, self.rho_p, self.channels, self.branch,
-                              self.k_fine)
-            if self.k_fine:
-                self.replica_acc.add(frame.timestep, frame.time, sums)
-                sums = sums.sum(axis=1)
-            self.acc.add(frame.timestep, frame.time, sums)
+        t = frame.time
+        if t < self.t_min or (self.t_max is not None and t > self.t_max):
+            return
+        self._spaced(t)
+        hits = self.axis.hits(t)
+        if not hits:
+            return                              # outside every time's kernel
+        sums = frame_sums(frame, self.cells, self.rho_p, self.frame_channels, self.branch,
+                          self.k_fine)
+        for j, w, dw in hits:
+            self._slot(j).add(frame.timestep, t, sums, w, dw)
+
+    def _spaced(self, t: float) -> None:
+        """Track the frames' span; a time kernel weighs frames as evenly spaced: refuse
+        other spacings (and learn the interval from the first two frames)."""
+        first, last, n = self.span or (t, t, 0)
+        self.span = (min(first, t), max(last, t), n + 1)
+        if self.axis.kind != "smoothed":
+            return
+        if self.previous is None:
+            pass
+        elif self.axis.interval is None:
+            self.axis.fit(t - self.previous)
+        elif abs(t - self.previous - self.axis.interval) > 1e-6 * self.axis.interval:
+            raise ParameterError("time_kernel", f"{{param}}: the frames at t = "
+                                 f"{self.previous:g} and {t:g} are {t - self.previous:g} "
+                                 f"apart, not {self.axis.interval:g} as the others: a time "
+                                 "kernel weighs frames as evenly spaced; average frames "
+                                 "dumped at a fixed interval")
+        self.previous = t
 
     def state(self) -> tuple:
-        """The accumulators (cells, sectors or None): what a worker hands back."""
-        return self.acc, self.replica_acc
+        """The slots' accumulators and the frames' span: what a worker hands back."""
+        return self.slots, self.span
 
     def merge(self, state) -> None:
         """Add another averager's :meth:`state` (disjoint frames; exact)."""
-        acc, reps = state
-        self.acc = self.acc.merge(acc)
-        if self.replica_acc is not None:
-            self.replica_acc = self.replica_acc.merge(reps)
+        slots, span = state
+        for j, slot in slots.items():
+            self.slots[j] = self.slots[j].merge(slot) if j in self.slots else slot
+        if span is not None:
+            first, last, n = self.span or (span[0], span[1], 0)
+            self.span = (min(first, span[0]), max(last, span[1]), n + span[2])
 
     def conclude(self) -> Fields:
-        """Fields of the frames added so far."""
-        acc, V, layout = self.acc, self.cells.volume, self.layout
-        if acc.n_frames == 0:
+        """Fields of the frames added so far: one average, or one per window or time of
+        the time axis (:meth:`Fields.stack`)."""
+        if not self.slots:
+            upto = f" and t <= {self.t_max:g} ({{t_max}})" if self.t_max is not None else ""
             raise ParameterError("t_min", f"no frame at t >= {self.t_min:g}, the start of "
-                                 "the average ({param}); lower it")
-        S = acc.mean()
+                                 f"the average ({{param}}){upto}; lower it")
+        if self.axis.kind == "whole":
+            return self._fields(self.slots[0])
+        order = self._ordered()
+        said: dict = {}
+        fields = [self._fields(self.slots[j], said) for j in order]
+        for message in said.values():
+            log.warning(message)
+        if self.axis.kind == "windows":
+            times, edges = self.axis.times_of(order), self.axis.start + self.axis.length * \
+                np.array([*order, order[-1] + 1], float)
+        else:
+            times, edges = self.axis.times[order], None
+        meta = {**fields[0].meta, "frames": {**self.meta.get("frames", {}),
+                                             "n": int(self.span[2])}}
+        meta["time"] = {**self.axis.describe(), "n_times": len(order),
+                        "frames_span": [float(self.span[0]), float(self.span[1])]}
+        return Fields.stack(fields, times, edges, meta)
+
+    def _ordered(self) -> list:
+        """The slots in time order, checked: windows from the first holding a frame to
+        the last with none empty between; every time of a kernel within the frames."""
+        order = sorted(self.slots)
+        if self.axis.kind == "windows":
+            empty = sorted(set(range(order[0], order[-1] + 1)) - set(order))
+            if empty:
+                lo = self.axis.start + empty[0] * self.axis.length
+                raise ParameterError("windows", f"{{param}}: the window from t = {lo:g} to "
+                                     f"{lo + self.axis.length:g} holds no frame; give "
+                                     "windows of at least the frames' spacing")
+            return order
+        first, last, n = self.span
+        interval = self.axis.interval
+        if interval and abs((last - first) / interval + 1 - n) > 1e-3:
+            raise ParameterError("time_kernel", f"{{param}}: {n} frames from t = {first:g} "
+                                 f"to {last:g}, not one every {interval:g}: a time kernel "
+                                 "weighs frames as evenly spaced; average frames dumped at "
+                                 "a fixed interval, none missing")
+        self.axis.reach(first, last)
+        return list(range(len(self.axis.times)))
+
+    def _fields(self, slot: Slot, said: dict | None = None) -> Fields:
+        """The fields of one slot's frames (``said``: collects the warnings of many slots
+        under one key each, logged once by the caller; None: logged here)."""
+        def warn(key, message, *args):
+            if said is None:
+                log.warning(message, *args)
+            else:
+                said.setdefault(key, message % args)
+
+        acc, V, layout = slot.acc, self.cells.volume, self.layout
+        S = self._full(acc.mean(), slot.rates() if slot.dsum is not None else None)
         vals = values(S, V, self.rho_p, self.groups, layout)
         counts, sums = acc.block_sums()
+        sums = self._full(sums)
         sem, lower, replicates = standard_errors(counts, sums, V, self.rho_p, self.groups,
                                                  layout)
         meta = {**self.meta, "frames": {**self.meta.get("frames", {}), "n": acc.n_frames}}
@@ -203,9 +380,9 @@ class CellAverage:
         ring_flags = flags(S, self.groups, layout)
         extra = [[] for _ in ring_flags]
         if len(counts) < 2:
-            log.warning("all %d frames fall in one time block: no standard errors (NaN, flag "
-                        "'one_block'); average more frames or shorten the base block time",
-                        acc.n_frames)
+            warn("one_block", "all %d frames fall in one time block: no standard errors "
+                 "(NaN, flag 'one_block'); average more frames or shorten the base block "
+                 "time", acc.n_frames)
             extra = [["one_block"] for _ in ring_flags]
         meta["errors"] = {
             "kind": "time",
@@ -213,13 +390,14 @@ class CellAverage:
                       "Lee et al. 2011); derived numbers from delete-one-block jackknife",
             "base_blocks": int(len(counts)),
             "jackknife_blocks": replicates.n if replicates else 0}
-        if len(counts) >= 2 and self.replica_acc is not None and \
-                len(self.replica_acc.blocks) < 2:
-            log.warning("the frames span a single block of the sectors' accumulator: errors "
-                        "from time alone")
-        elif len(counts) >= 2 and self.replica_acc is not None:
+        reps = slot.replicas
+        if len(counts) >= 2 and reps is not None and len(reps.blocks) < 2:
+            warn("one_sector_block", "the frames span a single block of the sectors' "
+                 "accumulator: errors from time alone")
+        elif len(counts) >= 2 and reps is not None:
+            r_counts, r_sums = reps.block_sums()
             sem, replicates, info, time_part = structure.structure_errors(
-                *self.replica_acc.block_sums(), V, self.rho_p, self.groups, layout, sem,
+                r_counts, self._full(r_sums), V, self.rho_p, self.groups, layout, sem,
                 replicates, sectors=self.sectors, periodic=self.cells.sectors_close,
                 across=self.cells.across)
             lower = {n: lb & time_part[n] for n, lb in lower.items()}
@@ -230,8 +408,9 @@ class CellAverage:
                 "blocking of each cell, less their sector x time interaction (counted by "
                 "both); derived numbers from the same three sets of replicates"))
             if not info["resolved"]:
-                log.warning("neighbouring sectors stay correlated down to %d sectors: the "
-                            "errors may be too small (flag 'few_replicas')", info["sectors"])
+                warn("few_replicas", "neighbouring sectors stay correlated down to %d "
+                     "sectors: the errors may be too small (flag 'few_replicas')",
+                     info["sectors"])
                 extra = [e + ["few_replicas"] for e in extra]
         if len(counts) >= 2:
             bound = np.zeros(len(V), bool)
@@ -250,14 +429,36 @@ class CellAverage:
             log.warning("%d contact rows with overlap <= 0 (not touching: LAMMPS' pair/local "
                         "lists neighbours within its cutoff) were dropped",
                         dropped.get("contacts_not_touching", 0))
+        rates = [g for g in self.groups if QUANTITIES[g].in_time]
+        if rates:
+            meta["errors"]["none_for"] = {
+                "quantities": rates,
+                "why": "time derivatives and balance residuals get errors from "
+                       "realisations only (an ensemble of runs); one run gives none"}
         series = None
         if self.series is not None and self.series.rows:
             series = self.series.columns()
             meta["stationarity"] = stationarity(series, self.t_min, self.series.judged)
             warn_if_drifting(meta["stationarity"], self.t_min)
         self.results = Fields(self.cells, vals, sem, ring_flags, acc.n_frames, meta,
-                                replicates, series=series)
+                              replicates, series=series)
         return self.results
+
+    def _full(self, sums, rates=None):
+        """Sums over the frames' channels (last axis) widened to :attr:`layout`'s: the
+        time derivatives' channels from ``rates`` (n_cells, mass and momentum), else
+        NaN (a block's or sector's time derivative is not kept: no errors from them)."""
+        extra = self.layout.n - self.frame_layout.n
+        if not extra:
+            return sums
+        out = np.concatenate([sums, np.full((*sums.shape[:-1], extra), np.nan)], axis=-1)
+        if rates is not None:
+            if "dtmass" in self.layout.blocks:
+                out[:, self.layout.index["dtmass"]] = rates[:, 0]
+            if "dtmom" in self.layout.blocks:
+                k = self.layout.first("dtmom")
+                out[:, k:k + self.layout.dim] = rates[:, 1:]
+        return out
 
 
 def warn_if_drifting(judged: dict, t_min: float) -> list:

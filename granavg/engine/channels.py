@@ -43,6 +43,8 @@ ppow       ppow                        sum_c f . (v + omega x l) + m . omega ove
 wpow       wpow                        the same over the walls' contacts
 lpow       lpow                        sum_c ((delta / 2) n x f) . omega
 bpow       bpow                        b^p . v: the body force's power
+dtmass     dtmass                      d/dt of the mass sum (a time kernel's)
+dtmom      dtmom_<i>                   d/dt of the mom_i sum (a time kernel's)
 =========  ==========================  ==========================================
 
 I^p = k m^p a_p^2 with k = 1/2 for a disk and 2/5 for a sphere (``inertia``). The
@@ -165,11 +167,20 @@ BLOCK = {b.name: b for b in (
           ("{m}",)),
     Block("lpow", "scalar", ("id", "{w}"), (*_PAIRS, "{f}", "{n}", "overlap")),
     Block("bpow", "scalar", ("{v}", "{b}")),
+    # time derivatives of the mass and momentum sums: no frame fills them, a time
+    # kernel's derivative does (granavg.engine.timing), after the frames' channels
+    Block("dtmass", "scalar"),
+    Block("dtmom", "vector"),
 )}
 #: Blocks only a smoothing kernel fills.
 DERIVATIVE_BLOCKS = ("dmass", "dmom", "dsig", "dkin", "rinv")
 #: The blocks in channel order.
 BLOCKS = tuple(BLOCK)
+#: Blocks the time axis fills from its kernel's derivative (the last in channel order:
+#: a frame's channels are the first of any layout's).
+TIME_BLOCKS = ("dtmass", "dtmom")
+#: The blocks a frame fills.
+FRAME_BLOCKS = tuple(b for b in BLOCKS if b not in TIME_BLOCKS)
 #: Blocks that the particles' contacts fill in the contact pass (``wall`` is filled at
 #: the contact points instead).
 CONTACT_BLOCKS = ("ncontact", "fab", "sig", "def", "cst", "lever", "cnet", "wcpl", "ppow",
@@ -198,7 +209,8 @@ class Layout:
         The basis' axes: ``("r", "phi")`` (rings), ``("x", "y")``, ``("x", "y", "z")``
         or ``("r", "phi", "z")`` (cylindrical shells).
     blocks : tuple of str, optional
-        The blocks held, in :data:`BLOCKS` order.
+        The blocks held, in :data:`BLOCKS` order (default: every frame's,
+        :data:`FRAME_BLOCKS`).
     offsets : tuple of int
         The first channel of each block, in :data:`BLOCKS` order (-1 for a block not
         held): what the compiled kernels index, for the blocks they are asked to fill.
@@ -211,7 +223,7 @@ class Layout:
     offsets: tuple = field(init=False)
 
     def __post_init__(self):
-        held = BLOCKS if self.blocks is None else tuple(
+        held = FRAME_BLOCKS if self.blocks is None else tuple(
             b for b in BLOCKS if b in self.blocks or b in ALWAYS)
         object.__setattr__(self, "blocks", held)
         names, first = [], []

@@ -56,6 +56,13 @@ class Fields:
     series : dict of name -> ndarray, shape (n_frames_read,), optional
         The state of every frame read (:mod:`granavg.engine.stationarity`), as columns;
         :attr:`timeseries` gives it as a DataFrame.
+    times : ndarray, shape (n_times,), optional
+        Fields in time (:mod:`granavg.engine.timing`: windows, or fields smoothed in
+        time): the times of the fields (the windows' middles). Then every value, error
+        and flag has shape (n_times, n_cells), ``n_frames`` is per time, ``replicates``
+        a list per time, and :meth:`at` gives one time's fields.
+    time_edges : ndarray, shape (n_times + 1,), optional
+        The windows' edges (windows only).
     """
 
     cells: Cells
@@ -67,18 +74,74 @@ class Fields:
     replicates: Replicates | None = None
     n_runs: np.ndarray | None = None
     series: dict | None = None
+    times: np.ndarray | None = None
+    time_edges: np.ndarray | None = None
 
     # -- the axes --------------------------------------------------------------------
     @property
     def dims(self) -> tuple:
-        """The named dimensions of every field: the cells' axes (``("r",)`` for rings,
-        ``("x", "y", "z")`` for boxes, ``("r", "z")`` for cylindrical shells)."""
-        return self.cells.grid()[0]
+        """The named dimensions of every field: ``time`` for fields in time, then the
+        cells' axes (``("r",)`` for rings, ``("x", "y", "z")`` for boxes, ``("r", "z")``
+        for cylindrical shells)."""
+        own = tuple(self.cells.grid()[0])
+        return ("time", *own) if self.in_time else own
 
     @property
     def shape(self) -> tuple:
         """The fields' shape along :attr:`dims`."""
-        return tuple(self.cells.grid()[1])
+        own = tuple(self.cells.grid()[1])
+        return (len(self.times), *own) if self.in_time else own
+
+    @property
+    def in_time(self) -> bool:
+        """Whether the fields have a time axis (:attr:`times`)."""
+        return self.times is not None
+
+    # -- fields in time ----------------------------------------------------------------
+    @classmethod
+    def stack(cls, fields, times, edges=None, meta=None) -> "Fields":
+        """Fields in time from one :class:`Fields` per time (the same cells and
+        columns), at ``times`` (windows: with their ``edges``); ``meta`` the sidecar
+        (default the first's)."""
+        first = fields[0]
+        runs = None if first.n_runs is None else np.stack([f.n_runs for f in fields])
+        reps = [f.replicates for f in fields]
+        return cls(first.cells, {n: np.stack([f.values[n] for f in fields])
+                                 for n in first.values},
+                   {n: np.stack([f.sem[n] for f in fields]) for n in first.sem},
+                   np.stack([f.flags for f in fields]),
+                   np.array([f.n_frames for f in fields]), dict(meta or first.meta),
+                   reps if any(r is not None for r in reps) else None, runs, first.series,
+                   np.asarray(times, float),
+                   None if edges is None else np.asarray(edges, float))
+
+    def at(self, j: int) -> "Fields":
+        """The fields at the ``j``-th time (a :class:`Fields` without a time axis; its
+        ``meta["time"]["t"]`` says which)."""
+        if not self.in_time:
+            raise ValueError("these fields have no time axis")
+        meta = dict(self.meta or {})
+        meta["time"] = {**meta.get("time", {}), "t": float(self.times[j])}
+        if self.time_edges is not None:
+            meta["time"]["window"] = [float(self.time_edges[j]), float(self.time_edges[j + 1])]
+        return Fields(self.cells, {n: v[j] for n, v in self.values.items()},
+                      {n: v[j] for n, v in self.sem.items()}, self.flags[j],
+                      int(self.n_frames[j]), meta,
+                      self.replicates[j] if self.replicates is not None else None,
+                      None if self.n_runs is None else self.n_runs[j], self.series)
+
+    def nearest(self, t: float) -> int:
+        """The index of the time nearest ``t``."""
+        return int(np.argmin(np.abs(np.asarray(self.times) - float(t))))
+
+    def _time_columns(self) -> dict:
+        """Each row's time (and window edges), one row per time and cell."""
+        n = self.cells.n
+        cols = {"t": np.repeat(self.times, n)}
+        if self.time_edges is not None:
+            cols["t_lo"] = np.repeat(self.time_edges[:-1], n)
+            cols["t_hi"] = np.repeat(self.time_edges[1:], n)
+        return cols
 
     # -- units -----------------------------------------------------------------------
     @property
@@ -93,7 +156,9 @@ class Fields:
         """The unit of every column of :meth:`to_columns` but the flags, from each
         quantity's declared dimension in :attr:`unit_system`."""
         names = [c for c in self.to_columns() if c != "flags"]
-        return column_units(names, self.unit_system, self.cells.coordinate_units())
+        own = {**self.cells.coordinate_units(),
+               **{c: "{time}" for c in ("t", "t_lo", "t_hi")}}
+        return column_units(names, self.unit_system, own)
 
     # -- the time series ---------------------------------------------------------------
     @property
@@ -112,7 +177,13 @@ class Fields:
     # -- as tables and arrays -------------------------------------------------------------
     def to_columns(self) -> dict:
         """One row per cell, as columns: its coordinates (r_lo, r_hi, r for rings), V,
-        n_frames, [n_runs,] each value and ``<name>_sem``, flags."""
+        n_frames, [n_runs,] each value and ``<name>_sem``, flags. Fields in time: one
+        row per time and cell, the time first (``t``; windows also ``t_lo``,
+        ``t_hi``)."""
+        if self.in_time:
+            parts = [self.at(j).to_columns() for j in range(len(self.times))]
+            return {**self._time_columns(),
+                    **{k: np.concatenate([p[k] for p in parts]) for k in parts[0]}}
         cols = {**self.cells.coordinates(), "V": self.cells.volume,
                 "n_frames": np.full(self.cells.n, self.n_frames)}
         if self.n_runs is not None:
@@ -123,8 +194,8 @@ class Fields:
         return cols
 
     def to_pandas(self) -> pd.DataFrame:
-        """:meth:`to_columns` as a DataFrame, one row per cell (the table ``granavg
-        average`` writes)."""
+        """:meth:`to_columns` as a DataFrame, one row per cell (and time) (the table
+        ``granavg average`` writes)."""
         import pandas as pd
         return pd.DataFrame(self.to_columns())
 
@@ -143,30 +214,46 @@ class Fields:
                                                      "long_name": f"cell centre, {d}"})
             coords[f"{d}_edges"] = (f"{d}_edge", np.asarray(e, float),
                                     {"units": units[d], "long_name": f"cell edges, {d}"})
+        field_dims, field_shape = tuple(dims), tuple(shape)
+        if self.in_time:
+            t_unit = self.unit_system.unit("{time}")
+            coords["time"] = ("time", np.asarray(self.times, float),
+                              {"units": t_unit, "long_name": "time of the fields"})
+            if self.time_edges is not None:
+                coords["time_edges"] = ("time_edge", self.time_edges,
+                                        {"units": t_unit, "long_name": "windows' edges"})
+            field_dims, field_shape = ("time", *dims), (len(self.times), *shape)
         data = {"V": (dims, self.cells.volume.reshape(shape),
                       {"units": units["V"], "long_name": "cell volume"})}
         for name, value in self.values.items():
             for key, arr in ((name, value), (f"{name}_sem", self.sem[name])):
-                data[key] = (dims, np.asarray(arr, float).reshape(shape),
+                data[key] = (field_dims, np.asarray(arr, float).reshape(field_shape),
                              {"units": units[key]})
-        data["flags"] = (dims, np.asarray(self.flags, dtype=str).reshape(shape))
+        data["flags"] = (field_dims, np.asarray(self.flags, dtype=str).reshape(field_shape))
         if self.n_runs is not None:
-            data["n_runs"] = (dims, np.asarray(self.n_runs).reshape(shape))
+            data["n_runs"] = (field_dims, np.asarray(self.n_runs).reshape(field_shape))
         meta = self.meta or {}
         attrs = {"title": "granavg profiles", "units": str(meta.get("units", system.label)),
-                 "n_frames": int(self.n_frames),
+                 "n_frames": int(np.sum(self.n_frames)) if not self.in_time else
+                 int(meta.get("frames", {}).get("n", np.max(self.n_frames))),
                  "geometry": json.dumps(self.cells.describe()),
                  "unit_system": json.dumps(system.describe()),
                  "errors": json.dumps(meta.get("errors", {}), default=str),
                  "granavg_version": str(meta.get("granavg_version", ""))}
+        if self.in_time:
+            data["n_frames"] = ("time", np.asarray(self.n_frames),
+                                {"long_name": "frames weighed at each time"})
+            attrs["time"] = json.dumps(meta.get("time", {}), default=str)
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
     # -- a figure ------------------------------------------------------------------------
-    def plot(self, name: str, ax=None):
+    def plot(self, name: str, ax=None, time: float | None = None):
         """Draw one field: against position with its error bars where the cells lie
         along one axis (rings, slabs, shells of one layer), else as a map of the first
         plane the cells draw (a 2D grid or polar grid whole, the middle layer of
-        boxes). Returns the axes.
+        boxes). Fields in time: at the time nearest ``time``, or, without one, as a
+        space-time map (a kymograph: position against time) where the cells lie along
+        one axis. Returns the axes.
 
         Parameters
         ----------
@@ -174,16 +261,27 @@ class Fields:
             A value column (``nu``, ``v_phi``, ``sigma_zz``, ...).
         ax : matplotlib Axes, optional
             Where to draw (default: a new figure).
+        time : float, optional
+            Fields in time: draw the fields at this time.
         """
         import matplotlib.pyplot as plt
 
         if name not in self.values:
             raise KeyError(f"{name!r} is not among the fields ({', '.join(self.values)})")
+        if self.in_time and time is not None:
+            return self.at(self.nearest(time)).plot(name, ax)
+        if not self.in_time and time is not None:
+            raise ValueError("these fields have no time axis: leave out time")
         unit = self.units[name]
         label = f"{name} ({'-' if unit == '1' else unit})"
         if ax is None:
             _, ax = plt.subplots(figsize=(4.8, 3.4), constrained_layout=True)
         line = self.cells.position()
+        if self.in_time:
+            if line is None:
+                raise ValueError(f"{self.cells.kind} do not lie along one axis: give a time "
+                                 "to draw the fields at")
+            return self._kymograph(name, ax, line[0], label)
         if line is not None:
             where, x = line
             ax.errorbar(x, self.values[name], yerr=self.sem[name], marker="o", ms=3,
@@ -198,6 +296,29 @@ class Fields:
                title=title)
         ax.set_aspect("equal")
         return ax
+
+
+    def _kymograph(self, name, ax, where, label):
+        """The field against position and time (cell edges across, time edges up)."""
+        dims, _, edges = self.cells.grid()
+        x = np.asarray(edges[list(dims).index(where)], float) if where in dims else \
+            _edges_of(self.cells.position()[1])
+        t = self.time_edges if self.time_edges is not None else _edges_of(self.times)
+        mesh = ax.pcolormesh(x, t, np.asarray(self.values[name], float), cmap="viridis",
+                             shading="flat")
+        ax.figure.colorbar(mesh, ax=ax, label=label)
+        t_unit = self.unit_system.unit("{time}")
+        ax.set(xlabel=f"{where} ({self.units[where]})", ylabel=f"t ({t_unit})")
+        return ax
+
+
+def _edges_of(centres) -> np.ndarray:
+    """Edges halfway between centres (the ends half a step out)."""
+    c = np.asarray(centres, float)
+    if len(c) == 1:
+        return np.array([c[0] - 0.5, c[0] + 0.5])
+    mid = 0.5 * (c[1:] + c[:-1])
+    return np.r_[c[0] - (mid[0] - c[0]), mid, c[-1] + (c[-1] - mid[-1])]
 
 
 def columns_of(table) -> dict:

@@ -63,6 +63,9 @@ class Quantity:
     smooth : bool
         It needs a smoothing kernel with a continuous edge (its values are derivatives
         of the coarse-grained fields, :mod:`granavg.engine.smoothing`).
+    in_time : bool
+        It needs a time kernel (its values are time derivatives of the fields smoothed
+        in time, :mod:`granavg.engine.timing`).
     help : str
         What it is, in words (the command line's help).
     """
@@ -78,6 +81,7 @@ class Quantity:
     flag: Callable | None = None
     flag_name: str = ""
     smooth: bool = False
+    in_time: bool = False
     help: str = ""
 
     @property
@@ -245,23 +249,53 @@ def _spin_rate(S, V, layout, name):
     return _tensor_columns(0.5 * (np.swapaxes(L, 1, 2) - L), layout, name)
 
 
+def _div(S, V, layout, block, div_block):
+    """(div T)_i = sum_j d_j T_ij per node volume, shape (n, D): the kernel's partial
+    derivatives, plus in a polar basis the curvature terms (T_rr - T_phiphi)/r,
+    (T_rphi + T_phir)/r and, in 3D, T_zr / r."""
+    D = layout.dim
+    div = layout.block(S, div_block) / V[:, None]
+    rinv = _curvature(S, layout)
+    if rinv is not None:
+        T = (layout.block(S, block) / V[:, None]).reshape(-1, D, D)
+        div = div.copy()
+        div[:, 0] += (T[:, 0, 0] - T[:, 1, 1]) * rinv
+        div[:, 1] += (T[:, 0, 1] + T[:, 1, 0]) * rinv
+        if D == 3:
+            div[:, 2] += T[:, 2, 0] * rinv
+    return div
+
+
 def _divergence(block, div_block):
-    """(div T)_i = sum_j d_j T_ij per node volume: the kernel's partial derivatives, plus
-    in a polar basis the curvature terms (T_rr - T_phiphi)/r, (T_rphi + T_phir)/r and,
-    in 3D, T_zr / r."""
+    """The columns of :func:`_div`."""
     def value(S, V, layout, name):
-        D = layout.dim
-        div = layout.block(S, div_block) / V[:, None]
-        rinv = _curvature(S, layout)
-        if rinv is not None:
-            T = (layout.block(S, block) / V[:, None]).reshape(-1, D, D)
-            div = div.copy()
-            div[:, 0] += (T[:, 0, 0] - T[:, 1, 1]) * rinv
-            div[:, 1] += (T[:, 0, 1] + T[:, 1, 0]) * rinv
-            if D == 3:
-                div[:, 2] += T[:, 2, 0] * rinv
+        div = _div(S, V, layout, block, div_block)
         return {n: div[:, k] for k, n in enumerate(columns(name, layout.axes))}
     return value
+
+
+def _continuity(S, V, layout, name):
+    """d rho/dt + div(rho v) at each node: the time kernel's derivative of the mass sum
+    plus the divergence of the momentum sum (its trace, and P_r / r in a polar basis);
+    zero up to the time quadrature of the frames."""
+    D = layout.dim
+    div = np.trace(layout.block(S, "dmom").reshape(-1, D, D), axis1=1, axis2=2)
+    rinv = _curvature(S, layout)
+    if rinv is not None:
+        div = div + layout.block(S, "mom")[:, 0] * rinv
+    return {name: (S[:, layout.index["dtmass"]] + div) / V}
+
+
+def _momentum_balance(S, V, layout, name):
+    """d(rho v)/dt - div(sigma - dsigma) - b - t at each node (dsigma = sum m v v, the
+    momentum flux; b, t the body and boundary force densities where the average holds
+    them): zero up to the time quadrature of the frames."""
+    res = layout.block(S, "dtmom") / V[:, None] - _div(S, V, layout, "sig", "dsig") \
+        + _div(S, V, layout, "kin", "dkin")
+    for force in ("body", "wall"):
+        if force in layout.blocks:
+            res = res - layout.block(S, force) / V[:, None]
+    return {n: res[:, k] for k, n in enumerate(columns(name, layout.axes))}
 
 
 def _granular_temperature(S, V, layout, name):
@@ -338,6 +372,26 @@ QUANTITIES = {q.name: q for q in (
              _values(_divergence("kin", "dkin"), "divdsigma"), needs_mass=True, smooth=True,
              unit="{momentum_flux}/{length}",
              help="divergence of the dynamic stress (smoothing kernels only)"),
+    # fields in time (granavg.engine.timing): time derivatives and balance laws
+    Quantity("drho_dt", ("vol", "mass", "dtmass"), "scalar",
+             _values(_per_cell_volume("dtmass"), "drho_dt"), needs_mass=True,
+             in_time=True, unit="{mass}/{length}^3/{time}",
+             help="d rho / dt (time kernels only)"),
+    Quantity("dmomentum_dt", ("vol", "mass", "mom", "dtmom"), "vector",
+             _values(_per_cell_volume("dtmom"), "dmomentum_dt"), needs_mass=True,
+             in_time=True, unit="{momentum_flux}/{length}",
+             help="d(rho v) / dt (time kernels only)"),
+    Quantity("continuity", ("vol", "mass", "mom", "dmass", "dmom", "rinv", "dtmass"),
+             "scalar", _values(_continuity, "continuity"), needs_mass=True, smooth=True,
+             in_time=True, unit="{mass}/{length}^3/{time}",
+             help="the continuity residual d rho/dt + div(rho v) (smoothing and time "
+                  "kernels)"),
+    Quantity("momentum_balance", ("vol", "mass", "mom", "sig", "dsig", "kin", "dkin",
+                                  "rinv", "dtmom"), "vector",
+             _values(_momentum_balance, "momentum_balance"), needs_mass=True, smooth=True,
+             in_time=True, unit="{momentum_flux}/{length}",
+             help="the momentum balance's residual d(rho v)/dt - div(sigma - dsigma) - b "
+                  "- t (smoothing and time kernels)"),
     # micropolar fields (granavg.analysis.spin_balance) and energy
     Quantity("mu", ("cst",), "couple", _values(_per_cell_volume("cst"), "mu"),
              unit="{force}/{length}",
@@ -512,14 +566,22 @@ def needs_body(groups) -> bool:
 
 
 def groups_for(quantities, have_contacts: bool, have_body: bool = False,
-               smooth: bool = False) -> list:
+               smooth: bool = False, in_time: bool = False) -> list:
     """The quantity groups to compute: the requested ones (checked), or all that the
     data allow (without contacts, only those that need none; ``body`` only where the
-    frames carry body forces; the derivatives only with a ``smooth`` kernel)."""
+    frames carry body forces; the derivatives only with a ``smooth`` kernel, the time
+    derivatives only with a time kernel, ``in_time``)."""
     if quantities is None:
         return [g for g, q in QUANTITIES.items()
                 if (have_contacts or not q.contacts) and (have_body or "body" not in q.blocks)
-                and (smooth or not q.smooth)]
+                and (smooth or not q.smooth) and (in_time or not q.in_time)]
+    timeless = [q for q in quantities if q in QUANTITIES and QUANTITIES[q].in_time
+                and not in_time]
+    if timeless:
+        from granavg.engine.timing import names as time_kernels
+        raise ParameterError("quantities", f"{timeless[0]} is a time derivative of the "
+                             "fields: it needs fields smoothed in time ({time_kernel} "
+                             f"{time_kernels()}, with {{time_width}} and {{times}})")
     rough = [q for q in quantities if q in QUANTITIES and QUANTITIES[q].smooth and not smooth]
     if rough:
         from granavg.engine.smoothing import names

@@ -11,6 +11,8 @@ ParaView.
   sectors so that they show as the cylinder they are; every value and error as cell
   data, vectors and tensors also as Cartesian 3- and 9-component arrays (``v``,
   ``sigma``, ...) for glyphs and tensor views.
+- :func:`write_vtk_series`: fields in time as one ``.vtu`` per time in a folder and a
+  ParaView collection (``.pvd``) that opens them as one animation, each at its time.
 
 Nothing is converted: the units are the profiles' (the sidecar's ``columns``).
 """
@@ -92,3 +94,21 @@ def write_vtk(profiles, path) -> Path:
     path = Path(path)
     mesh.write(path, file_format="vtu")
     return path
+
+
+def write_vtk_series(profiles, pvd, folder, name: str) -> Path:
+    """Fields in time as ParaView's time series: ``folder/t<j>.vtu`` per time
+    (:func:`write_vtk`) and the collection ``pvd`` naming each with its time, the files
+    as ``name/t<j>.vtu`` (the folder's final name, beside the collection)."""
+    from xml.sax.saxutils import quoteattr
+
+    folder = Path(folder)
+    rows = []
+    for j, t in enumerate(profiles.times):
+        write_vtk(profiles.at(j), folder / f"t{j:05d}.vtu")
+        rows.append(f'    <DataSet timestep="{float(t)!r}" part="0" '
+                    f'file={quoteattr(f"{name}/t{j:05d}.vtu")}/>')
+    Path(pvd).write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" '
+                         'version="0.1" byte_order="LittleEndian">\n  <Collection>\n'
+                         + "\n".join(rows) + "\n  </Collection>\n</VTKFile>\n")
+    return Path(pvd)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import errno
 import os
+import shutil
 from pathlib import Path
 
 from granavg.errors import ParameterError, literal
@@ -67,6 +68,13 @@ class OutputSet:
         self.writing = suffix
         return self.temps[suffix]
 
+    def temp_dir(self, suffix: str) -> Path:
+        """The temporary name of the directory ``main + suffix``, created (files
+        written into it appear with it at :meth:`commit`)."""
+        path = self.temp(suffix)
+        path.mkdir(exist_ok=True)
+        return path
+
     def __enter__(self) -> "OutputSet":
         missing = []
         parent = self.main.parent
@@ -98,7 +106,10 @@ class OutputSet:
                 _committed.append(self.main)
             except OSError:
                 for path in renamed:                    # none of the set, then
-                    path.unlink(missing_ok=True)
+                    if path.is_dir():
+                        shutil.rmtree(path, ignore_errors=True)
+                    else:
+                        path.unlink(missing_ok=True)
                 raise
         return [self.final(s) for s in order]
 
@@ -117,7 +128,10 @@ class OutputSet:
     def _discard(self):
         for t in self.temps.values():
             try:
-                t.unlink(missing_ok=True)
+                if t.is_dir():
+                    shutil.rmtree(t, ignore_errors=True)
+                else:
+                    t.unlink(missing_ok=True)
             except OSError:
                 pass
         for d in reversed(self.created):

@@ -54,10 +54,12 @@ def read_profiles(path) -> Fields:
     except (KeyError, TypeError, ValueError, AttributeError):
         raise UserError(f"{side}: no ring geometry (rings.edges_m, rings.h_m); average "
                         "again with 'granavg average'") from None
+    in_time = "t" in table.columns
     missing = [c for c in (*rings.coordinates(), "n_frames", "flags") if c not in table.columns]
-    if missing or len(table) != rings.n:
+    n_times = len(table) // rings.n if in_time else 1
+    if missing or len(table) != rings.n * n_times or (in_time and not n_times):
         what = f"column {missing[0]} is missing" if missing else \
-            f"{len(table)} rows for {rings.n} cells"
+            f"{len(table)} rows for {rings.n} cells" + (" at each time" if in_time else "")
         raise UserError(f"{path}: {what} (the table is cut or not granavg's); average "
                         "again with 'granavg average'")
     names = [c for c in table.columns if f"{c}_sem" in table.columns]
@@ -69,18 +71,49 @@ def read_profiles(path) -> Fields:
     if reps.exists():
         try:
             with np.load(reps) as z:
-                parts = json.loads(str(z["parts"])) if "parts" in z.files else None
-                replicates = Replicates(str(z["kind"]), {k: z[k] for k in z.files
-                                                         if k not in ("kind", "parts")}, parts)
+                replicates = _time_replicates(z) if "time_kinds" in z.files else \
+                    _replicates(z, "")
         except (OSError, ValueError, KeyError) as exc:
             raise UserError(f"{reps}: damaged replicates ({exc}); average again") from None
     series = path.with_name(path.name + TIMESERIES)
-    return Fields(rings, {n: table[n].to_numpy() for n in names},
-               {n: table[f"{n}_sem"].to_numpy() for n in names},
-               np.array([f if isinstance(f, str) else "" for f in table["flags"]], dtype=object),
-               int(table["n_frames"].iloc[0]), meta, replicates,
-               table["n_runs"].to_numpy() if "n_runs" in table.columns else None,
-               columns_of(pd.read_csv(series)) if series.exists() else None)
+    shape = (n_times, rings.n) if in_time else (rings.n,)
+    flags = np.array([f if isinstance(f, str) else "" for f in table["flags"]], dtype=object)
+    n_frames = table["n_frames"].to_numpy()
+    times = edges = None
+    if in_time:
+        t = table["t"].to_numpy().reshape(shape)
+        if not np.all(t == t[:, :1]):
+            raise UserError(f"{path}: the rows of one time are not together (column t); "
+                            "the table is damaged")
+        times, n_frames = t[:, 0], n_frames.reshape(shape)[:, 0]
+        if "t_lo" in table.columns and "t_hi" in table.columns:
+            edges = np.r_[table["t_lo"].to_numpy()[::rings.n], table["t_hi"].to_numpy()[-1]]
+    return Fields(rings, {n: table[n].to_numpy().reshape(shape) for n in names},
+                  {n: table[f"{n}_sem"].to_numpy().reshape(shape) for n in names},
+                  flags.reshape(shape), n_frames if in_time else int(n_frames[0]), meta,
+                  replicates,
+                  table["n_runs"].to_numpy().reshape(shape) if "n_runs" in table.columns
+                  else None,
+                  columns_of(pd.read_csv(series)) if series.exists() else None, times, edges)
+
+
+def _replicates(z, prefix: str):
+    """The replicates stored under ``prefix`` in an npz archive (None where none)."""
+    kind = f"{prefix}kind"
+    if kind not in z.files:
+        return None
+    parts = json.loads(str(z[f"{prefix}parts"])) if f"{prefix}parts" in z.files else None
+    values = {k[len(prefix):]: z[k] for k in z.files if k.startswith(prefix)
+              and k not in (kind, f"{prefix}parts")}
+    if not prefix:
+        values = {k: v for k, v in values.items() if "/" not in k}
+    return Replicates(str(z[kind]), values, parts)
+
+
+def _time_replicates(z) -> list:
+    """Fields in time: one set of replicates per time (``t<j>/`` in the archive)."""
+    n = len(json.loads(str(z["time_kinds"])))
+    return [_replicates(z, f"t{j}/") for j in range(n)]
 
 
 def write_profiles(profiles: Fields, path, parquet: bool = False) -> Path:
@@ -112,10 +145,23 @@ def write_profile_files(profiles: Fields, outputs: OutputSet, parquet: bool = Fa
     if profiles.replicates is not None:
         with open(outputs.temp(REPLICATES), "wb") as fh:
             reps = profiles.replicates
-            parts = {"parts": json.dumps(reps.parts)} if reps.parts else {}
-            np.savez(fh, kind=reps.kind, **parts, **reps.values)
+            if isinstance(reps, list):          # fields in time: one set per time
+                stored = {"time_kinds": json.dumps([r.kind if r else None for r in reps])}
+                for j, r in enumerate(reps):
+                    if r is not None:
+                        stored.update(_stored(r, f"t{j}/"))
+                np.savez(fh, **stored)
+            else:
+                np.savez(fh, **_stored(reps, ""))
     if profiles.series is not None:
         write_csv(outputs.temp(TIMESERIES), profiles.series, "%.8g")
+
+
+def _stored(reps: Replicates, prefix: str) -> dict:
+    """One set of replicates as npz entries under ``prefix``."""
+    parts = {f"{prefix}parts": json.dumps(reps.parts)} if reps.parts else {}
+    return {f"{prefix}kind": reps.kind, **parts,
+            **{f"{prefix}{k}": v for k, v in reps.values.items()}}
 
 
 def write_csv(path, columns: dict, float_format: str) -> None:

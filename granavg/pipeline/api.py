@@ -26,9 +26,10 @@ DUMP_OPTIONS = ("density", "gravity", "fmt", "atom_map", "contact_map", "wall_ty
 
 
 def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=None,
-            kernel=None, width=None, t_min=None, block_time=None, branch="contact",
-            sectors="auto", workers=None, scheduler=None, progress=False,
-            check_cells=None, **options) -> Fields:
+            kernel=None, width=None, t_min=None, t_max=None, block_time=None,
+            windows=None, window_frames=None, time_kernel=None, time_width=None,
+            times=None, branch="contact", sectors="auto", workers=None, scheduler=None,
+            progress=False, check_cells=None, **options) -> Fields:
     """Time-averaged continuum fields of DEM data over cells (Eqs. 1-7 of Luding et al.
     2001, with a smoothing kernel their coarse-grained forms), with standard errors.
 
@@ -54,9 +55,18 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
         A smoothing kernel (``exact``, the default, or one of
         :func:`granavg.engine.smoothing.registry`) and its width in the data's length
         unit: fields at the cells' centres, with their gradients.
-    t_min, block_time : float, optional
-        Average frames with t >= t_min; base time blocks of the errors' blocking
-        analysis (default one frame interval).
+    t_min, t_max : float, optional
+        Average the frames with t_min <= t <= t_max.
+    block_time : float, optional
+        Base time blocks of the errors' blocking analysis (default one frame interval).
+    windows, window_frames : optional
+        Fields in time: one per window of this length of time, or of this many frames
+        (:mod:`granavg.engine.timing`).
+    time_kernel, time_width, times : optional
+        Fields in time smoothed by a time kernel (``gauss``: width its standard
+        deviation, cut at 3 widths; ``lucy``: width its half-length) at ``times``
+        (START, STOP, STEP), with their time derivatives and, with a smoothing
+        ``kernel`` in space, the residuals of the continuity and momentum balance.
     branch : {"contact", "paper"}
         Where the branch vectors of Eqs. 5 and 7 end.
     sectors : "auto", int or None
@@ -77,8 +87,9 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
     Returns
     -------
     Fields
-        Values and standard errors on the cells' named axes, with units and the
-        sidecar's metadata (:meth:`~granavg.engine.fields.Fields.to_xarray`,
+        Values and standard errors on the cells' named axes (and ``time``, for fields in
+        time), with units and the sidecar's metadata
+        (:meth:`~granavg.engine.fields.Fields.to_xarray`,
         :meth:`~granavg.engine.fields.Fields.to_pandas`,
         :meth:`~granavg.engine.fields.Fields.plot`).
 
@@ -96,9 +107,12 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
     unknown = sorted(set(options) - set(DUMP_OPTIONS))
     if unknown:
         raise ParameterError(unknown[0], "{param}: not an option of granavg.average")
+    time = {k: v for k, v in dict(t_max=t_max, windows=windows, window_frames=window_frames,
+                                  time_kernel=time_kernel, time_width=time_width,
+                                  times=times).items() if v is not None}
     common = dict(quantities=quantities, kernel=kernel, width=width, t_min=t_min,
                   block_time=block_time, branch=branch, sectors=sectors,
-                  check_cells=check_cells)
+                  check_cells=check_cells, time=time or None)
     if workers is not None and workers < 1:
         raise ParameterError("workers", f"{{param}} {workers}: must be >= 1 (leave it out to "
                              "average in this process)")
@@ -114,7 +128,7 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
         return average_frames(source, smooth(cells, kernel, width), progress=progress,
                               rho_p=options.get("density"), quantities=quantities,
                               t_min=t_min or 0.0, block_time=block_time, branch=branch,
-                              sectors=sectors)
+                              sectors=sectors, **time)
     runs = [source] if isinstance(source, (str, os.PathLike)) and Path(source).is_dir() \
         else list(source) if isinstance(source, (list, tuple)) else []
     if runs:

@@ -26,12 +26,22 @@ def cell_options() -> list:
 
 def catalogues() -> dict:
     """The registries in words, for the command line's help: its placeholders
-    ``<quantities>``, ``<kernels>``, ``<widths>`` and ``<default kernel>``."""
-    from granavg.engine import smoothing
+    ``<quantities>``, ``<kernels>``, ``<widths>``, ``<default kernel>`` and ``<time
+    kernels>``."""
+    from granavg.engine import smoothing, timing
     from granavg.engine.quantities import catalogue
 
     return {"<quantities>": catalogue(), "<kernels>": smoothing.catalogue(),
-            "<widths>": smoothing.widths(), "<default kernel>": smoothing.DEFAULT}
+            "<widths>": smoothing.widths(), "<default kernel>": smoothing.DEFAULT,
+            "<time kernels>": timing.catalogue()}
+
+
+def time_options(o) -> dict:
+    """The options of the fields in time (:data:`granavg.engine.timing.OPTIONS`) that
+    were given."""
+    from granavg.engine.timing import OPTIONS
+
+    return {k: o[k] for k in OPTIONS if o.get(k) is not None}
 
 
 def names(text):
@@ -52,7 +62,7 @@ def simulate(o) -> str:
         average=o["average"], t_min=o["t_min"], block_time=o["block_time"],
         quantities=names(o["quantities"]), seeds=o["seeds"], workers=o["workers"],
         scheduler=o["scheduler"], progress=_progress(o), kernel=o["kernel"],
-        width=o["width"])
+        width=o["width"], time=time_options(o))
 
 
 def averaging(o, **extra) -> dict:
@@ -87,7 +97,7 @@ def average(o):
     return average_to_file(o["run_dir"], o["out"], parquet=o["parquet"], netcdf=o["netcdf"],
                            vtk=o["vtk"], workers=o["workers"], scheduler=o["scheduler"],
                            atoms=o["atoms"], contacts=o["contacts"], progress=_progress(o),
-                           **averaging(o, width=o["width"]))
+                           **averaging(o, width=o["width"]), **time_options(o))
 
 
 def scales(o):

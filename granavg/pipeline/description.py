@@ -92,6 +92,9 @@ class RunAverage:
         Quantity groups (:data:`granavg.engine.quantities.QUANTITIES`).
     t_min, block_time : float
         Start of the average and base block length, s.
+    time : dict
+        The time axis' options (:func:`granavg.engine.api.averager`: ``t_max``,
+        ``windows``, ``time_kernel``, ...).
     """
 
     manifest: dict
@@ -103,10 +106,12 @@ class RunAverage:
     branch: str = "contact"
     body_forces: list = field(default_factory=list)
     sectors: object = "auto"
+    time: dict = field(default_factory=dict)
 
     @classmethod
     def of(cls, manifest: dict, groups, *, t_min=None, block_time=None, branch="contact",
-           sectors="auto", kernel=None, width=None, cells=None, **options) -> "RunAverage":
+           sectors="auto", kernel=None, width=None, cells=None, time=None,
+           **options) -> "RunAverage":
         """The average of the run ``manifest`` describes, options resolved. ``cells``:
         cells (:mod:`granavg.cells`), or options of the cells (a dict, or as keywords
         ``options``; :func:`granavg.engine.cells.from_options`: ``bins`` equal rings or
@@ -127,7 +132,8 @@ class RunAverage:
         block_time = block_time or max(derived["dump_interval_s"],
                                        (derived["t_end_s"] - t_min) / MAX_BLOCKS)
         return cls(manifest, rings, list(groups), t_min, block_time, branch=branch,
-                   body_forces=scene_body_forces(manifest), sectors=sectors)
+                   body_forces=scene_body_forces(manifest), sectors=sectors,
+                   time={k: v for k, v in (time or {}).items() if v is not None})
 
     def meta(self, engine: dict) -> dict:
         """The sidecar's description of this average: the engine's (``engine``: its
@@ -153,6 +159,7 @@ class RunAverage:
             frames = Prefetched(frames)
         avg = averager(frames, self.geometry, rho_p=scene["rho_p"], quantities=self.groups,
                        t_min=self.t_min, block_time=self.block_time, units=SI,
-                       branch=self.branch, sectors=self.sectors, series=state)
+                       branch=self.branch, sectors=self.sectors, series=state,
+                       interval=self.manifest["derived"]["dump_interval_s"], **self.time)
         avg.meta = self.meta(avg.meta)
         return avg

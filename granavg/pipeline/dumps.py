@@ -34,7 +34,7 @@ def average_dumps(atoms, contacts=None, *, progress=None, **options) -> Fields:
 def dump_averager(atoms, contacts=None, *, cells=None, fmt=None, density=None,
                   quantities=None, t_min=None, block_time=None, gravity=None,
                   branch="contact", sectors="auto", check_cells=None, kernel=None,
-                  width=None, scan_early=True, **source_options):
+                  width=None, scan_early=True, time=None, **source_options):
     """The averager of anyone's dumps (:func:`granavg.engine.api.averager`) and the
     frame source it reads (whose ``dropped`` counts rows left out).
 
@@ -67,6 +67,9 @@ def dump_averager(atoms, contacts=None, *, cells=None, fmt=None, density=None,
     check_cells : callable, optional
         Called with the cells before any frame is averaged (e.g. that an output can hold
         them); raises to refuse.
+    time : dict, optional
+        The time axis' options of :func:`granavg.engine.api.averager` (``t_max``,
+        ``windows``, ``window_frames``, ``time_kernel``, ``time_width``, ``times``).
     scan_early : bool
         Pass over the frames before ``t_min`` by scanning, their rows not parsed, where
         the format can (LAMMPS dumps whose times are time step x dt); False reads them
@@ -109,7 +112,7 @@ def dump_averager(atoms, contacts=None, *, cells=None, fmt=None, density=None,
                        "name them with {units} (LAMMPS style: si, lj, ...)"), atoms)
     avg = averager(Prefetched(frames), cells_of_options, rho_p=density, quantities=quantities,
                    t_min=t_min or 0.0, block_time=block_time, units=frames.units,
-                   branch=branch, sectors=sectors)
+                   branch=branch, sectors=sectors, **(time or {}))
     avg.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
                                else None},
                      "inputs": {"format": frames.format_name,

@@ -69,17 +69,28 @@ class InSituAverage:
                        kernel, width)
         resolvable(rings, 0.5 * scene_diameters(scene.to_dict()), warn=False)
 
+    @staticmethod
+    def check_time(t_min, time) -> None:
+        """Refuse, before the run, time options that do not go together
+        (:func:`granavg.engine.timing.axis`; the dump interval is checked with the
+        first frames)."""
+        from granavg.engine.timing import axis
+
+        axis(t_min=t_min or 0.0, **time, interval=1.0 if time.get("window_frames") else None)
+
     def __init__(self, manifest: dict):
         contacts = manifest["scene"].get("contacts", True)
         opts = manifest["average"]
         kernel = opts.get("kernel")
+        time = opts.get("time") or {}
         self.groups = groups_for(opts.get("quantities"), contacts,
                                  bool(scene_body_forces(manifest)),
-                                 smooth=bool(kernel) and get_kernel(kernel).smooth_edge)
+                                 smooth=bool(kernel) and get_kernel(kernel).smooth_edge,
+                                 in_time=bool(time.get("time_kernel")))
         specs = [RunAverage.of(manifest, self.groups, bins=n, t_min=opts.get("t_min_s"),
                                block_time=opts.get("block_time_s"),
                                branch=opts.get("branch", "contact"), kernel=kernel,
-                               width=opts.get("width")) for n in opts["bins"]]
+                               width=opts.get("width"), time=time) for n in opts["bins"]]
         self.body = WithBodyForces((), specs[0].body_forces if needs_body(self.groups) else [],
                                    specs[0].geometry, manifest["scene"]["rho_p"])
         self.averages = {n: spec.averager(series=k == 0)  # one time series serves all

@@ -21,7 +21,7 @@ from granavg.pipeline.description import RunAverage, scene_body_forces
 def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms=None,
                  contacts=None, steps=None, branch="contact", sectors="auto",
                  check_cells=None, kernel=None, width=None, fed=False, cells=None,
-                 **options):
+                 time=None, **options):
     """The :class:`~granavg.engine.cell_average.CellAverage` of a run directory, its frames
     read lazily (only those with time steps in ``steps = (first, last)`` if given).
 
@@ -56,6 +56,9 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
         The cells (:mod:`granavg.cells`), or options of the cells in the run's annulus
         (``bins`` equal rings between R_i and R_o, or their ``edges`` in m;
         :meth:`~granavg.pipeline.description.RunAverage.of`); default 20 rings.
+    time : dict, optional
+        The time axis' options of :func:`granavg.engine.api.averager` (``t_max``,
+        ``windows``, ``window_frames``, ``time_kernel``, ``time_width``, ``times``).
     **options
         Options of the cells, as keywords (``bins=60``).
     """
@@ -69,7 +72,8 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
         contacts = run_dir / f"contacts.{ext}"
     body = scene_body_forces(manifest)
     smooth_edge = kernel not in (None, "exact") and get_kernel(kernel).smooth_edge
-    groups = groups_for(quantities, contacts is not None, bool(body), smooth=smooth_edge)
+    groups = groups_for(quantities, contacts is not None, bool(body), smooth=smooth_edge,
+                        in_time=bool((time or {}).get("time_kernel")))
     atom_cols, contact_cols = needed_columns(groups)
     if needs_body(groups):                # computed from the disks' velocities, not read
         atom_cols = {**{c: g for c, g in atom_cols.items() if c not in ("bx", "by")},
@@ -83,7 +87,7 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
         if need_contacts else None
     spec = RunAverage.of(manifest, groups, t_min=t_min, block_time=block_time,
                          branch=branch, sectors=sectors, kernel=kernel, width=width,
-                         cells=cells, **options)
+                         cells=cells, time=time, **options)
     if check_cells is not None:
         check_cells(spec.geometry)
     spec.files = {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None}

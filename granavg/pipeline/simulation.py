@@ -14,10 +14,12 @@ from granavg.pipeline.insitu import InSituAverage
 log = logging.getLogger(__name__)
 
 
-def simulate_run(scene, out, *, average=None, kernel=None, width=None, **options) -> Path:
+def simulate_run(scene, out, *, average=None, kernel=None, width=None, time=None,
+                 **options) -> Path:
     """:func:`granavg.sim.simulate.simulate`, averaging in situ over the ring counts
     ``average`` (if given) with :class:`~granavg.pipeline.insitu.InSituAverage`, with a
-    smoothing ``kernel`` of ``width`` (m) if given (checked before the run)."""
+    smoothing ``kernel`` of ``width`` (m) and the time axis ``time`` (options of
+    :func:`granavg.engine.timing.axis`) if given (checked before the run)."""
     from granavg.sim.simulate import simulate
 
     if kernel not in (None, "exact") or width is not None:
@@ -25,15 +27,21 @@ def simulate_run(scene, out, *, average=None, kernel=None, width=None, **options
             raise ParameterError("kernel", "{param} and {width} smooth the in-situ "
                                  "averages: give {average} N with them")
         InSituAverage.check_kernel(scene, average, kernel, width)
+    if time:
+        if not average:
+            raise ParameterError(next(iter(time)), "{param} resolves the in-situ averages "
+                                 "in time: give {average} N with it")
+        InSituAverage.check_time(options.get("t_min"), time)
     return simulate(scene, out, average=average,
                     insitu=InSituAverage if average else None,
-                    kernel=None if kernel == "exact" else kernel, width=width, **options)
+                    kernel=None if kernel == "exact" else kernel, width=width,
+                    time=time or None, **options)
 
 
 def simulate_command(*, preset="demo", overrides=(), out, np=1, omp=1, resume=False,
                      start=None, engine="lammps", average=None, t_min=None, block_time=None,
                      quantities=None, seeds=None, workers=2, scheduler=None,
-                     progress=None, kernel=None, width=None) -> str:
+                     progress=None, kernel=None, width=None, time=None) -> str:
     """The ``simulate`` command: one run, a resumed run, or ``seeds`` realisations."""
     require("lammps", what="granavg simulate")
     if seeds is not None or scheduler:
@@ -52,7 +60,7 @@ def simulate_command(*, preset="demo", overrides=(), out, np=1, omp=1, resume=Fa
     scene = scene_preset(preset).with_overrides(overrides)
     if seeds is not None:
         from granavg.sim.realisations import simulate_ensemble
-        if np != 1 or omp != 1 or start or engine != "lammps" or average:
+        if np != 1 or omp != 1 or start or engine != "lammps" or average or time:
             raise ParameterError("seeds", "{param} runs each realisation as one "
                                  "single-threaded LAMMPS task; drop {np}, {omp}, {start}, "
                                  "{engine} and {average}")
@@ -62,4 +70,4 @@ def simulate_command(*, preset="demo", overrides=(), out, np=1, omp=1, resume=Fa
     return str(simulate_run(scene, out, np_ranks=np, omp_threads=omp, progress=progress,
                             preset=preset, start=start, engine=engine, average=average,
                             t_min=t_min, block_time=block_time, quantities=quantities,
-                            kernel=kernel, width=width))
+                            kernel=kernel, width=width, time=time))

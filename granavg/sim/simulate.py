@@ -62,7 +62,8 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
              progress: bool | None = None, preset: str | None = None, start=None,
              engine: str = "lammps", average=None, t_min: float | None = None,
              block_time: float | None = None, quantities=None, insitu=None,
-             kernel: str | None = None, width: float | None = None) -> Path:
+             kernel: str | None = None, width: float | None = None,
+             time: dict | None = None) -> Path:
     """Run a new Couette simulation into the empty directory ``out``.
 
     Parameters
@@ -146,7 +147,8 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         log.info("%s", trade.describe(manifest["forecast"]))
     manifest["average"] = {"bins": average, "t_min_s": t_min, "block_time_s": block_time,
                            "quantities": quantities,
-                           **({"kernel": kernel, "width": width} if kernel else {})} \
+                           **({"kernel": kernel, "width": width} if kernel else {}),
+                           **({"time": time} if time else {})} \
         if average else None
     if average:
         manifest["files"].update(insitu.files(average))
