@@ -21,6 +21,7 @@ import numpy as np  # noqa: E402
 
 from granavg.analysis.balance import balance  # noqa: E402
 from granavg.analysis.spin_balance import has_couples, spin_balance  # noqa: E402
+from granavg.analysis.time_balance import time_row, time_summary  # noqa: E402
 from granavg.engine.quantities import columns  # noqa: E402
 
 OKABE_ITO = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000"]
@@ -172,6 +173,13 @@ def analyze_fields(profiles, names, closed=False, arm="contact") -> dict:
     (:func:`spin_summary`; ``arm``: the contact law's lever arm for the torque)."""
     out = {"kind": "fields", "closed": bool(closed), "profiles": []}
     for p, name in zip(profiles, names):
+        if p.in_time:                      # the balance laws in time instead
+            out["profiles"].append({
+                "profile": str(name), "geometry": p.cells.describe(), "n_cells": p.cells.n,
+                "units": p.meta.get("units"), "n_times": len(p.times),
+                "n_frames": (p.meta.get("frames") or {}).get("n"),
+                "time_balance": time_summary(p)})
+            continue
         full, bare = balance(p, closed=closed), balance(p, terms=(), closed=closed)
         occupied = np.asarray(p.values.get("nu", np.ones(p.cells.n))) > 0
         res = np.abs(full["residual"])[:, occupied]
@@ -219,12 +227,17 @@ def _spin_row(p, s, k, out, figures: bool = True) -> str:
 
 def write_field_report(summary, profiles, out, figures: bool = True) -> Path:
     """Figures (PNG; none without ``figures``), ``summary.json`` and a small
-    ``report.html`` into ``out``."""
+    ``report.html`` into ``out``; fields in time with their balance laws in time
+    (:func:`~granavg.analysis.time_balance.time_row`)."""
     out = Path(out)
     if figures:
         (out / "figures").mkdir(parents=True, exist_ok=True)
     rows = []
     for k, (p, s) in enumerate(zip(profiles, summary["profiles"])):
+        if "time_balance" in s:
+            rows.append(time_row(p, s, out / "figures" / f"time{k}.png", figures,
+                                 _saved))
+            continue
         res = {"residual": np.array(s["balance"]["residual"]),
                "residual_err": np.array(s["balance"]["residual_err"]),
                "terms": s["balance"]["terms"]}

@@ -438,8 +438,9 @@ class CellAverage:
         series = None
         if self.series is not None and self.series.rows:
             series = self.series.columns()
-            meta["stationarity"] = stationarity(series, self.t_min, self.series.judged)
-            warn_if_drifting(meta["stationarity"], self.t_min)
+            if self.axis.kind == "whole":     # fields in time follow a change, by design
+                meta["stationarity"] = stationarity(series, self.t_min, self.series.judged)
+                warn_if_drifting(meta["stationarity"], self.t_min)
         self.results = Fields(self.cells, vals, sem, ring_flags, acc.n_frames, meta,
                               replicates, series=series)
         return self.results

@@ -33,6 +33,8 @@ def combine_runs(profiles: list, names: list) -> Fields:
     import pandas as pd
 
     first = profiles[0]
+    if first.in_time:
+        return _combine_in_time(profiles, names)
     for p, name in zip(profiles[1:], names[1:]):
         if p.cells.describe() != first.cells.describe():
             raise UserError(f"{name}: its rings differ from {names[0]}'s; an ensemble needs "
@@ -69,6 +71,23 @@ def combine_runs(profiles: list, names: list) -> Fields:
     return Fields(first.cells, values, sem, flags, int(sum(p.n_frames for p in profiles)),
                     meta, reps, n_runs, columns_of(pd.concat(series, ignore_index=True))
                     if series else None)
+
+
+def _combine_in_time(profiles: list, names: list) -> Fields:
+    """Ensemble fields in time: :func:`combine_runs` at each time (the runs' fields at
+    the same times: the same windows or kernel times)."""
+    first = profiles[0]
+    for p, name in zip(profiles[1:], names[1:]):
+        if not p.in_time or len(p.times) != len(first.times) or \
+                not np.allclose(p.times, first.times, rtol=0, atol=1e-9 * np.ptp(first.times)):
+            raise UserError(f"{name}: its fields are not at {names[0]}'s times; an ensemble "
+                            "in time needs every run averaged with the same windows or "
+                            "times (the same t_min, windows or times)")
+    each = [combine_runs([p.at(j) for p in profiles], names) for j in range(len(first.times))]
+    meta = {**each[0].meta, "time": first.meta.get("time", {}),
+            "frames": {**first.meta.get("frames", {}),
+                       "n": int(sum(p.meta.get("frames", {}).get("n", 0) for p in profiles))}}
+    return Fields.stack(each, first.times, first.time_edges, meta)
 
 
 def _within_run_error(sems, values) -> np.ndarray:

@@ -269,7 +269,11 @@ class Fields:
         if name not in self.values:
             raise KeyError(f"{name!r} is not among the fields ({', '.join(self.values)})")
         if self.in_time and time is not None:
-            return self.at(self.nearest(time)).plot(name, ax)
+            j = self.nearest(time)
+            ax = self.at(j).plot(name, ax)
+            when = f"t = {self.times[j]:.4g} {self.unit_system.unit('{time}')}"
+            ax.set_title(f"{ax.get_title()}, {when}" if ax.get_title() else when)
+            return ax
         if not self.in_time and time is not None:
             raise ValueError("these fields have no time axis: leave out time")
         unit = self.units[name]

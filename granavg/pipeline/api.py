@@ -167,6 +167,8 @@ def average_runs(run_dirs, average_one=average_run, **options) -> Fields:
         log.warning("some runs share a seed (%s): they are not independent realisations "
                     "unless their packings differ otherwise", seeds)
     combined = combine_runs(profiles, [str(d) for d in run_dirs])
+    if combined.in_time:
+        return combined
     warn_if_drifting(ensemble_stationarity([r["stationarity"] for r in combined.meta["runs"]]),
                      combined.meta.get("frames", {}).get("t_min_s", float("nan")))
     return combined

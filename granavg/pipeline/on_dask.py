@@ -25,21 +25,23 @@ from granavg.pipeline.runs import run_averager
 log = logging.getLogger(__name__)
 
 
-def chunk_windows(manifest: dict, t_min: float, block_time: float, n_chunks: int) -> list:
-    """Time-step windows ``(first, last)`` of a run's dump frames with t >= t_min
-    (:func:`cut_windows`)."""
+def chunk_windows(manifest: dict, t_min: float, block_time: float, n_chunks: int,
+                  t_max: float | None = None) -> list:
+    """Time-step windows ``(first, last)`` of a run's dump frames with t_min <= t <=
+    t_max (:func:`cut_windows`)."""
     d = manifest["derived"]
     steps = np.arange(d["first_dump_step"], d["n_shear_steps"] + 1, d["dump_every_steps"])
-    return cut_windows(steps, steps * d["dt_s"], t_min, block_time, n_chunks)
+    return cut_windows(steps, steps * d["dt_s"], t_min, block_time, n_chunks, t_max)
 
 
-def cut_windows(steps, times, t_min: float, block_time: float, n_chunks: int) -> list:
+def cut_windows(steps, times, t_min: float, block_time: float, n_chunks: int,
+                t_max: float | None = None) -> list:
     """Time-step windows ``(first, last)`` of the frames (``steps`` at ``times``) with
-    t >= t_min, cut only at block boundaries into at most ``n_chunks`` parts of about
-    equal frame counts."""
+    t_min <= t <= t_max, cut only at block boundaries into at most ``n_chunks`` parts of
+    about equal frame counts."""
     steps, times = np.asarray(steps), np.asarray(times, float)
-    steps = steps[times >= t_min]
-    times = times[times >= t_min]
+    keep = (times >= t_min) & (times <= (np.inf if t_max is None else t_max))
+    steps, times = steps[keep], times[keep]
     if len(steps) == 0:
         return []
     acc = CellAccumulator((1, 1), t_min, block_time)
@@ -84,7 +86,7 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     """
     base = run_averager(run_dir, fed=True, **options)      # validates; reads no frame
     windows = chunk_windows(base.meta["run_manifest"], base.t_min, base.block_time,
-                            chunks or 2 * workers)
+                            chunks or 2 * workers, base.t_max)
     with cluster_client(workers, scheduler, _threads_each(workers)) if client is None else \
             _given(client) as dask_jobs:
         futures = [dask_jobs.client.submit(_chunk, str(run_dir), w, options, pure=False)
@@ -103,6 +105,22 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     return profiles
 
 
+def resolved_time(base, time: dict | None) -> dict | None:
+    """The time options a worker's averager needs, resolved by the client's ``base``
+    (which read the first frames): windows of frames as their length, the frames'
+    interval (a chunk may hold a single frame)."""
+    if not time:
+        return time
+    axis = base.axis
+    out = dict(time)
+    if axis.kind == "windows":
+        out.pop("window_frames", None)
+        out["windows"] = axis.length
+    if getattr(axis, "interval", None):
+        out["interval"] = axis.interval
+    return out
+
+
 @contextmanager
 def _given(client):
     """A :class:`~granavg.dask_cluster.Cluster` of a client the caller owns (not closed
@@ -116,7 +134,7 @@ def _threads_each(workers: int) -> int:
 
 
 def series_windows(atoms, contacts, time_of, t_min: float, block_time: float,
-                   n_chunks: int) -> list | None:
+                   n_chunks: int, t_max: float | None = None) -> list | None:
     """Windows ``(first, last)`` of time steps that split a ``dump.*`` series into runs
     of whole files, from each file's first header alone (no row read): the number in
     each name must be that frame's time step, as LAMMPS names them (and the contact
@@ -136,7 +154,8 @@ def series_windows(atoms, contacts, time_of, t_min: float, block_time: float,
         log.info("%s: the numbers in the file names are not their time steps; the frames "
                  "are listed by a scan", atoms)
         return None
-    windows = cut_windows(steps, [time_of(h) for h in heads], t_min, block_time, n_chunks)
+    windows = cut_windows(steps, [time_of(h) for h in heads], t_min, block_time, n_chunks,
+                          t_max)
     starts = [w[0] for w in windows[1:]]
     return [(lo, nxt - 1) for (lo, _), nxt in zip(windows, starts)] + \
         [(windows[-1][0], sys.maxsize)] if windows else []
@@ -181,20 +200,21 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
     base.frames = ()                                  # (and stops its reader thread)
     n_chunks = chunks or 2 * workers
     by_file = series_windows(atoms, contacts, frames.time, base.t_min, base.block_time,
-                             n_chunks)
+                             n_chunks, base.t_max)
     listed_by = "file names" if by_file is not None else "header scan"
     if by_file is not None:                  # each worker opens its own files alone
         windows, named = by_file, {"named_steps": True}
     else:
         heads = list(DumpReader(atoms, [], headers_only=True))     # no row is parsed
         windows = cut_windows([f.timestep for f in heads], [frames.time(f) for f in heads],
-                              base.t_min, base.block_time, n_chunks)
+                              base.t_min, base.block_time, n_chunks, base.t_max)
         named = {}
     if not windows:
         raise ParameterError("t_min", f"no frame at t >= {base.t_min:g}, the start of the "
                              "average ({param}); lower it")
     fixed = dict(options, quantities=base.groups, block_time=base.block_time,
-                 check_cells=None, **named)           # checked above
+                 check_cells=None, time=resolved_time(base, options.get("time")),
+                 **named)                             # checked above
     with cluster_client(workers, scheduler, _threads_each(workers)) as dask_jobs:
         futures = [dask_jobs.client.submit(_dump_chunk, str(atoms),
                                            str(contacts) if contacts else None, w, fixed,

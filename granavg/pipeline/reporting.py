@@ -132,8 +132,8 @@ def analyze_command(profiles, out, density_series=(), closed=None, arm="contact"
                              "directory; choose a new {param} (reports are never "
                              "overwritten)")
     inputs = [read_profiles(p) for p in profiles]
-    paper = len(inputs) == 2 and all(isinstance(p.cells, Rings) and (p.meta or {}).get(
-        "run_manifest") for p in inputs)
+    paper = len(inputs) == 2 and all(isinstance(p.cells, Rings) and not p.in_time and (
+        p.meta or {}).get("run_manifest") for p in inputs)
     if not paper:
         if density_series:
             raise ParameterError("density_series", "{param} needs two ring profiles of a "
