@@ -25,7 +25,8 @@ def runs(small_run, tmp_path_factory):
     start = small_run / "prepared.data"
     out = {}
     for name, extra, np_, cli in (("serial", [], 1, []), ("mpi2", ["dumps=0"], 2, []),
-                                  ("nu_v", ["dumps=0"], 1, ["--quantities", "nu,v"])):
+                                  ("nu_v", ["dumps=0"], 1, ["--quantities", "nu,v"]),
+                                  ("windows", [], 1, ["--windows", "1.0", "--t-max", "4.5"])):
         out[name] = tmp_path_factory.mktemp(name) / "run"
         proc = run_cli(*small_cell_args(out[name], *CELL, *extra, np=np_), "--start", start,
                        *AVERAGE, *cli)
@@ -48,6 +49,24 @@ def test_in_situ_equals_averaging_the_dumps_of_the_same_run(runs):
     assert list(a.step) == list(b.step) and len(a) > 60
     for col in ("C", "C_bulk", "rattler_fraction", "P_bulk_Pa", "psi6_bulk", "ke_J"):
         assert np.allclose(a[col], b[col], rtol=1e-6, atol=1e-12), col
+
+
+def test_in_situ_windows_equal_the_windows_of_the_dumps(runs):
+    """Fields in time in situ: the same windows as averaging the run's dumps with the
+    same options (to the dumps' rounding)."""
+    insitu = read_profiles(runs["windows"] / "profiles_8.csv")
+    dumps = average_run(runs["windows"], bins=8, t_min=1.5, block_time=0.35,
+                        time={"windows": 1.0, "t_max": 4.5}, progress=False)
+    assert insitu.dims == ("time", "r") and list(insitu.times) == [2.0, 3.0, 4.0]
+    # the frames in [1.5, 2.5), [2.5, 3.5) and [3.5, 4.5] by their times (time step x dt)
+    t = np.array(dumps.timeseries.t_s)
+    expected = [np.sum((t >= 1.5) & (t < 2.5)), np.sum((t >= 2.5) & (t < 3.5)),
+                np.sum((t >= 3.5) & (t <= 4.5))]
+    assert list(insitu.n_frames) == list(dumps.n_frames) == expected
+    assert 19 <= min(expected) <= max(expected) <= 21
+    for q, v in dumps.values.items():
+        scale = np.nanmax(np.abs(v)) + 1e-300
+        assert np.nanmax(np.abs(insitu.values[q] - v)) < 1e-8 * scale, q
 
 
 def test_two_ranks_write_no_dumps_and_the_same_manifest(runs):

@@ -100,8 +100,9 @@ def momentum(p) -> dict | None:
         "holds" if ratio <= MOMENTUM_TOLERANCE else "violated"
     unit = p.units.get(columns("momentum_balance", p.cells.axes)[0], "")
     shown = ", ".join(f"{k} {v:.4g}" for k, v in size.items())
+    per_time = [float(np.nanmax(r)) if np.any(np.isfinite(r)) else float("nan") for r in rel]
     return {"ratio": ratio, "bulk_nodes": int(np.sum(bulk)), "terms": size,
-            "per_time": np.nanmax(rel, axis=1).tolist() if np.any(bulk) else [],
+            "per_time": per_time,
             "claim": _entry(
                 "momentum balance in time: d(rho v)/dt = div(sigma - dsigma) + b + t at "
                 "bulk nodes", result,

@@ -93,6 +93,14 @@ class Fields:
         return (len(self.times), *own) if self.in_time else own
 
     @property
+    def frames_averaged(self) -> int:
+        """The frames averaged: :attr:`n_frames`, or for fields in time every frame that
+        fell in some time (``meta["frames"]["n"]``)."""
+        if not self.in_time:
+            return int(self.n_frames)
+        return int((self.meta.get("frames") or {}).get("n", np.max(self.n_frames)))
+
+    @property
     def in_time(self) -> bool:
         """Whether the fields have a time axis (:attr:`times`)."""
         return self.times is not None

@@ -62,8 +62,7 @@ def average_to_file(run_dirs, out, *, parquet=False, netcdf=False, vtk=False, wo
                 field_files.write_netcdf(profiles, outputs.temp(".nc"))
         write_profile_files(profiles, outputs, parquet=parquet)
         outputs.commit()
-    frames = profiles.meta["frames"]["n"] if profiles.in_time else profiles.n_frames
     at = f" at {len(profiles.times)} times" if profiles.in_time else ""
     log.info("%d %s%s x %d frames -> %s (+ %s.json)", profiles.cells.n, profiles.cells.kind,
-             at, frames, out, out.name)
+             at, profiles.frames_averaged, out, out.name)
     return out

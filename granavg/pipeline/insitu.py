@@ -125,5 +125,5 @@ class InSituAverage:
             paths.append(write_profiles(profiles, profile_path(out, n)))
             warn_if_inertial(profiles)
             log.info("in-situ profiles over %d rings: %s (%d frames)", n, paths[-1],
-                     profiles.n_frames)
+                     profiles.frames_averaged)
         return paths
