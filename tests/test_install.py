@@ -83,3 +83,18 @@ def test_openmp_threads_fit_the_cores_other_jobs_leave(monkeypatch):
         assert (why is None) == (threads == asked)
         if why:
             assert f"{asked} OpenMP threads asked" in why and "load average" in why
+
+
+def test_every_package_on_disk_is_in_the_wheel():
+    """A subpackage missing from pyproject's list imports here (editable) and fails in a
+    wheel; the list must name every folder of granavg/ that has an __init__.py."""
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    declared = set(tomllib.loads((root / "pyproject.toml").read_text())
+                   ["tool"]["setuptools"]["packages"])
+    on_disk = {".".join(p.parent.relative_to(root).parts)
+               for p in (root / "granavg").rglob("__init__.py")
+               if "lammps_inputs" not in p.parts}
+    assert on_disk - declared == set(), "add these to pyproject.toml's packages"
