@@ -66,6 +66,24 @@ def test_average_of_runs_is_their_mean_with_the_between_run_error(ensemble, tmp_
     assert "between-run" in ens.meta["errors"]["method"]
 
 
+def test_an_ensemble_in_time_has_between_run_errors_at_each_time(ensemble):
+    """Three runs of one scene averaged in windows: at each window, the mean of the
+    runs' fields and the between-run error, as for one average (docs/time.md)."""
+    import granavg
+
+    runs = sorted(p for p in ensemble.iterdir() if p.is_dir())
+    opts = dict(cells={"bins": 8}, t_min=1.0, windows=1.0)
+    ens = granavg.average(runs, **opts)
+    single = [granavg.average(r, **opts) for r in runs]
+    assert ens.in_time and len(ens.times) >= 2 and np.allclose(ens.times, single[0].times)
+    for name in ("nu", "v_phi", "sigma_rr"):
+        x = np.stack([np.asarray(p.values[name]) for p in single])      # (run, time, ring)
+        assert np.allclose(ens.values[name], x.mean(axis=0), rtol=1e-9, atol=0)
+        within = np.sqrt(np.sum([np.asarray(p.sem[name]) ** 2 for p in single], axis=0)) / 3
+        assert np.allclose(ens.sem[name], np.fmax(x.std(axis=0, ddof=1) / np.sqrt(3), within),
+                           rtol=1e-9)
+
+
 def test_runs_that_agree_by_chance_keep_their_own_errors(ensemble):
     """Two runs equal in every ring have between-run error 0; the ensemble error is then
     the mean's error from the runs' own errors, sem / sqrt(2), never 0 (a 0 would let

@@ -60,19 +60,20 @@ def flags(S: np.ndarray, groups, layout: Layout) -> np.ndarray:
     quantity's own (``singular_fabric``: eps undefined);
     :class:`~granavg.engine.cell_average.CellAverage` adds ``one_block`` when the frames span a
     single time block (no standard errors)."""
-    out = [[] for _ in range(S.shape[0])]
     vol = S[:, layout.index["vol"]]
     contact = any(QUANTITIES[g].contacts and g != "boundary" for g in groups)
     contact_sums = stacked(S, layout, CONTACT_BLOCKS)
-    own = [(QUANTITIES[g].flag_name, QUANTITIES[g].flag(S, layout)) for g in groups
-           if QUANTITIES[g].flag is not None]
-    for k in range(S.shape[0]):
-        if not vol[k] > 0:
-            out[k].append("empty")
-        if contact and vol[k] > 0 and not np.any(contact_sums[k] != 0):
-            out[k].append("no_contacts")
-        out[k] += [name for name, flagged in own if flagged[k]]
-    return np.array([";".join(f) for f in out], dtype=object)
+    empty = ~(vol > 0)
+    named = [("empty", empty)]
+    if contact:
+        named.append(("no_contacts", ~empty & ~np.any(contact_sums != 0, axis=1)))
+    named += [(QUANTITIES[g].flag_name, np.asarray(QUANTITIES[g].flag(S, layout), bool))
+              for g in groups if QUANTITIES[g].flag is not None]
+    out = np.full(S.shape[0], "", dtype=object)
+    for name, flagged in named:
+        where = np.flatnonzero(flagged)
+        out[where] = [f"{o};{name}" if o else name for o in out[where]]
+    return out
 
 
 def block_values(mean_sums, V, rho_p, groups, layout: Layout) -> dict:

@@ -178,15 +178,12 @@ def _eps(S, V, layout, name):
 
 
 def _flagged_cells(S, layout):
-    """The per-cell flag of the singular fabric, for each cell (a python loop over cells,
-    as the flags are joined per cell)."""
+    """The per-cell flag of the singular fabric, for each cell: |det| not above 1e-12
+    of the fabric's size to the power D."""
     D = layout.dim
     fab = layout.block(S, "fab").reshape(-1, D, D)
-    out = np.zeros(len(fab), bool)
-    for k in range(len(fab)):
-        det, scale = np.linalg.det(fab[k]), np.sum(fab[k] ** 2)
-        out[k] = not abs(det) > 1e-12 * scale ** (D / 2)
-    return out
+    det, scale = np.linalg.det(fab), np.sum(fab ** 2, axis=(1, 2))
+    return ~(np.abs(det) > 1e-12 * scale ** (D / 2))
 
 
 def _across_components(axes, across):

@@ -141,15 +141,23 @@ def blocking_errors(counts, sums, evaluate):
     lower_bound : dict of name -> ndarray of bool (n_rings,)
     """
     levels = merge_levels(counts, sums)
-    per_level = []
+    per_level, shapes = [], None
     for c, s in levels:
         vals = evaluate(s / c[:, None, None])
-        per_level.append({k: spread_error(v) for k, v in vals.items()})
+        if shapes is None:
+            shapes = {k: np.shape(v)[1:] for k, v in vals.items()}
+        # every value at once: a column's error does not depend on the others
+        flat = [np.asarray(vals[k], float).reshape(len(c), -1) for k in shapes]
+        per_level.append(spread_error(np.concatenate(flat, axis=1)))
     n_blocks = np.array([len(c) for c, _ in levels])
-    sem, lower = {}, {}
-    for name in per_level[0]:
-        e, lb, _ = plateau(np.stack([p[name] for p in per_level]), n_blocks)
-        sem[name], lower[name] = e, lb | ~np.isfinite(e)
+    e, lb, _ = plateau(np.stack(per_level), n_blocks)
+    lb = lb | ~np.isfinite(e)
+    sem, lower, start = {}, {}, 0
+    for name, shape in shapes.items():
+        size = int(np.prod(shape))
+        sem[name] = e[start:start + size].reshape(shape)
+        lower[name] = lb[start:start + size].reshape(shape)
+        start += size
     return sem, lower
 
 
