@@ -134,6 +134,12 @@ def _parser() -> argparse.ArgumentParser:
                      "width, in the data's length unit (m for runs): " + WIDTHS)
     _branch_and_errors(avg)
     _time(avg)
+    avg.add_argument("--species", metavar="SPEC", help="a mixture's partial fields per "
+                     "species beside the whole's (the table's species column, 'all' the "
+                     "whole): by atom type (type), by size (radius; radius:E1,E2,... size "
+                     "classes between these radii) or named groups of types (small=1,2 "
+                     "large=3); with the force density between species (f_inter), the "
+                     "concentration c and the segregation flux seg (docs/species.md)")
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
     avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")
@@ -180,7 +186,8 @@ def _parser() -> argparse.ArgumentParser:
                          "(slabs, grids, plain dumps) the fields and the balance of forces and "
                          "of the spins")
     ana.add_argument("profiles", nargs="+", help="profiles of 'granavg average' (two ring "
-                     "profiles of a run, e.g. 20 and 60 rings, for the paper's analysis)")
+                     "profiles of a run, e.g. 20 and 60 rings, for the paper's analysis; a "
+                     "third averaged with --species type adds the mixture's segregation)")
     ana.add_argument("--closed", action="store_true", help="the cells' outer faces are "
                      "walls or empty space: edge cells' balance judged too (runs' rings are)")
     ana.add_argument("--torque-arm", choices=["contact", "surface"], default="contact",

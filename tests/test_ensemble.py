@@ -84,6 +84,29 @@ def test_an_ensemble_in_time_has_between_run_errors_at_each_time(ensemble):
                            rtol=1e-9)
 
 
+def test_an_ensemble_of_a_mixture_has_between_run_errors_per_species(ensemble):
+    """Three runs split by type: each species' fields, concentration included, are the
+    mean of the runs' with the between-run error (at least the mean's error from the
+    runs' own, as for every field)."""
+    import granavg
+
+    runs = sorted(p for p in ensemble.iterdir() if p.is_dir())
+    opts = dict(cells={"bins": 8}, t_min=1.5, species="type")
+    ens = granavg.average(runs, **opts)
+    single = [granavg.average(r, **opts) for r in runs]
+    assert ens.species == single[0].species == ("all", "type1", "type2")
+    for s in ens.species[1:]:
+        for name in ("nu", "v_phi", "c"):
+            x = np.stack([np.asarray(p.of(s).values[name]) for p in single])
+            assert np.allclose(ens.of(s).values[name], x.mean(axis=0), rtol=1e-9, atol=0)
+        x = np.stack([np.asarray(p.of(s).values["c"]) for p in single])
+        own = np.stack([np.asarray(p.of(s).sem["c"]) for p in single])
+        assert np.all(np.isfinite(own[:, x[0] > 0]))        # one run's: its replicates'
+        within = np.sqrt(np.sum(own ** 2, axis=0)) / 3
+        assert np.allclose(ens.of(s).sem["c"], np.fmax(x.std(axis=0, ddof=1) / np.sqrt(3),
+                                                       within), rtol=1e-9)
+
+
 def test_runs_that_agree_by_chance_keep_their_own_errors(ensemble):
     """Two runs equal in every ring have between-run error 0; the ensemble error is then
     the mean's error from the runs' own errors, sem / sqrt(2), never 0 (a 0 would let

@@ -42,7 +42,7 @@ import numpy as np
 from granavg.errors import UserError
 
 #: Force densities that enter the balance, in the order added.
-FORCE_DENSITIES = ("body", "boundary")
+FORCE_DENSITIES = ("body", "boundary", "f_inter")
 
 
 def _component(values, name, n):

@@ -166,6 +166,30 @@ def stationarity_table(summary, e) -> list:
 SHORT = 60
 
 
+def mixture_table(summary, e) -> list:
+    """The mixture's section (:mod:`granavg.analysis.segregation`), where the summary
+    holds one."""
+    m = summary.get("mixture")
+    if not m:
+        return []
+    err = m["errors"]
+
+    def pm(x, dx, scale=1.0, digits=3):
+        return f"{x * scale:.{digits}f} +- {dx * scale:.{digits}f}"
+    rows = [("large disks' area share in the band", pm(m["c_band"], err["band"])),
+            ("beyond the band", pm(m["c_rest"], err["rest"])),
+            ("excess of the band", pm(m["excess"], err["excess"])),
+            ("verdict", m["verdict"])]
+    for name, b in m["bands"].items():
+        rows.append((f"band width s of the {'small' if name == 'type1' else 'large'} disks "
+                     "(mm)", pm(b["s_m"], b.get("s_err", float("nan")), 1e3, 2)))
+    out = [f"<h2>The mixture</h2><p>The band: r - R_i below {2 * m['s_band_m'] * 1e3:.1f} mm "
+           f"(twice the mixture's s; {m['band_rings']} rings). Errors from the replicates of "
+           "the species and of the whole (docs/species.md).</p><table>"]
+    out += [f"<tr><th>{e(k)}</th><td>{e(v)}</td></tr>" for k, v in rows]
+    return out + ["</table>"]
+
+
 def _short(text):
     """(the table's entry, the whole text for a footnote or ""): a long entry cut at its
     first parenthesis or semicolon (or at :data:`SHORT` characters)."""
@@ -242,11 +266,14 @@ def write_report(summary: dict, figures: dict, path, title="granavg report") -> 
                      f"<td>{e(cl.get('tolerance', ''))}</td><td>{e(cl['evidence'])}</td></tr>")
     parts.append("</table>")
     parts += stationarity_table(summary, e)
+    parts += mixture_table(summary, e)
     parts.append("<h2>Figures</h2>" if figures else
                  "<p>No figures: the analysis was asked for its numbers alone.</p>")
     for name, png in figures.items():
         data = base64.b64encode(Path(png).read_bytes()).decode()
-        title = "Figs. 8-9 in micropolar terms" if name == "spins" else name.replace("fig", "Fig. ")
+        title = {"spins": "Figs. 8-9 in micropolar terms",
+                 "mixture": "The mixture: large disks' concentration, each species' v_phi"
+                 }.get(name, name.replace("fig", "Fig. "))
         parts.append(f"<h3>{e(title)}</h3>"
                      f"<img alt='{e(name)}' src='data:image/png;base64,{data}'>")
     parts.append("</body></html>")

@@ -27,6 +27,7 @@ from granavg.engine.cell_average import CellAverage
 from granavg.engine.fields import Fields
 from granavg.engine.quantities import (QUANTITIES, groups_for, missing_columns,
                                        optional_columns)
+from granavg.engine.species import Species
 from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError
 
@@ -111,7 +112,7 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
              t_max: float | None = None, windows: float | None = None,
              window_frames: int | None = None, time_kernel: str | None = None,
              time_width: float | None = None, times=None,
-             interval: float | None = None) -> CellAverage:
+             interval: float | None = None, species=None) -> CellAverage:
     """The averager of ``frames`` over ``cells`` (Eqs. 1-7): the one way every route
     (anyone's dumps, run directories, in situ, dask, ensembles, the scale study) builds
     its average, with every check and the same metadata. ``run()`` it, or
@@ -153,6 +154,12 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         ``momentum_balance``). The frames must be evenly spaced.
     interval : float, optional
         The frames' spacing (s); default the first two frames'.
+    species : str, dict or Species, optional
+        Split a mixture into species (:mod:`granavg.engine.species`: ``"type"``,
+        ``"radius"``, ``"radius:E1,E2"``, ``"small=1,2 large=3"`` or
+        ``{"small": [1, 2], "large": [3]}``): partial fields of each species beside the
+        whole's, on a ``species`` axis, with the force density between species
+        (``f_inter``), the concentration ``c`` and the segregation flux ``seg_*``.
     block_time : float, optional
         Base block length (s) of the blocking analysis; default the spacing of the first
         two frames (one frame per block).
@@ -183,6 +190,10 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
     if frames is None:
         if quantities is None or block_time is None:
             raise ValueError("an averager fed later needs its quantities and block time")
+        if species is not None:
+            raise ParameterError("species", "{param}: the species are found in the first "
+                                 "frame, which an averager fed later (in situ, dask "
+                                 "workers) does not see; average the dumps in one process")
         head, groups, lacking, has_mass = [], list(quantities), {}, True
         axis = timing.axis(t_min=t_min, t_max=t_max, windows=windows,
                            window_frames=window_frames, time_kernel=time_kernel,
@@ -207,7 +218,7 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         kernel = getattr(cells, "kernel", None)
         groups = groups_for(quantities, head[0].contacts is not None, "bx" in head[0].atoms,
                             smooth=bool(kernel and kernel.smooth_edge),
-                            in_time=axis.derivative)
+                            in_time=axis.derivative, species=species is not None)
         groups, lacking = _with_columns(groups, quantities is not None, head[0], cells.dim)
         if block_time is None:
             block_time = spacing if spacing is not None else 1.0
@@ -226,10 +237,11 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
     # material, of a density that cancels (UNWEIGHED)
     if head:                              # checked now; frames fed later: on the first
         check_frame(head[0], cells, groups)
+    classes = Species.parse(species).classes(head[0].atoms) if species is not None else None
     avg = CellAverage(frames, cells, groups, rho_p if rho_p is not None else 1.0, t_min,
                       block_time, series, branch=branch, sectors=sectors,
                       check=None if head else (lambda frame: check_frame(frame, cells, groups)),
-                      source=source, t_max=t_max, axis=axis)
+                      source=source, t_max=t_max, axis=axis, classes=classes)
     window = {"t_min_s": t_min, **({"t_max_s": t_max} if t_max is not None else {}),
               "block_time_s": block_time}
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,

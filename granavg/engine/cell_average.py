@@ -28,6 +28,7 @@ from granavg.engine.channels import CONTACT_BLOCKS, TIME_BLOCKS
 from granavg.engine.kernels import (BRANCHES, cell_sums, frame_rows, particle_channels,
                                    sector_sums, wall_points)
 from granavg.engine.fields import Fields
+from granavg.engine.species import with_species
 from granavg.engine.profiles import flags, standard_errors, values
 from granavg.engine.quantities import MICROPOLAR, MICROPOLAR_CONVENTIONS, QUANTITIES
 from granavg.engine.stationarity import DRIFT_Z, stationarity
@@ -155,6 +156,10 @@ class CellAverage:
     axis : optional
         The time axis (:mod:`granavg.engine.timing`): one average (default), windows,
         or fields smoothed in time.
+    classes : Classes, optional
+        The species of a mixture (:mod:`granavg.engine.species`): each species' share of
+        every frame gets accumulators of its own beside the mixture's, and the fields a
+        ``species`` axis (the mixture :data:`~granavg.engine.species.MIXTURE`).
 
     Build it with :func:`granavg.engine.api.averager`, which makes every check.
     """
@@ -162,8 +167,9 @@ class CellAverage:
     def __init__(self, frames, cells: Cells, groups, rho_p: float, t_min: float,
                  block_time: float, series: FrameObserver | None = None,
                  branch: str = "contact", sectors="auto", check=None, source=None,
-                 t_max: float | None = None, axis=None):
+                 t_max: float | None = None, axis=None, classes=None):
         self.frames, self.cells, self.groups = frames, cells, list(groups)
+        self.classes = classes
         self.t_max, self.axis = t_max, axis if axis is not None else Whole()
         self.check, self.source = check, frames if source is None else source
         if branch not in BRANCHES:
@@ -225,24 +231,26 @@ class CellAverage:
         if self.series is not None:
             self.series.rows = []
 
-    def _slot(self, j: int) -> Slot:
-        """The accumulators of slot ``j`` of the time axis (made on first use)."""
-        if j not in self.slots:
+    def _slot(self, j: int, name: str | None = None) -> Slot:
+        """The accumulators of slot ``j`` of the time axis (made on first use), of the
+        mixture or (``name``) of a species' share: keyed ``j`` or ``(name, j)``."""
+        key = j if name is None else (name, j)
+        if key not in self.slots:
             shape, axis = (self.cells.n, self.frame_layout.n), self.axis
             if axis.kind == "whole":
-                self.slots[j] = Slot(shape, self.t_min, self.block_time, None, self.k_fine,
-                                     structure.REPLICA_BLOCKS)
+                self.slots[key] = Slot(shape, self.t_min, self.block_time, None,
+                                       self.k_fine, structure.REPLICA_BLOCKS)
             elif axis.kind == "windows":     # (the start a hair early: a frame on the
                 # window's edge falls in it, whatever the rounding of start + j length)
-                self.slots[j] = Slot(shape, axis.start + (j - 1e-6) * axis.length,
-                                     self.block_time, SLOT_BLOCKS, self.k_fine,
-                                     SLOT_REPLICA_BLOCKS)
+                self.slots[key] = Slot(shape, axis.start + (j - 1e-6) * axis.length,
+                                       self.block_time, SLOT_BLOCKS, self.k_fine,
+                                       SLOT_REPLICA_BLOCKS)
             else:
                 c = axis.cutoff
-                self.slots[j] = Slot(shape, axis.times[j] - c, 2 * c / KERNEL_BLOCKS,
-                                     KERNEL_BLOCKS, self.k_fine, SLOT_REPLICA_BLOCKS,
-                                     self.dcols)
-        return self.slots[j]
+                self.slots[key] = Slot(shape, axis.times[j] - c, 2 * c / KERNEL_BLOCKS,
+                                       KERNEL_BLOCKS, self.k_fine, SLOT_REPLICA_BLOCKS,
+                                       self.dcols)
+        return self.slots[key]
 
     def add(self, frame):
         """Record the frame's state; accumulate it if t_min <= t <= t_max into the slots
@@ -263,6 +271,12 @@ class CellAverage:
                           self.k_fine)
         for j, w, dw in hits:
             self._slot(j).add(frame.timestep, t, sums, w, dw)
+        if self.classes is not None:
+            for name, share in zip(self.classes.names, self.classes.shares(frame)):
+                part = frame_sums(share, self.cells, self.rho_p, self.frame_channels,
+                                  self.branch, self.k_fine)
+                for j, w, dw in hits:
+                    self._slot(j, name).add(frame.timestep, t, part, w, dw)
 
     def _spaced(self, t: float) -> None:
         """Track the frames' span; a time kernel weighs frames as evenly spaced: refuse
@@ -298,16 +312,29 @@ class CellAverage:
 
     def conclude(self) -> Fields:
         """Fields of the frames added so far: one average, or one per window or time of
-        the time axis (:meth:`Fields.stack`)."""
+        the time axis (:meth:`Fields.stack`); of a mixture, one per species and the
+        whole (:func:`~granavg.engine.species.with_species`)."""
         if not self.slots:
             upto = f" and t <= {self.t_max:g} ({{t_max}})" if self.t_max is not None else ""
             raise ParameterError("t_min", f"no frame at t >= {self.t_min:g}, the start of "
                                  f"the average ({{param}}){upto}; lower it")
+        whole = self._conclude({j: s for j, s in self.slots.items() if not isinstance(j, tuple)})
+        if self.classes is None:
+            return whole
+        parts = {name: self._conclude({k[1]: s for k, s in self.slots.items()
+                                       if isinstance(k, tuple) and k[0] == name}, False)
+                 for name in self.classes.names}
+        self.results = with_species(whole, parts, self.classes)
+        return self.results
+
+    def _conclude(self, slots: dict, whole: bool = True) -> Fields:
+        """The fields of one set of slots (the mixture's, or a species': not ``whole``,
+        which keeps the frames' time series to the mixture's fields)."""
         if self.axis.kind == "whole":
-            return self._fields(self.slots[0])
-        order = self._ordered()
+            return self._fields(slots[0], whole=whole)
+        order = self._ordered(slots)
         said: dict = {}
-        fields = [self._fields(self.slots[j], said) for j in order]
+        fields = [self._fields(slots[j], said, whole) for j in order]
         for message in said.values():
             log.warning(message)
         if self.axis.kind == "windows":
@@ -321,10 +348,10 @@ class CellAverage:
                         "frames_span": [float(self.span[0]), float(self.span[1])]}
         return Fields.stack(fields, times, edges, meta)
 
-    def _ordered(self) -> list:
+    def _ordered(self, slots: dict) -> list:
         """The slots in time order, checked: windows from the first holding a frame to
         the last with none empty between; every time of a kernel within the frames."""
-        order = sorted(self.slots)
+        order = sorted(slots)
         if self.axis.kind == "windows":
             empty = sorted(set(range(order[0], order[-1] + 1)) - set(order))
             if empty:
@@ -343,9 +370,10 @@ class CellAverage:
         self.axis.reach(first, last)
         return list(range(len(self.axis.times)))
 
-    def _fields(self, slot: Slot, said: dict | None = None) -> Fields:
+    def _fields(self, slot: Slot, said: dict | None = None, whole: bool = True) -> Fields:
         """The fields of one slot's frames (``said``: collects the warnings of many slots
-        under one key each, logged once by the caller; None: logged here)."""
+        under one key each, logged once by the caller; None: logged here; ``whole``: the
+        mixture's, with the frames' time series and its steadiness)."""
         def warn(key, message, *args):
             if said is None:
                 log.warning(message, *args)
@@ -436,7 +464,7 @@ class CellAverage:
                 "why": "time derivatives and balance residuals get errors from "
                        "realisations only (an ensemble of runs); one run gives none"}
         series = None
-        if self.series is not None and self.series.rows:
+        if whole and self.series is not None and self.series.rows:
             series = self.series.columns()
             if self.axis.kind == "whole":     # fields in time follow a change, by design
                 meta["stationarity"] = stationarity(series, self.t_min, self.series.judged)
@@ -541,7 +569,7 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     contacts = frame.contacts
     radius = a["radius"]
     rows = frame_rows(frame) if contacts is not None and (
-        {*CONTACT_BLOCKS, "wall"} & set(blocks)) else None
+        {*CONTACT_BLOCKS, "wall", "inter"} & set(blocks)) else None
     n = cells.n * max(sectors, 1)
     rows_needed = min(CHUNK, len(radius))
 
@@ -569,18 +597,27 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     sums = np.zeros((n, layout.n))
     for part in threads.map_ordered(chunk_sums, starts):
         sums += part
-    if "wall" in blocks and frame.contacts is not None:
-        points, forces = wall_points(a, contacts, cells.dim, branch, rows)
-        at = tuple(points.T)
-        where = cells.cell_of(at, slack=float(radius.max(initial=0.0)))
-        E = cells.basis(at)
-        inside = where >= 0
-        if sectors:
-            where = where * sectors + cells.sector_shares(      # radius 0: its centre's
-                at, np.zeros(len(points)), sectors)[0][:, 0]
-        first = layout.first("wall")
-        for i in range(cells.dim):
-            along = np.einsum("pj,pj->p", forces, E[:, i, :]) if cells.dim == 3 else \
-                forces[:, 0] * E[:, i, 0] + forces[:, 1] * E[:, i, 1]
-            sums[:, first + i] += np.bincount(where[inside], along[inside], minlength=n)
+    for block in ("wall", "inter"):
+        if block in blocks and frame.contacts is not None:
+            _point_forces(sums, layout, block, frame, cells, branch, rows, sectors, n)
     return sums.reshape(cells.n, sectors, -1) if sectors else sums
+
+
+def _point_forces(sums, layout, block, frame, cells, branch, rows, sectors, n):
+    """Add the forces of the contacts a block takes at their contact points
+    (:func:`~granavg.engine.kernels.wall_points`) to the cell of each point (the cell at
+    the edge if the point lies just beyond it), in the basis there."""
+    a = frame.atoms
+    points, forces = wall_points(a, frame.contacts, cells.dim, branch, rows, which=block)
+    at = tuple(points.T)
+    where = cells.cell_of(at, slack=float(np.max(a["radius"], initial=0.0)))
+    E = cells.basis(at)
+    inside = where >= 0
+    if sectors:
+        where = where * sectors + cells.sector_shares(      # radius 0: its centre's
+            at, np.zeros(len(points)), sectors)[0][:, 0]
+    first = layout.first(block)
+    for i in range(cells.dim):
+        along = np.einsum("pj,pj->p", forces, E[:, i, :]) if cells.dim == 3 else \
+            forces[:, 0] * E[:, i, 0] + forces[:, 1] * E[:, i, 1]
+        sums[:, first + i] += np.bincount(where[inside], along[inside], minlength=n)

@@ -43,6 +43,8 @@ ppow       ppow                        sum_c f . (v + omega x l) + m . omega ove
 wpow       wpow                        the same over the walls' contacts
 lpow       lpow                        sum_c ((delta / 2) n x f) . omega
 bpow       bpow                        b^p . v: the body force's power
+inter      inter_<i>                   a species' partners of other species' forces
+                                       (at the contact points; species only)
 dtmass     dtmass                      d/dt of the mass sum (a time kernel's)
 dtmom      dtmom_<i>                   d/dt of the mom_i sum (a time kernel's)
 =========  ==========================  ==========================================
@@ -167,6 +169,9 @@ BLOCK = {b.name: b for b in (
           ("{m}",)),
     Block("lpow", "scalar", ("id", "{w}"), (*_PAIRS, "{f}", "{n}", "overlap")),
     Block("bpow", "scalar", ("{v}", "{b}")),
+    # a species' share of a mixture (granavg.engine.species): the forces of the other
+    # species' particles on its particles, at the contact points (as the walls')
+    Block("inter", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
     # time derivatives of the mass and momentum sums: no frame fills them, a time
     # kernel's derivative does (granavg.engine.timing), after the frames' channels
     Block("dtmass", "scalar"),

@@ -33,6 +33,8 @@ def combine_runs(profiles: list, names: list) -> Fields:
     import pandas as pd
 
     first = profiles[0]
+    if first.species is not None:
+        return _combine_species(profiles, names)
     if first.in_time:
         return _combine_in_time(profiles, names)
     for p, name in zip(profiles[1:], names[1:]):
@@ -71,6 +73,23 @@ def combine_runs(profiles: list, names: list) -> Fields:
     return Fields(first.cells, values, sem, flags, int(sum(p.n_frames for p in profiles)),
                     meta, reps, n_runs, columns_of(pd.concat(series, ignore_index=True))
                     if series else None)
+
+
+def _combine_species(profiles: list, names: list) -> Fields:
+    """Ensemble fields of a mixture: :func:`combine_runs` of each species (the runs'
+    species the same), their concentrations and fluxes averaged over the runs with
+    between-run errors."""
+    first = profiles[0]
+    for p, name in zip(profiles[1:], names[1:]):
+        if p.species != first.species:
+            raise UserError(f"{name}: its species ({', '.join(p.species or ())}) differ from "
+                            f"{names[0]}'s ({', '.join(first.species)}); average every run "
+                            "with the same species")
+    parts = {s: combine_runs([p.of(s) for p in profiles], names) for s in first.species}
+    meta = dict(parts[first.species[0]].meta)
+    meta["species"] = {**first.meta.get("species", {}), "derived": "c and seg_<i> per run, "
+                       "averaged over the runs with between-run errors"}
+    return Fields.of_species(parts, meta)
 
 
 def _combine_in_time(profiles: list, names: list) -> Fields:

@@ -63,6 +63,11 @@ class Fields:
         a list per time, and :meth:`at` gives one time's fields.
     time_edges : ndarray, shape (n_times + 1,), optional
         The windows' edges (windows only).
+    species : tuple of str, optional
+        A mixture's fields (:mod:`granavg.engine.species`): one per species and the whole
+        mixture (``all``). Then every value, error and flag has a first axis of these
+        (before the time axis), ``n_frames`` and ``replicates`` are per species, and
+        :meth:`of` gives one species' fields.
     """
 
     cells: Cells
@@ -76,6 +81,7 @@ class Fields:
     series: dict | None = None
     times: np.ndarray | None = None
     time_edges: np.ndarray | None = None
+    species: tuple | None = None
 
     # -- the axes --------------------------------------------------------------------
     @property
@@ -84,19 +90,21 @@ class Fields:
         cells' axes (``("r",)`` for rings, ``("x", "y", "z")`` for boxes, ``("r", "z")``
         for cylindrical shells)."""
         own = tuple(self.cells.grid()[0])
-        return ("time", *own) if self.in_time else own
+        own = ("time", *own) if self.in_time else own
+        return ("species", *own) if self.species is not None else own
 
     @property
     def shape(self) -> tuple:
         """The fields' shape along :attr:`dims`."""
         own = tuple(self.cells.grid()[1])
-        return (len(self.times), *own) if self.in_time else own
+        own = (len(self.times), *own) if self.in_time else own
+        return (len(self.species), *own) if self.species is not None else own
 
     @property
     def frames_averaged(self) -> int:
         """The frames averaged: :attr:`n_frames`, or for fields in time every frame that
         fell in some time (``meta["frames"]["n"]``)."""
-        if not self.in_time:
+        if not self.in_time and self.species is None:
             return int(self.n_frames)
         return int((self.meta.get("frames") or {}).get("n", np.max(self.n_frames)))
 
@@ -128,6 +136,8 @@ class Fields:
         ``meta["time"]["t"]`` says which)."""
         if not self.in_time:
             raise ValueError("these fields have no time axis")
+        if self.species is not None:
+            return Fields.of_species({n: self.of(n).at(j) for n in self.species}, self.meta)
         meta = dict(self.meta or {})
         meta["time"] = {**meta.get("time", {}), "t": float(self.times[j])}
         if self.time_edges is not None:
@@ -137,6 +147,42 @@ class Fields:
                       int(self.n_frames[j]), meta,
                       self.replicates[j] if self.replicates is not None else None,
                       None if self.n_runs is None else self.n_runs[j], self.series)
+
+    # -- species of a mixture ----------------------------------------------------------
+    @classmethod
+    def of_species(cls, parts: dict, meta: dict | None = None) -> "Fields":
+        """A mixture's fields from one :class:`Fields` per species (the same cells,
+        columns and time axis), in the order given; ``meta`` the sidecar (default the
+        first's)."""
+        names = tuple(parts)
+        each = list(parts.values())
+        first = each[0]
+        runs = None if first.n_runs is None else np.stack([f.n_runs for f in each])
+        reps = [f.replicates for f in each]
+        return cls(first.cells, {n: np.stack([f.values[n] for f in each]) for n in first.values},
+                   {n: np.stack([f.sem[n] for f in each]) for n in first.sem},
+                   np.stack([f.flags for f in each]),
+                   np.array([f.n_frames for f in each]), dict(meta or first.meta),
+                   reps if any(r is not None for r in reps) else None, runs, first.series,
+                   first.times, first.time_edges, names)
+
+    def of(self, name: str) -> "Fields":
+        """One species' fields (``all``: the whole mixture's), without the species axis."""
+        if self.species is None:
+            raise ValueError("these fields have no species axis (average with species=)")
+        if name not in self.species:
+            raise KeyError(f"{name!r} is not a species of these fields "
+                           f"({', '.join(self.species)})")
+        k = self.species.index(name)
+        meta = dict(self.meta or {})
+        meta["species"] = {**meta.get("species", {}), "of": name}
+        frames = self.n_frames[k]
+        return Fields(self.cells, {n: v[k] for n, v in self.values.items()},
+                      {n: v[k] for n, v in self.sem.items()}, self.flags[k],
+                      int(frames) if np.ndim(frames) == 0 else frames, meta,
+                      self.replicates[k] if self.replicates is not None else None,
+                      None if self.n_runs is None else self.n_runs[k], self.series,
+                      self.times, self.time_edges)
 
     def nearest(self, t: float) -> int:
         """The index of the time nearest ``t``."""
@@ -163,9 +209,16 @@ class Fields:
     def units(self) -> dict:
         """The unit of every column of :meth:`to_columns` but the flags, from each
         quantity's declared dimension in :attr:`unit_system`."""
-        names = [c for c in self.to_columns() if c != "flags"]
+        names = [c for c in self.to_columns() if c not in ("flags", "species")]
         own = {**self.cells.coordinate_units(),
                **{c: "{time}" for c in ("t", "t_lo", "t_hi")}}
+        if self.species is not None or (self.meta or {}).get("species"):   # c, seg_*
+            for c in names:
+                base = c[:-4] if c.endswith("_sem") else c
+                if base == "c" or base.startswith("seg_"):
+                    own[c] = "1" if base == "c" else "{length}/{time}"
+                elif base.startswith("dsigma_mix_"):
+                    own[c] = "{momentum_flux}"
         return column_units(names, self.unit_system, own)
 
     # -- the time series ---------------------------------------------------------------
@@ -188,6 +241,11 @@ class Fields:
         n_frames, [n_runs,] each value and ``<name>_sem``, flags. Fields in time: one
         row per time and cell, the time first (``t``; windows also ``t_lo``,
         ``t_hi``)."""
+        if self.species is not None:
+            parts = [self.of(n).to_columns() for n in self.species]
+            rows = len(next(iter(parts[0].values())))
+            return {"species": np.repeat(np.array(self.species, dtype=object), rows),
+                    **{k: np.concatenate([p[k] for p in parts]) for k in parts[0]}}
         if self.in_time:
             parts = [self.at(j).to_columns() for j in range(len(self.times))]
             return {**self._time_columns(),
@@ -214,6 +272,14 @@ class Fields:
         were made in the attributes (JSON text). Needs xarray (``granavg[netcdf]``)."""
         import xarray as xr
 
+        if self.species is not None:
+            each = [self.of(n).to_xarray() for n in self.species]
+            fields = [k for k in each[0].data_vars if k != "V"]
+            ds = xr.concat(each, dim="species", data_vars=fields, coords="minimal",
+                           compat="override", combine_attrs="override")
+            ds = ds.assign_coords(species=("species", list(self.species)))
+            ds.attrs["species"] = json.dumps((self.meta or {}).get("species", {}))
+            return ds
         dims, shape, edges = self.cells.grid()
         units, system = self.units, self.unit_system
         coords = {}
@@ -255,7 +321,8 @@ class Fields:
         return xr.Dataset(data, coords=coords, attrs=attrs)
 
     # -- a figure ------------------------------------------------------------------------
-    def plot(self, name: str, ax=None, time: float | None = None):
+    def plot(self, name: str, ax=None, time: float | None = None,
+             species: str | None = None):
         """Draw one field: against position with its error bars where the cells lie
         along one axis (rings, slabs, shells of one layer), else as a map of the first
         plane the cells draw (a 2D grid or polar grid whole, the middle layer of
@@ -271,9 +338,21 @@ class Fields:
             Where to draw (default: a new figure).
         time : float, optional
             Fields in time: draw the fields at this time.
+        species : str, optional
+            A mixture's fields: this species' (default: along one axis, every species
+            on one axes; else the whole mixture's).
         """
         import matplotlib.pyplot as plt
 
+        if self.species is not None:
+            line = self.cells.position() is not None and not (self.in_time and time is None)
+            if species is not None or not line:
+                return self.of(species or self.species[0]).plot(name, ax, time)
+            for n in self.species:
+                ax = self.of(n).plot(name, ax, time)
+                ax.containers[-1].set_label(n)
+            ax.legend(title="species")
+            return ax
         if name not in self.values:
             raise KeyError(f"{name!r} is not among the fields ({', '.join(self.values)})")
         if self.in_time and time is not None:

@@ -260,8 +260,20 @@ def _contact_vectors(contacts, D: int, n_contacts: int):
     return f, n, col["overlap"]
 
 
-def wall_points(atoms, contacts, dim=2, branch="contact", rows=None):
-    """Contact points and forces on the particles of the wall contacts.
+#: The wall code of a contact with a particle of another species, in a species' share
+#: of a frame (:mod:`granavg.engine.species`): its partner acts as a wall would, on the
+#: particle alone, at the contact point; walls have codes > 0, particle pairs 0.
+PARTNER = -1
+#: Which contacts :func:`wall_points` takes: the walls', the other species' particles',
+#: or both.
+POINT_CONTACTS = {"wall": lambda code: code > 0, "inter": lambda code: code < 0,
+                  "both": lambda code: code != 0}
+
+
+def wall_points(atoms, contacts, dim=2, branch="contact", rows=None, which="wall"):
+    """Contact points and forces on the particles of the wall contacts (``which``:
+    ``wall``; ``inter``, the contacts with particles of another species; ``both``,
+    :data:`POINT_CONTACTS`).
 
     Returns
     -------
@@ -269,7 +281,7 @@ def wall_points(atoms, contacts, dim=2, branch="contact", rows=None):
         The point x_p + (a_p - s delta) n (s of :data:`BRANCHES`) and the contact's
         total force on the particle.
     """
-    k = contacts["wall"] != 0
+    k = POINT_CONTACTS[which](np.asarray(contacts["wall"]))
     p = rows[0][k] if rows is not None else rows_of(atoms["id"], contacts["id1"][k])
     reach = atoms["radius"][p] - BRANCHES[branch] * contacts["overlap"][k]
     xyz = "xyz"[:dim]

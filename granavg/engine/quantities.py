@@ -66,6 +66,9 @@ class Quantity:
     in_time : bool
         It needs a time kernel (its values are time derivatives of the fields smoothed
         in time, :mod:`granavg.engine.timing`).
+    species : bool
+        It is defined for a species of a mixture (:mod:`granavg.engine.species`): the
+        forces between species.
     help : str
         What it is, in words (the command line's help).
     """
@@ -82,6 +85,7 @@ class Quantity:
     flag_name: str = ""
     smooth: bool = False
     in_time: bool = False
+    species: bool = False
     help: str = ""
 
     @property
@@ -289,7 +293,7 @@ def _momentum_balance(S, V, layout, name):
     them): zero up to the time quadrature of the frames."""
     res = layout.block(S, "dtmom") / V[:, None] - _div(S, V, layout, "sig", "dsig") \
         + _div(S, V, layout, "kin", "dkin")
-    for force in ("body", "wall"):
+    for force in ("body", "wall", "inter"):
         if force in layout.blocks:
             res = res - layout.block(S, force) / V[:, None]
     return {n: res[:, k] for k, n in enumerate(columns(name, layout.axes))}
@@ -348,6 +352,10 @@ QUANTITIES = {q.name: q for q in (
              balanced=_all_components,
              unit="{force}/{length}^3",
              help="force density of the walls"),
+    Quantity("f_inter", ("inter",), "vector", _values(_per_cell_volume("inter"), "f_inter"),
+             balanced=_all_components, species=True, unit="{force}/{length}^3",
+             help="force density on a species from the particles of the others, at the "
+                  "contact points (zero for the whole mixture)"),
     Quantity("body", ("body",), "vector", _values(_per_cell_volume("body"), "body"),
              unit="{force}/{length}^3",
              help="body force density: gravity, base-plate friction, a force column"),
@@ -563,15 +571,22 @@ def needs_body(groups) -> bool:
 
 
 def groups_for(quantities, have_contacts: bool, have_body: bool = False,
-               smooth: bool = False, in_time: bool = False) -> list:
+               smooth: bool = False, in_time: bool = False, species: bool = False) -> list:
     """The quantity groups to compute: the requested ones (checked), or all that the
     data allow (without contacts, only those that need none; ``body`` only where the
     frames carry body forces; the derivatives only with a ``smooth`` kernel, the time
-    derivatives only with a time kernel, ``in_time``)."""
+    derivatives only with a time kernel, ``in_time``; the forces between species only
+    with ``species``)."""
     if quantities is None:
         return [g for g, q in QUANTITIES.items()
                 if (have_contacts or not q.contacts) and (have_body or "body" not in q.blocks)
-                and (smooth or not q.smooth) and (in_time or not q.in_time)]
+                and (smooth or not q.smooth) and (in_time or not q.in_time)
+                and (species or not q.species)]
+    alone = [q for q in quantities if q in QUANTITIES and QUANTITIES[q].species
+             and not species]
+    if alone:
+        raise ParameterError("quantities", f"{alone[0]} is a force between species: it "
+                             "needs the particles split into species ({species})")
     timeless = [q for q in quantities if q in QUANTITIES and QUANTITIES[q].in_time
                 and not in_time]
     if timeless:

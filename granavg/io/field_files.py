@@ -78,18 +78,25 @@ def write_vtk(profiles, path) -> Path:
     g = profiles.cells
     points, cells, per_cell, angle = g.mesh()
     data = {"V": g.volume[per_cell]}
-    for name, value in profiles.values.items():
-        data[name] = np.asarray(value, float)[per_cell]
-        data[f"{name}_sem"] = np.asarray(profiles.sem[name], float)[per_cell]
-    if angle is None:
-        cart = _cartesian(profiles, g.axes)
-        data.update({k: v[per_cell] for k, v in cart.items()})
-    else:
-        from types import SimpleNamespace
-        expanded = SimpleNamespace(cells=SimpleNamespace(n=len(per_cell)),
-                                   values={k: np.asarray(v)[per_cell]
-                                           for k, v in profiles.values.items()})
-        data.update(_cartesian(expanded, g.axes, angle))
+    # a mixture's species: each array once per species, "<name>/<species>" (the whole
+    # mixture's without the suffix)
+    parts = [(s, profiles.of(s)) for s in profiles.species] if profiles.species else \
+        [(None, profiles)]
+    for species, part in parts:
+        tag = "" if species in (None, profiles.species[0] if profiles.species else None) \
+            else f"/{species}"
+        for name, value in part.values.items():
+            data[name + tag] = np.asarray(value, float)[per_cell]
+            data[f"{name}_sem{tag}"] = np.asarray(part.sem[name], float)[per_cell]
+        if angle is None:
+            cart = _cartesian(part, g.axes)
+            data.update({k + tag: v[per_cell] for k, v in cart.items()})
+        else:
+            from types import SimpleNamespace
+            expanded = SimpleNamespace(cells=SimpleNamespace(n=len(per_cell)),
+                                       values={k: np.asarray(v)[per_cell]
+                                               for k, v in part.values.items()})
+            data.update({k + tag: v for k, v in _cartesian(expanded, g.axes, angle).items()})
     mesh = meshio.Mesh(points, cells, cell_data={k: [v] for k, v in data.items()})
     path = Path(path)
     mesh.write(path, file_format="vtu")

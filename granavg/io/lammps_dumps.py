@@ -403,10 +403,10 @@ class LammpsDumps(PairedDumps):
             col["radius"] = 0.5 * col["radius"]
         col = check_atoms(fa.path, Columns(col, fa))
         if not len(self.wall_types):
-            return self._turned({k: v for k, v in col.items() if k != "type"}), {}
+            return self._turned(col), {}
         wall = np.isin(col["type"], self.wall_types)
         walls = {"id": col["id"][wall], "radius": col["radius"][wall]} if "id" in col else {}
-        atoms = {k: v[~wall] for k, v in col.items() if k != "type"}
+        atoms = {k: v[~wall] for k, v in col.items()}
         return self._turned(atoms), walls
 
     def _turned(self, atoms):

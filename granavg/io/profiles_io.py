@@ -54,6 +54,31 @@ def read_profiles(path) -> Fields:
     except (KeyError, TypeError, ValueError, AttributeError):
         raise UserError(f"{side}: no ring geometry (rings.edges_m, rings.h_m); average "
                         "again with 'granavg average'") from None
+    reps = path.with_name(path.name + REPLICATES)
+    archive = None
+    if reps.exists():
+        try:
+            with np.load(reps) as z:
+                archive = {k: z[k] for k in z.files}
+        except (OSError, ValueError, KeyError) as exc:
+            raise UserError(f"{reps}: damaged replicates ({exc}); average again") from None
+    series = path.with_name(path.name + TIMESERIES)
+    series = columns_of(pd.read_csv(series)) if series.exists() else None
+    if "species" not in table.columns:
+        return _from_table(table, path, rings, meta, archive, "", series)
+    names = list(dict.fromkeys(table["species"].astype(str)))
+    parts = {name: _from_table(table[table["species"].astype(str) == name], path, rings,
+                               meta, archive, f"s{k}/", series)
+             for k, name in enumerate(names)}
+    return Fields.of_species(parts, meta)
+
+
+def _from_table(table, path, rings, meta, archive, prefix, series) -> Fields:
+    """The fields of one table (of one species: its rows), checked; replicates under
+    ``prefix`` of the archive."""
+    import pandas as pd
+
+    table = table.reset_index(drop=True)
     in_time = "t" in table.columns
     missing = [c for c in (*rings.coordinates(), "n_frames", "flags") if c not in table.columns]
     n_times = len(table) // rings.n if in_time else 1
@@ -66,16 +91,14 @@ def read_profiles(path) -> Fields:
     bad = [n for n in names if not pd.api.types.is_numeric_dtype(table[n])]
     if bad:
         raise UserError(f"{path}: column {bad[0]} holds non-numbers; the table is damaged")
-    reps = path.with_name(path.name + REPLICATES)
     replicates = None
-    if reps.exists():
+    if archive is not None:
         try:
-            with np.load(reps) as z:
-                replicates = _time_replicates(z) if "time_kinds" in z.files else \
-                    _replicates(z, "")
-        except (OSError, ValueError, KeyError) as exc:
-            raise UserError(f"{reps}: damaged replicates ({exc}); average again") from None
-    series = path.with_name(path.name + TIMESERIES)
+            replicates = _time_replicates(archive, prefix) \
+                if f"{prefix}time_kinds" in archive else _replicates(archive, prefix)
+        except (ValueError, KeyError) as exc:
+            raise UserError(f"{path.name}{REPLICATES}: damaged replicates ({exc}); average "
+                            "again") from None
     shape = (n_times, rings.n) if in_time else (rings.n,)
     flags = np.array([f if isinstance(f, str) else "" for f in table["flags"]], dtype=object)
     n_frames = table["n_frames"].to_numpy()
@@ -93,27 +116,26 @@ def read_profiles(path) -> Fields:
                   flags.reshape(shape), n_frames if in_time else int(n_frames[0]), meta,
                   replicates,
                   table["n_runs"].to_numpy().reshape(shape) if "n_runs" in table.columns
-                  else None,
-                  columns_of(pd.read_csv(series)) if series.exists() else None, times, edges)
+                  else None, series, times, edges)
 
 
 def _replicates(z, prefix: str):
-    """The replicates stored under ``prefix`` in an npz archive (None where none)."""
+    """The replicates stored under ``prefix`` in an npz archive (a mapping of its
+    entries; None where none)."""
     kind = f"{prefix}kind"
-    if kind not in z.files:
+    if kind not in z:
         return None
-    parts = json.loads(str(z[f"{prefix}parts"])) if f"{prefix}parts" in z.files else None
-    values = {k[len(prefix):]: z[k] for k in z.files if k.startswith(prefix)
+    parts = json.loads(str(z[f"{prefix}parts"])) if f"{prefix}parts" in z else None
+    values = {k[len(prefix):]: z[k] for k in z if k.startswith(prefix)
               and k not in (kind, f"{prefix}parts")}
-    if not prefix:
-        values = {k: v for k, v in values.items() if "/" not in k}
+    values = {k: v for k, v in values.items() if "/" not in k}
     return Replicates(str(z[kind]), values, parts)
 
 
-def _time_replicates(z) -> list:
-    """Fields in time: one set of replicates per time (``t<j>/`` in the archive)."""
-    n = len(json.loads(str(z["time_kinds"])))
-    return [_replicates(z, f"t{j}/") for j in range(n)]
+def _time_replicates(z, prefix: str = "") -> list:
+    """Fields in time: one set of replicates per time (``<prefix>t<j>/``)."""
+    n = len(json.loads(str(z[f"{prefix}time_kinds"])))
+    return [_replicates(z, f"{prefix}t{j}/") for j in range(n)]
 
 
 def write_profiles(profiles: Fields, path, parquet: bool = False) -> Path:
@@ -145,16 +167,29 @@ def write_profile_files(profiles: Fields, outputs: OutputSet, parquet: bool = Fa
     if profiles.replicates is not None:
         with open(outputs.temp(REPLICATES), "wb") as fh:
             reps = profiles.replicates
-            if isinstance(reps, list):          # fields in time: one set per time
-                stored = {"time_kinds": json.dumps([r.kind if r else None for r in reps])}
-                for j, r in enumerate(reps):
-                    if r is not None:
-                        stored.update(_stored(r, f"t{j}/"))
+            if profiles.species is not None:    # a mixture: one set (or list) per species
+                stored = {"species_names": json.dumps(list(profiles.species))}
+                for k, r in enumerate(reps):
+                    stored.update(_any_stored(r, f"s{k}/"))
                 np.savez(fh, **stored)
             else:
-                np.savez(fh, **_stored(reps, ""))
+                np.savez(fh, **_any_stored(reps, ""))
     if profiles.series is not None:
         write_csv(outputs.temp(TIMESERIES), profiles.series, "%.8g")
+
+
+def _any_stored(reps, prefix: str) -> dict:
+    """One set of replicates, or fields in time' list of one set per time (``t<j>/``),
+    as npz entries under ``prefix``."""
+    if reps is None:
+        return {}
+    if not isinstance(reps, list):
+        return _stored(reps, prefix)
+    stored = {f"{prefix}time_kinds": json.dumps([r.kind if r else None for r in reps])}
+    for j, r in enumerate(reps):
+        if r is not None:
+            stored.update(_stored(r, f"{prefix}t{j}/"))
+    return stored
 
 
 def _stored(reps: Replicates, prefix: str) -> dict:

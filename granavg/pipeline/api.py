@@ -28,7 +28,8 @@ DUMP_OPTIONS = ("density", "gravity", "fmt", "atom_map", "contact_map", "wall_ty
 def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=None,
             kernel=None, width=None, t_min=None, t_max=None, block_time=None,
             windows=None, window_frames=None, time_kernel=None, time_width=None,
-            times=None, branch="contact", sectors="auto", workers=None, scheduler=None,
+            times=None, species=None, branch="contact", sectors="auto", workers=None,
+            scheduler=None,
             progress=False, check_cells=None, **options) -> Fields:
     """Time-averaged continuum fields of DEM data over cells (Eqs. 1-7 of Luding et al.
     2001, with a smoothing kernel their coarse-grained forms), with standard errors.
@@ -67,6 +68,12 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
         deviation, cut at 3 widths; ``lucy``: width its half-length) at ``times``
         (START, STOP, STEP), with their time derivatives and, with a smoothing
         ``kernel`` in space, the residuals of the continuity and momentum balance.
+    species : str or dict, optional
+        A mixture's partial fields per species beside the whole's, on a ``species``
+        axis (:mod:`granavg.engine.species`): ``"type"``, ``"radius"``,
+        ``"radius:E1,E2"``, ``"small=1,2 large=3"`` or ``{"small": [1, 2], "large":
+        [3]}``; with the force density between species ``f_inter``, the concentration
+        ``c`` and the segregation flux ``seg_*``.
     branch : {"contact", "paper"}
         Where the branch vectors of Eqs. 5 and 7 end.
     sectors : "auto", int or None
@@ -107,9 +114,13 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
     unknown = sorted(set(options) - set(DUMP_OPTIONS))
     if unknown:
         raise ParameterError(unknown[0], "{param}: not an option of granavg.average")
+    # the engine's axes beyond the cells: time, and the species of a mixture
     time = {k: v for k, v in dict(t_max=t_max, windows=windows, window_frames=window_frames,
                                   time_kernel=time_kernel, time_width=time_width,
-                                  times=times).items() if v is not None}
+                                  times=times, species=species).items() if v is not None}
+    if species is not None and (workers is not None or scheduler):
+        raise ParameterError("species", "{param} averages in one process: leave out "
+                             "{workers} (a mixture's species on dask are not built yet)")
     common = dict(quantities=quantities, kernel=kernel, width=width, t_min=t_min,
                   block_time=block_time, branch=branch, sectors=sectors,
                   check_cells=check_cells, time=time or None)

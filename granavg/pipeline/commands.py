@@ -97,7 +97,8 @@ def average(o):
     return average_to_file(o["run_dir"], o["out"], parquet=o["parquet"], netcdf=o["netcdf"],
                            vtk=o["vtk"], workers=o["workers"], scheduler=o["scheduler"],
                            atoms=o["atoms"], contacts=o["contacts"], progress=_progress(o),
-                           **averaging(o, width=o["width"]), **time_options(o))
+                           species=o["species"], **averaging(o, width=o["width"]),
+                           **time_options(o))
 
 
 def scales(o):

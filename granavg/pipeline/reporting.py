@@ -10,6 +10,8 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
+
 from granavg.analysis.claims import analyze
 from granavg.analysis.fields import analyze_fields, write_field_report
 from granavg.analysis.figures import save_all
@@ -26,10 +28,13 @@ log = logging.getLogger(__name__)
 
 
 def report_profiles(coarse: Fields, fine: Fields, out, title="granavg report",
-                    density_series=(), figures: bool = True) -> dict:
+                    density_series=(), figures: bool = True, species: Fields | None = None
+                    ) -> dict:
     """Analyse two ring profiles of one run (or ensemble) and write figures (none
     without ``figures``), summary.json, report.html; ``density_series``: coarse profiles
-    of the scene at other area fractions, for Fig. 5's master curve."""
+    of the scene at other area fractions, for Fig. 5's master curve; ``species``: ring
+    fields of the same run split by type, for the mixture's section
+    (:mod:`granavg.analysis.segregation`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     manifest = (coarse.meta or {}).get("run_manifest")
@@ -41,6 +46,8 @@ def report_profiles(coarse: Fields, fine: Fields, out, title="granavg report",
     manifest = {**manifest, "preparation": without_paths(manifest.get("preparation"))}
     summary = analyze(coarse, fine, manifest, density_series)
     drawn = save_all(coarse, fine, summary, out / "figures") if figures else {}
+    if species is not None:
+        _mixture(species, manifest["scene"], summary, out / "figures", drawn, figures)
     run = _run_dir_of(coarse) if figures else None
     if run is not None:
         drawn = {"fig1": fig1_of_run(run, out / "figures"), **drawn}
@@ -50,6 +57,31 @@ def report_profiles(coarse: Fields, fine: Fields, out, title="granavg report",
     write_report(summary, drawn, out / "report.html", title)
     log.debug("report written: %s", out / "report.html")
     return summary
+
+
+def _mixture(species, scene, summary, folder, drawn, figures) -> None:
+    """The mixture's section: :func:`~granavg.analysis.segregation.segregation` into
+    ``summary["mixture"]`` (its claim among the claims), its figure into ``drawn``."""
+    from granavg.analysis.segregation import segregation, segregation_panels
+
+    d_mean = (scene["n_small"] * scene["d_s"] + scene["n_large"] * scene["d_l"]) / (
+        scene["n_small"] + scene["n_large"])
+    s_band = summary["numbers"]["shear_band"]["s_m"]
+    if not np.isfinite(s_band):
+        log.warning("the mixture's section is left out: the shear band is not fitted")
+        return
+    result = segregation(species, scene["R_i"], d_mean, scene["Omega"], s_band)
+    summary["mixture"] = {k: v for k, v in result.items() if k != "claim"}
+    summary["claims"].append({**result["claim"], "reproduced": None, "note": ""})
+    if figures:
+        import matplotlib.pyplot as plt
+
+        folder.mkdir(parents=True, exist_ok=True)
+        ax = segregation_panels(result, scene["R_i"])
+        for ext in ("png", "pdf"):
+            ax[0].figure.savefig(folder / f"mixture.{ext}", dpi=150)
+        plt.close(ax[0].figure)
+        drawn["mixture"] = folder / "mixture.png"
 
 
 def _run_dir_of(profiles):
@@ -110,7 +142,10 @@ def report_run(run_dir, out, bins=(20, 60), t_min=None, progress=None, title="gr
         sectors = chosen_sectors(p, sectors)     # the same replicas for every ring count
         write_profiles(p, out / f"profiles{n}.csv")
         profiles.append(p)
-    return report_profiles(*profiles, out, title)
+    species = average_run(run_dir, bins=bins[0], t_min=t_min, progress=progress,
+                          sectors=sectors, time={"species": "type"})
+    write_profiles(species, out / f"profiles{bins[0]}-species.csv")
+    return report_profiles(*profiles, out, title, species=species)
 
 
 #: Profile columns the analysis needs.
@@ -132,6 +167,19 @@ def analyze_command(profiles, out, density_series=(), closed=None, arm="contact"
                              "directory; choose a new {param} (reports are never "
                              "overwritten)")
     inputs = [read_profiles(p) for p in profiles]
+    plain = [p for p in inputs if p.species is None]
+    mixtures = [p for p in inputs if p.species is not None and isinstance(p.cells, Rings)
+                and (p.meta or {}).get("run_manifest")]
+    if len(plain) == 2 and len(mixtures) == 1 and len(inputs) == 3:
+        inputs, profiles = plain, [n for p, n in zip(inputs, profiles) if p.species is None]
+        mixture = mixtures[0]                    # the paper's report, with its mixture
+    else:
+        mixture = None
+    if any(p.species is not None for p in inputs):    # a mixture: each species on its own
+        inputs, profiles = zip(*[(p.of(s), f"{name} [{s}]") if p.species is not None
+                                 else (p, name) for p, name in zip(inputs, profiles)
+                                 for s in (p.species or (None,))])
+        inputs, profiles = list(inputs), list(profiles)
     paper = len(inputs) == 2 and all(isinstance(p.cells, Rings) and not p.in_time and (
         p.meta or {}).get("run_manifest") for p in inputs)
     if not paper:
@@ -153,7 +201,8 @@ def analyze_command(profiles, out, density_series=(), closed=None, arm="contact"
             raise UserError(f"{name}: the profiles lack {missing[0]}; average with all "
                             "quantities (the contact dump is needed)")
     with staged_directory(out) as tmp:
-        report_profiles(*inputs, tmp, density_series=series, figures=figures)
+        report_profiles(*inputs, tmp, density_series=series, figures=figures,
+                        species=mixture)
     log.info("report: %s", out / "report.html")
     return out / "report.html"
 

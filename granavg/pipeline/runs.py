@@ -73,8 +73,11 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
     body = scene_body_forces(manifest)
     smooth_edge = kernel not in (None, "exact") and get_kernel(kernel).smooth_edge
     groups = groups_for(quantities, contacts is not None, bool(body), smooth=smooth_edge,
-                        in_time=bool((time or {}).get("time_kernel")))
+                        in_time=bool((time or {}).get("time_kernel")),
+                        species=(time or {}).get("species") is not None)
     atom_cols, contact_cols = needed_columns(groups)
+    if (time or {}).get("species") is not None:
+        atom_cols["type"] = "species"
     if needs_body(groups):                # computed from the disks' velocities, not read
         atom_cols = {**{c: g for c, g in atom_cols.items() if c not in ("bx", "by")},
                      "vx": "body", "vy": "body"}

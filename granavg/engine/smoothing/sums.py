@@ -137,11 +137,12 @@ def smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout):
     radius = np.asarray(a["radius"], float)
     want = set(blocks) & set(layout.blocks)
     rows = frame_rows(frame) if contacts is not None and \
-        {*CONTACT_BLOCKS, "wall", "dsig"} & want else None
+        {*CONTACT_BLOCKS, "wall", "inter", "dsig"} & want else None
     n = cells.n * max(sectors, 1)
     sums = np.zeros((n, layout.n))
     terms = _Terms(layout, cells.moments > 1)
-    particle_blocks = [b for b in blocks if b not in ("sig", "wall", *DERIVATIVE_BLOCKS)]
+    particle_blocks = [b for b in blocks if b not in ("sig", "wall", "inter",
+                                                      *DERIVATIVE_BLOCKS)]
     plain = terms.channels(particle_blocks)
     deriv = bool({"dmass", "dmom", "dkin", "dsig"} & want)
     col = layout.first
@@ -209,15 +210,22 @@ def smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout):
                 ss, sh = (sector[own], share[own]) if sectors else (sector, share)
                 seg, snode, sW = cells.segment_weights(start, l[mine])
                 _scatter(seg, snode, sW, Q, seg_terms, ss, sh, sectors, sums)
-    if ("wall" in want or div_terms is not None) and contacts is not None:
-        points, forces = wall_points(a, contacts, D, branch, rows)
+    # the walls' forces, and a species' partners' of other species, at their contact
+    # points: their own blocks, and less their weights in the divergence (each is the
+    # end of a branch that the contact's other half does not reach)
+    for which in ("wall", "inter"):
+        if contacts is None or (which not in want and div_terms is None):
+            continue
+        points, forces = wall_points(a, contacts, D, branch, rows, which=which)
+        if not len(points):
+            continue
         at = tuple(points.T)
         Fw = np.einsum("pij,pj->pi", cells.basis(at), forces)
         k, node, W, _ = cells.kernel_weights(at, False)
         sector, share = cells.sector_shares(at, np.zeros(len(points)), sectors) if sectors \
             else (_EMPTY_SECTOR, _EMPTY_SHARE)
-        if "wall" in want:
-            _scatter(k, node, W, Fw, terms.into("vector", lambda o: col("wall") + o, 0),
+        if which in want:
+            _scatter(k, node, W, Fw, terms.into("vector", lambda o, b=which: col(b) + o, 0),
                      sector, share, sectors, sums)
         if div_terms is not None:
             _scatter(k, node, -W, Fw, div_terms, sector, share, sectors, sums)
