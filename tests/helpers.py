@@ -117,13 +117,13 @@ PILE2D_MAP = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=
               "ftx=c_pl[5],fty=c_pl[6]")
 
 
-def run_pile2d(out, units_header="no", floor="wall", kn=2000.0):
-    """The user's deck in-process; LAMMPS' summed pair virial (xx + yy) of the last
-    dumped frame."""
+def run_pile2d(out, units_header="no", floor="wall", kn=2000.0, precise="no"):
+    """The user's deck in-process (``precise`` yes: per-atom forces, 17 digits);
+    LAMMPS' summed pair virial (xx + yy) of the last dumped frame."""
     out.mkdir(parents=True, exist_ok=True)
     with lammps_session(["-log", str(out / "log.lammps"), "-var", "out", str(out),
                          "-var", "units_header", units_header, "-var", "floor", floor,
-                         "-var", "kn", str(kn)]) as lmp:
+                         "-var", "kn", str(kn), "-var", "precise", precise]) as lmp:
         lmp.file(str(PILE2D_DECK))
         last = lmp.last_thermo()
     return last["c_t[1]"] + last["c_t[2]"]
@@ -151,15 +151,16 @@ MAP3 = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
         "force=c_pl[5],ftx=c_pl[6],fty=c_pl[7],ftz=c_pl[8]")
 
 
-def run_pile3d(out, series="no", kn=100.0, heavy=1.0, bidisperse="no"):
+def run_pile3d(out, series="no", kn=100.0, heavy=1.0, bidisperse="no", precise="no"):
     """The user's deck in-process (``heavy``: the odd ids' material that many times as
-    dense; ``bidisperse`` yes: odd ids large, type 2); LAMMPS' summed pair virial (xx +
-    yy + zz) of the last dumped frame."""
+    dense; ``bidisperse`` yes: odd ids large, type 2; ``precise`` yes: per-atom forces
+    and 17 digits); LAMMPS' summed pair virial (xx + yy + zz) of the last dumped
+    frame."""
     out.mkdir(parents=True, exist_ok=True)
     with lammps_session(["-log", str(out / "log.lammps"), "-var", "out", str(out),
                          "-var", "series", series, "-var", "kn", str(kn),
                          "-var", "heavy", str(heavy), "-var", "bidisperse",
-                         bidisperse]) as lmp:
+                         bidisperse, "-var", "precise", precise]) as lmp:
         lmp.file(str(PILE3D_DECK))
         last = lmp.last_thermo()
     return last["c_t[1]"] + last["c_t[2]"] + last["c_t[3]"]

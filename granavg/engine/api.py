@@ -218,7 +218,8 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         kernel = getattr(cells, "kernel", None)
         groups = groups_for(quantities, head[0].contacts is not None, "bx" in head[0].atoms,
                             smooth=bool(kernel and kernel.smooth_edge),
-                            in_time=axis.derivative, species=species is not None)
+                            in_time=axis.derivative, species=species is not None,
+                            have_forces="fx" in head[0].atoms)
         groups, lacking = _with_columns(groups, quantities is not None, head[0], cells.dim)
         if block_time is None:
             block_time = spacing if spacing is not None else 1.0

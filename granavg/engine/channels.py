@@ -45,6 +45,8 @@ lpow       lpow                        sum_c ((delta / 2) n x f) . omega
 bpow       bpow                        b^p . v: the body force's power
 inter      inter_<i>                   a species' partners of other species' forces
                                        (at the contact points; species only)
+ma         ma_<i>                      F^p: the particle's total force (m a; the atoms'
+                                       fx fy fz)
 dtmass     dtmass                      d/dt of the mass sum (a time kernel's)
 dtmom      dtmom_<i>                   d/dt of the mom_i sum (a time kernel's)
 =========  ==========================  ==========================================
@@ -112,12 +114,13 @@ class Block:
 
 
 def _expand(names, dim) -> list:
-    """Column names with ``{v}``, ``{w}``, ``{b}``, ``{n}``, ``{f}`` spelled out for
-    ``dim`` axes."""
+    """Column names with ``{v}``, ``{w}``, ``{b}``, ``{n}``, ``{f}``, ``{a}`` spelled out
+    for ``dim`` axes."""
     xyz = _XYZ[:dim]
     groups = {"{v}": [f"v{x}" for x in xyz],
               "{w}": ["omegaz"] if dim == 2 else [f"omega{x}" for x in xyz],
               "{b}": [f"b{x}" for x in xyz], "{n}": [f"n{x}" for x in xyz],
+              "{a}": [f"f{x}" for x in xyz],
               "{f}": [f"fn{x}" for x in xyz] + [f"ft{x}" for x in xyz],
               "{m}": ["mz"] if dim == 2 else [f"m{x}" for x in xyz]}
     out = []
@@ -172,6 +175,9 @@ BLOCK = {b.name: b for b in (
     # a species' share of a mixture (granavg.engine.species): the forces of the other
     # species' particles on its particles, at the contact points (as the walls')
     Block("inter", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
+    # the particles' total forces (LAMMPS' per-atom f): m a, the inertia every balance
+    # law's forces add up to, frame by frame
+    Block("ma", "vector", ("{a}",)),
     # time derivatives of the mass and momentum sums: no frame fills them, a time
     # kernel's derivative does (granavg.engine.timing), after the frames' channels
     Block("dtmass", "scalar"),

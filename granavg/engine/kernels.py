@@ -149,6 +149,9 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
         stack(["bx", "by", "bz"][:D]) if body else zero,
         E, moving, "kin" in want, "spin" in want, body, _offsets(layout))
     _spin_and_energy(q, layout, atoms, stack, mass, E, want)
+    if "ma" in want:                      # the total force, in the basis at the particle
+        k = layout.first("ma")
+        q[:, k:k + D] = np.einsum("pij,pj->pi", E, stack(["fx", "fy", "fz"][:D]))
     if want & set(CONTACT_BLOCKS):
         if branch not in BRANCHES:
             raise UserError(f"branch {branch!r}: choose from {', '.join(BRANCHES)}")

@@ -356,6 +356,11 @@ QUANTITIES = {q.name: q for q in (
              balanced=_all_components, species=True, unit="{force}/{length}^3",
              help="force density on a species from the particles of the others, at the "
                   "contact points (zero for the whole mixture)"),
+    Quantity("ma", ("ma",), "vector", _values(_per_cell_volume("ma"), "ma"),
+             unit="{force}/{length}^3",
+             help="the particles' total forces (m a, the atoms' fx fy fz) as a force "
+                  "density: what the stress divergence and the force densities add up to, "
+                  "frame by frame"),
     Quantity("body", ("body",), "vector", _values(_per_cell_volume("body"), "body"),
              unit="{force}/{length}^3",
              help="body force density: gravity, base-plate friction, a force column"),
@@ -571,17 +576,19 @@ def needs_body(groups) -> bool:
 
 
 def groups_for(quantities, have_contacts: bool, have_body: bool = False,
-               smooth: bool = False, in_time: bool = False, species: bool = False) -> list:
+               smooth: bool = False, in_time: bool = False, species: bool = False,
+               have_forces: bool = False) -> list:
     """The quantity groups to compute: the requested ones (checked), or all that the
     data allow (without contacts, only those that need none; ``body`` only where the
     frames carry body forces; the derivatives only with a ``smooth`` kernel, the time
     derivatives only with a time kernel, ``in_time``; the forces between species only
-    with ``species``)."""
+    with ``species``; the particles' total forces only where the atoms carry them,
+    ``have_forces``)."""
     if quantities is None:
         return [g for g, q in QUANTITIES.items()
                 if (have_contacts or not q.contacts) and (have_body or "body" not in q.blocks)
                 and (smooth or not q.smooth) and (in_time or not q.in_time)
-                and (species or not q.species)]
+                and (species or not q.species) and (have_forces or "ma" not in q.blocks)]
     alone = [q for q in quantities if q in QUANTITIES and QUANTITIES[q].species
              and not species]
     if alone:

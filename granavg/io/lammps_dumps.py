@@ -61,9 +61,10 @@ ATOM_ALIASES = {"x": ("x", "xu", "xs", "xsu"), "y": ("y", "yu", "ys", "ysu"),
                 "radius": ("radius", "diameter"), "vx": ("vx",), "vy": ("vy",), "vz": ("vz",),
                 "omegax": ("omegax",), "omegay": ("omegay",), "omegaz": ("omegaz",),
                 "id": ("id",), "type": ("type",), "mass": ("mass",),
+                "fx": ("fx",), "fy": ("fy",), "fz": ("fz",),
                 "bx": (), "by": (), "bz": ()}   # a body force on each atom: named only
 #: Atom columns that exist only in 3D.
-ONLY_3D = ("z", "vz", "omegax", "omegay", "bz")
+ONLY_3D = ("z", "vz", "omegax", "omegay", "fz", "bz")
 SCALED = ("xs", "xsu", "ys", "ysu", "zs", "zsu")
 
 
