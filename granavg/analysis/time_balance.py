@@ -83,7 +83,7 @@ def momentum(p) -> dict | None:
         np.ones(res.shape[1:], bool)
     body = _vectors(p, "body")
     terms = {name: _vectors(p, name) for name in
-             ("dmomentum_dt", "divsigma", "divdsigma", "body", "boundary")}
+             ("dmomentum_dt", "divsigma", "divdsigma", "body", "boundary", "f_inter")}
     size = {k: float(np.nanmax(np.linalg.norm(v, axis=0)[bulk])) for k, v in terms.items()
             if v is not None and np.any(bulk)}
     residual = np.linalg.norm(res, axis=0)

@@ -321,20 +321,26 @@ class CellAverage:
         whole = self._conclude({j: s for j, s in self.slots.items() if not isinstance(j, tuple)})
         if self.classes is None:
             return whole
+        # the species' replicates from the same sectors as the whole's: they pair up,
+        # for the errors of c and the other derived columns
+        first = whole if not whole.in_time else whole.at(0)
+        chosen = ((first.meta or {}).get("errors") or {}).get("sectors", {}).get("sectors")
         parts = {name: self._conclude({k[1]: s for k, s in self.slots.items()
-                                       if isinstance(k, tuple) and k[0] == name}, False)
+                                       if isinstance(k, tuple) and k[0] == name}, False,
+                                      chosen if self.sectors == "auto" else None)
                  for name in self.classes.names}
         self.results = with_species(whole, parts, self.classes)
         return self.results
 
-    def _conclude(self, slots: dict, whole: bool = True) -> Fields:
+    def _conclude(self, slots: dict, whole: bool = True, sectors=None) -> Fields:
         """The fields of one set of slots (the mixture's, or a species': not ``whole``,
-        which keeps the frames' time series to the mixture's fields)."""
+        which keeps the frames' time series to the mixture's fields; ``sectors``: the
+        replicates' number of sectors, default chosen from the data)."""
         if self.axis.kind == "whole":
-            return self._fields(slots[0], whole=whole)
+            return self._fields(slots[0], whole=whole, sectors=sectors)
         order = self._ordered(slots)
         said: dict = {}
-        fields = [self._fields(slots[j], said, whole) for j in order]
+        fields = [self._fields(slots[j], said, whole, sectors) for j in order]
         for message in said.values():
             log.warning(message)
         if self.axis.kind == "windows":
@@ -370,7 +376,8 @@ class CellAverage:
         self.axis.reach(first, last)
         return list(range(len(self.axis.times)))
 
-    def _fields(self, slot: Slot, said: dict | None = None, whole: bool = True) -> Fields:
+    def _fields(self, slot: Slot, said: dict | None = None, whole: bool = True,
+                sectors=None) -> Fields:
         """The fields of one slot's frames (``said``: collects the warnings of many slots
         under one key each, logged once by the caller; None: logged here; ``whole``: the
         mixture's, with the frames' time series and its steadiness)."""
@@ -427,6 +434,7 @@ class CellAverage:
             sem, replicates, info, time_part = structure.structure_errors(
                 r_counts, self._full(r_sums), V, self.rho_p, self.groups, layout, sem,
                 replicates, sectors=self.sectors, periodic=self.cells.sectors_close,
+                replicas=sectors,
                 across=self.cells.across)
             lower = {n: lb & time_part[n] for n, lb in lower.items()}
             meta["errors"].update(kind="time+structure", sectors={
@@ -569,7 +577,7 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     contacts = frame.contacts
     radius = a["radius"]
     rows = frame_rows(frame) if contacts is not None and (
-        {*CONTACT_BLOCKS, "wall", "inter"} & set(blocks)) else None
+        {*CONTACT_BLOCKS, "wall", "inter", "ninter", "fabinter"} & set(blocks)) else None
     n = cells.n * max(sectors, 1)
     rows_needed = min(CHUNK, len(radius))
 

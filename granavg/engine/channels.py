@@ -45,6 +45,8 @@ lpow       lpow                        sum_c ((delta / 2) n x f) . omega
 bpow       bpow                        b^p . v: the body force's power
 inter      inter_<i>                   a species' partners of other species' forces
                                        (at the contact points; species only)
+ninter     ninter                      V^p C^p over the contacts with other species
+fabinter   fabinter_<ij>               V^p sum n n over the contacts with other species
 ma         ma_<i>                      F^p: the particle's total force (m a; the atoms'
                                        fx fy fz)
 dtmass     dtmass                      d/dt of the mass sum (a time kernel's)
@@ -175,6 +177,9 @@ BLOCK = {b.name: b for b in (
     # a species' share of a mixture (granavg.engine.species): the forces of the other
     # species' particles on its particles, at the contact points (as the walls')
     Block("inter", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
+    # ... and the share of its coordination and fabric that those contacts make
+    Block("ninter", "scalar", ("id",), _PAIRS),
+    Block("fabinter", "tensor", ("id",), (*_PAIRS, "{n}")),
     # the particles' total forces (LAMMPS' per-atom f): m a, the inertia every balance
     # law's forces add up to, frame by frame
     Block("ma", "vector", ("{a}",)),

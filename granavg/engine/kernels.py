@@ -149,7 +149,7 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
         stack(["bx", "by", "bz"][:D]) if body else zero,
         E, moving, "kin" in want, "spin" in want, body, _offsets(layout))
     _spin_and_energy(q, layout, atoms, stack, mass, E, want)
-    if "ma" in want:                      # the total force, in the basis at the particle
+    if "ma" in want and "fx" in atoms:    # the total force, in the basis at the particle
         k = layout.first("ma")
         q[:, k:k + D] = np.einsum("pij,pj->pi", E, stack(["fx", "fy", "fz"][:D]))
     if want & set(CONTACT_BLOCKS):
@@ -167,7 +167,32 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
         if want & set(COUPLE_BLOCKS):
             _couple_channels(q, layout, atoms, stack, contacts, f, n, overlap, E, want,
                              BRANCHES[branch], rows, first)
+    if want & {"ninter", "fabinter"} and contacts is not None:
+        _partner_channels(q, layout, contacts, rows if rows is not None else
+                          contact_rows(atoms, contacts), vol, E, first, want)
     return q
+
+
+def _partner_channels(q, layout, contacts, rows, vol, E, first, want):
+    """A species' share of a frame (:mod:`granavg.engine.species`): the part of each
+    particle's coordination and fabric that its contacts with other species make,
+    V^p x count and V^p sum n (x) n over them, in the basis E."""
+    D, P = layout.dim, q.shape[0]
+    i1 = np.asarray(rows[0]) - first
+    k = np.flatnonzero((np.asarray(contacts["wall"]) == PARTNER) & (i1 >= 0) & (i1 < P))
+    if not len(k):
+        return
+    p = i1[k]
+    v = np.asarray(vol, float)[p]
+    if "ninter" in want:
+        q[:, layout.index["ninter"]] += np.bincount(p, v, minlength=P)
+    if "fabinter" in want:
+        n = np.column_stack([np.asarray(contacts["n" + x], float)[k] for x in "xyz"[:D]])
+        nb = np.einsum("kij,kj->ki", E[p], n)
+        fab = (v[:, None, None] * nb[:, :, None] * nb[:, None, :]).reshape(len(k), D * D)
+        first_col = layout.first("fabinter")
+        for c in range(D * D):
+            q[:, first_col + c] += np.bincount(p, fab[:, c], minlength=P)
 
 
 #: I = k m a^2: a disk's k (2D) and a sphere's (3D).

@@ -143,8 +143,14 @@ def _ratio(block, name):
     return value
 
 
-def _coordination(S, V, layout, name):
-    return {name: S[:, layout.index["ncontact"]] * _inverse_volume(S, layout)}
+def _coordination_of(block):
+    """Contacts per particle from a block of V^p x count sums."""
+    def value(S, V, layout, name):
+        return {name: S[:, layout.index[block]] * _inverse_volume(S, layout)}
+    return value
+
+
+_coordination = _coordination_of("ncontact")
 
 
 def _fluctuation(S, V, layout, name):
@@ -339,6 +345,14 @@ QUANTITIES = {q.name: q for q in (
              _values(_coordination, "coordination"), unit="1", help="contacts per particle"),
     Quantity("F", ("fab",), "tensor", _values(_per_cell_volume("fab"), "F"),
              unit="1", help="fabric, Eq. 4"),
+    Quantity("coordination_inter", ("vol", "ninter"), "scalar",
+             _values(_coordination_of("ninter"), "coordination_inter"), species=True,
+             unit="1", help="a species' contacts per particle with particles of the other "
+                            "species (with its own: coordination less these)"),
+    Quantity("F_inter", ("fabinter",), "tensor", _values(_per_cell_volume("fabinter"),
+                                                         "F_inter"), species=True,
+             unit="1", help="a species' fabric of its contacts with the other species (of "
+                            "those with its own: F less this)"),
     Quantity("sigma", ("sig",), "tensor", _values(_per_cell_volume("sig"), "sigma"),
              balanced=_across_components, unit="{stress}", help="static stress, Eq. 5"),
     Quantity("dsigma", ("kin",), "tensor", _values(_per_cell_volume("kin"), "dsigma"),

@@ -137,7 +137,7 @@ def smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout):
     radius = np.asarray(a["radius"], float)
     want = set(blocks) & set(layout.blocks)
     rows = frame_rows(frame) if contacts is not None and \
-        {*CONTACT_BLOCKS, "wall", "inter", "dsig"} & want else None
+        {*CONTACT_BLOCKS, "wall", "inter", "ninter", "fabinter", "dsig"} & want else None
     n = cells.n * max(sectors, 1)
     sums = np.zeros((n, layout.n))
     terms = _Terms(layout, cells.moments > 1)

@@ -257,7 +257,7 @@ def structure_parts(counts, sums, V, rho_p, groups, layout, evaluate):
 
 
 def structure_errors(counts, sums, V, rho_p, groups, layout, sem_time, jackknife, *,
-                     sectors="auto", periodic=True, across="r"):
+                     sectors="auto", periodic=True, across="r", replicas=None):
     """Errors that count the frozen structure, from the sectors of every cell.
 
     Parameters
@@ -279,6 +279,10 @@ def structure_errors(counts, sums, V, rho_p, groups, layout, sem_time, jackknife
     across : str
         The direction across the cells, one of the layout's axes ("r" for rings, the
         slabs' axis), for :func:`~granavg.engine.quantities.balanced_names`.
+    replicas : int, optional
+        With ``sectors="auto"``: this K for the replicates (and the quantities without
+        their own), not the one chosen from the data: another average's over the same
+        frames (a mixture's species, whose replicates then pair with the whole's).
 
     Returns
     -------
@@ -303,6 +307,8 @@ def structure_errors(counts, sums, V, rho_p, groups, layout, sem_time, jackknife
         per_q, common, unresolved, table = choose_sectors(*halves(counts, sums), V, rho_p,
                                                           groups, layout, periodic, fine,
                                                           balanced)
+        if replicas is not None and fine % int(replicas) == 0:
+            common = int(replicas)
     elif fine % int(sectors) == 0:
         per_q, common, unresolved, table = {}, int(sectors), [], {}
     else:
