@@ -205,12 +205,24 @@ def test_bad_species_are_one_line(bidisperse, pile2d_precise, tmp_path, spec, me
     assert "Traceback" not in proc.stderr and not list(tmp_path.iterdir())
 
 
-def test_species_with_workers_is_refused_in_one_line(bidisperse, tmp_path):
-    proc = run_cli("average", "--atoms", bidisperse / "atoms.dump", "--wall-types", 3,
-                   "--slabs", "z", "--bins", 4, "--species", "type", "--workers", 2,
-                   "--out", tmp_path / "x.csv", "--no-progress")
-    assert proc.returncode == 2 and "--species averages in one process" in proc.stderr, \
-        proc.stderr
+def test_species_on_dask_workers_equal_the_serial_pass(bidisperse, tmp_path):
+    """Anyone's dumps on two dask workers: the species the first frame fixed go to every
+    worker, whose accumulators merge exactly (the same values as one process)."""
+    pytest.importorskip("distributed")
+    cells = {"slabs": "z", "range": (0.0, 0.03), "bins": 6}
+    serial = _pile3d(bidisperse, cells)
+    parallel = _pile3d(bidisperse, cells, workers=2)
+    assert parallel.species == serial.species
+    for k in serial.values:
+        assert np.allclose(parallel.values[k], serial.values[k], rtol=1e-12, atol=0,
+                           equal_nan=True), k
+
+
+def test_species_of_run_directories_on_workers_is_refused_in_one_line(tmp_path):
+    proc = run_cli("average", granavg.examples.couette_2d.run, "--bins", 4, "--species",
+                   "type", "--workers", 2, "--out", tmp_path / "x.csv", "--no-progress")
+    assert proc.returncode == 2 and "--species on run directories averages in one process" \
+        in proc.stderr, proc.stderr
 
 
 def test_kinetic_stresses_about_each_velocity_and_fields_in_time():

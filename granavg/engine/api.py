@@ -27,7 +27,7 @@ from granavg.engine.cell_average import CellAverage
 from granavg.engine.fields import Fields
 from granavg.engine.quantities import (QUANTITIES, groups_for, missing_columns,
                                        optional_columns)
-from granavg.engine.species import Species
+from granavg.engine.species import Classes, Species
 from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError
 
@@ -190,10 +190,11 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
     if frames is None:
         if quantities is None or block_time is None:
             raise ValueError("an averager fed later needs its quantities and block time")
-        if species is not None:
+        if species is not None and not isinstance(species, Classes):
             raise ParameterError("species", "{param}: the species are found in the first "
                                  "frame, which an averager fed later (in situ, dask "
-                                 "workers) does not see; average the dumps in one process")
+                                 "workers of a run directory) does not see; average the "
+                                 "dumps, or in one process")
         head, groups, lacking, has_mass = [], list(quantities), {}, True
         axis = timing.axis(t_min=t_min, t_max=t_max, windows=windows,
                            window_frames=window_frames, time_kernel=time_kernel,
@@ -238,7 +239,8 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
     # material, of a density that cancels (UNWEIGHED)
     if head:                              # checked now; frames fed later: on the first
         check_frame(head[0], cells, groups)
-    classes = Species.parse(species).classes(head[0].atoms) if species is not None else None
+    classes = species if isinstance(species, Classes) or species is None else \
+        Species.parse(species).classes(head[0].atoms)
     avg = CellAverage(frames, cells, groups, rho_p if rho_p is not None else 1.0, t_min,
                       block_time, series, branch=branch, sectors=sectors,
                       check=None if head else (lambda frame: check_frame(frame, cells, groups)),

@@ -45,13 +45,14 @@ from isal import igzip
 
 from granavg.errors import ParameterError, UserError, literal, named
 from granavg.engine.kernels import lookup
+from granavg.io import binary_dump
 from granavg.io.box import Box
 from granavg.io.contacts import contact_columns, contact_couples
 from granavg.io.dumpfile import open_text
 from granavg.io.formats import Format
 from granavg.io.frames import (CONSISTENCY, Columns, Frame, PairedDumps, check_atoms,
                                check_contacts, check_integers)
-from granavg.io.reader import DumpReader, series
+from granavg.io.reader import DumpReader, first_file
 from granavg.io.dump_units import choose_units
 
 log = logging.getLogger(__name__)
@@ -103,7 +104,9 @@ def parse_map(text) -> dict:
 def dump_header(path):
     """The column names of a dump's first ``ITEM: ATOMS`` / ``ITEM: ENTRIES`` line, and
     its ``ITEM: UNITS`` as ``(style, "file:line")`` (None if the dump does not say)."""
-    path = series(path)[0]
+    path = first_file(path)
+    if binary_dump.is_binary(path):
+        return binary_dump.header(path)
     opener = igzip.open if str(path).endswith(".gz") else open
     units, previous = None, ""
     try:
@@ -229,7 +232,7 @@ def dimension(path, explicit_map, dim=None) -> tuple:
     if dim == 3 or (dim is not None and zcol is None):
         return dim, "given"
     if zcol is None:
-        return 2, f"{series(path)[0]} has no z column"
+        return 2, f"{first_file(path)} has no z column"
     frame = next((f for f in DumpReader(path, [zcol]) if len(f.data)), None)
     if frame is None:
         raise UserError(f"{path}: no frame holds an atom; give a dump of a run with atoms")
@@ -535,17 +538,20 @@ def inertia_of(atoms) -> tuple:
 
 def _claims(path) -> bool:
     """A LAMMPS text dump (plain or gzip; the first of a series) starts with an ``ITEM:``
-    line."""
+    line, a binary one with its format header (:mod:`granavg.io.binary_dump`)."""
     try:
-        if "*" in Path(path).name:
-            path = series(path)[0]
+        if "*" in Path(path).name or "%" in Path(path).name:
+            path = first_file(path)
+        if binary_dump.is_binary(path):
+            return True
         with open_text(path) as fh:
             return fh.read(5) == "ITEM:"
     except (OSError, EOFError, UnicodeDecodeError, UserError):
         return False
 
 
-FORMAT = Format("lammps", "LAMMPS text dumps: dump custom (atoms) and dump local (contacts: "
-                "pair/local + property/local, or granavg's own columns)", _claims, LammpsDumps,
+FORMAT = Format("lammps", "LAMMPS dumps, text or binary: dump custom (atoms) and dump "
+                "local (contacts: pair/local + property/local, or granavg's own columns)",
+                _claims, LammpsDumps,
                 ("atom_map", "contact_map", "wall_types", "dt", "units", "dim", "steps",
                  "inertia", "named_steps"))

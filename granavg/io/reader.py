@@ -87,7 +87,8 @@ class DumpFrame:
 
 
 class DumpReader:
-    """Lazy reader of one LAMMPS text dump, plain or gzip; iterate to get frames.
+    """Lazy reader of one LAMMPS dump, text (plain or gzip) or binary
+    (:mod:`granavg.io.binary_dump`); iterate to get frames.
 
     Parameters
     ----------
@@ -133,7 +134,8 @@ class DumpReader:
         a dask client needs of each file of a ``dump.*`` series); None if it holds none."""
         reader = DumpReader.__new__(DumpReader)
         reader.__dict__.update(self.__dict__, _first_only=True, steps=None, from_time=None)
-        scanner = _Scanner(reader, Path(path) if path is not None else self.files[0])
+        path = Path(path) if path is not None else self.files[0]
+        scanner = _scanner(reader, first_file(path) if "%" in path.name else path)
         return next(iter(scanner.frames(must_hold=False)), None)
 
     def _own_files(self) -> list:
@@ -148,12 +150,15 @@ class DumpReader:
                 if n <= hi and (k + 1 == len(numbers) or numbers[k + 1] > lo)]
 
     def __iter__(self):
+        if len(self.files) == 1 and "%" in self.files[0].name:
+            yield from self._processor_frames(self.files[0])
+            return
         if len(self.files) == 1:
-            yield from _Scanner(self, self.files[0]).frames()
+            yield from _scanner(self, self.files[0]).frames()
             return
         last = None
         for path in self._own_files():
-            scanner = _Scanner(self, path)
+            scanner = _scanner(self, path)
             for frame in scanner.frames(must_hold=False):
                 if last is not None and frame.timestep <= last[0]:
                     raise UserError(
@@ -167,6 +172,65 @@ class DumpReader:
                             "files of %s are used", path, self.path)
 
 
+    def _processor_frames(self, path):
+        """The frames of a dump written one file per processor (a ``%`` in its name):
+        each frame's rows from every file, in the processors' order."""
+        # a processor that never held a row may leave its file empty (LAMMPS' dump local)
+        parts = [p for _, p in processor_files(path) if p.stat().st_size > 0] or \
+            [processor_files(path)[0][1]]
+        for part in parts[1:]:
+            with open(part, "rb") as fh:
+                start = fh.read(5)
+            if start != b"ITEM:" and not part.suffix == ".bin":
+                raise UserError(f"{part}: rows without frame headers (LAMMPS writes the "
+                                "headers of a dump local split over processors to the first "
+                                "file alone, so the frames of the others cannot be told "
+                                "apart); dump the contacts to one file (no % in its name)")
+        walks = [_scanner(self, p).frames() for p in parts]
+        for pieces in zip(*walks):
+            first = pieces[0]
+            other = next((f for f in pieces[1:] if f.timestep != first.timestep), None)
+            if other is not None:
+                raise UserError(f"{other.path}: timestep {other.timestep} where "
+                                f"{first.path} has {first.timestep}; the files of one "
+                                "dump's processors must hold the same frames")
+            data = first.data if len(pieces) == 1 else np.concatenate([f.data for f in pieces])
+            yield DumpFrame(first.timestep, first.time, first.columns, data, first.box,
+                            first.line, first.boundary, first.triclinic, first.tilt, path)
+
+
+def processor_files(path) -> list:
+    """(processor, file) of a dump written one file per processor: the files matching
+    ``path`` with a number where its ``%`` is (as LAMMPS names them), in order; a
+    one-line refusal if there is none."""
+    path = Path(path)
+    head, tail = path.name.split("%", 1)
+    pattern = re.compile(re.escape(head) + r"(\d+)" + re.escape(tail) + "$")
+    found = sorted((int(m.group(1)), p) for p in path.parent.glob(head + "*" + tail)
+                   if (m := pattern.match(p.name)) and p.is_file())
+    if not found:
+        raise UserError(f"{path}: no file matches (the % stands for the processor, as in "
+                        "LAMMPS' dump atoms.%.txt); give an existing file or pattern")
+    return found
+
+
+def first_file(path) -> Path:
+    """The first file holding ``path``'s frames: of a ``dump.*`` series the first, of a
+    ``%`` dump the first processor's."""
+    first = series(path)[0]
+    return processor_files(first)[0][1] if "%" in first.name else first
+
+
+def _scanner(reader, path):
+    """The walker of one file: LAMMPS' binary layout (:mod:`granavg.io.binary_dump`)
+    where the file starts with it, else text."""
+    from granavg.io import binary_dump
+
+    if binary_dump.is_binary(path):
+        return binary_dump.BinaryScanner(reader, path, DumpFrame)
+    return _Scanner(reader, path)
+
+
 def series(path) -> list:
     """The files of ``path``: itself, or for a name with a ``*`` every file matching it,
     ordered by the number that stands for the ``*`` (one-line refusal if none)."""
@@ -177,6 +241,9 @@ def numbered_series(path) -> list:
     """(number, file) of :func:`series`: the number that stands for the ``*`` (-1 for a
     single file)."""
     path = Path(path)
+    if "*" not in path.name and "%" in path.name:
+        processor_files(path)                   # one dump in a file per processor
+        return [(-1, path)]
     if "*" not in path.name:
         if not path.exists():
             raise UserError(f"{path}: no such file")

@@ -110,7 +110,7 @@ def existing_file(name, path):
     if path is None:
         return None
     p = Path(path)
-    if "*" in p.name:
+    if "*" in p.name or "%" in p.name:
         from granavg.io.reader import series
         try:
             series(p)

@@ -118,9 +118,12 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
     time = {k: v for k, v in dict(t_max=t_max, windows=windows, window_frames=window_frames,
                                   time_kernel=time_kernel, time_width=time_width,
                                   times=times, species=species).items() if v is not None}
-    if species is not None and (workers is not None or scheduler):
-        raise ParameterError("species", "{param} averages in one process: leave out "
-                             "{workers} (a mixture's species on dask are not built yet)")
+    runs_given = isinstance(source, (list, tuple)) or (
+        isinstance(source, (str, os.PathLike)) and Path(source).is_dir())
+    if species is not None and (workers is not None or scheduler) and runs_given:
+        raise ParameterError("species", "{param} on run directories averages in one "
+                             "process: leave out {workers} (on dask the species of a "
+                             "mixture are built for anyone's dumps)")
     common = dict(quantities=quantities, kernel=kernel, width=width, t_min=t_min,
                   block_time=block_time, branch=branch, sectors=sectors,
                   check_cells=check_cells, time=time or None)

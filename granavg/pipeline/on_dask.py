@@ -108,11 +108,14 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
 def resolved_time(base, time: dict | None) -> dict | None:
     """The time options a worker's averager needs, resolved by the client's ``base``
     (which read the first frames): windows of frames as their length, the frames'
-    interval (a chunk may hold a single frame)."""
+    interval (a chunk may hold a single frame), and the species of a mixture as the
+    first frame fixed them (a chunk's first frame may lack one)."""
     if not time:
         return time
     axis = base.axis
     out = dict(time)
+    if out.get("species") is not None and base.classes is not None:
+        out["species"] = base.classes      # the species the first frame fixed, for all
     if axis.kind == "windows":
         out.pop("window_frames", None)
         out["windows"] = axis.length
