@@ -152,18 +152,18 @@ MAP3 = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
 
 
 def run_pile3d(out, series="no", kn=100.0, heavy=1.0, bidisperse="no", precise="no",
-               floor="wall", binary="no"):
+               floor="wall", binary="no", yaml="no"):
     """The user's deck in-process (``heavy``: the odd ids' material that many times as
     dense; ``bidisperse`` yes: odd ids large, type 2; ``precise`` yes: per-atom forces
     and 17 digits; ``floor`` spheres: a layer of fixed type-3 spheres; ``binary`` yes:
-    also atoms.bin, LAMMPS' binary atom dump); LAMMPS' summed pair virial (xx + yy + zz)
-    of the last dumped frame."""
+    also atoms.bin, LAMMPS' binary atom dump; ``yaml`` yes: also atoms.yaml, its dump
+    yaml); LAMMPS' summed pair virial (xx + yy + zz) of the last dumped frame."""
     out.mkdir(parents=True, exist_ok=True)
     with lammps_session(["-log", str(out / "log.lammps"), "-var", "out", str(out),
                          "-var", "series", series, "-var", "kn", str(kn),
                          "-var", "heavy", str(heavy), "-var", "bidisperse",
                          bidisperse, "-var", "precise", precise, "-var", "floor",
-                         floor, "-var", "binary", binary]) as lmp:
+                         floor, "-var", "binary", binary, "-var", "yaml", yaml]) as lmp:
         lmp.file(str(PILE3D_DECK))
         last = lmp.last_thermo()
     return last["c_t[1]"] + last["c_t[2]"] + last["c_t[3]"]

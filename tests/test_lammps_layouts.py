@@ -1,7 +1,8 @@
-"""LAMMPS' other dump layouts: binary dumps (granavg.io.binary_dump) and dumps written one
-file per processor (a ``%`` in the name). The 3D pile deck writes its atom dump as text
-with 17 digits and in LAMMPS' binary layout (``-var binary yes``), and on two MPI ranks
-also one file per rank (``-var perproc yes``); every layout reads as the same frames
+"""LAMMPS' other dump layouts: binary dumps (granavg.io.binary_dump), ``dump yaml``
+(granavg.io.yaml_dump) and dumps written one file per processor (a ``%`` in the name).
+The 3D pile deck writes its atom dump as text with 17 digits, in LAMMPS' binary layout
+(``-var binary yes``) and as YAML with 17 digits (``-var yaml yes``), and on two MPI
+ranks also one file per rank (``-var perproc yes``); every layout reads as the same frames
 and averages to the same fields bit for bit, through the API, the command line and
 dask; a cut or an old-layout binary file, and a dump local split over processors (whose
 headers LAMMPS writes to the first file alone), are said in one line."""
@@ -26,7 +27,7 @@ SLABS = {"slabs": "z", "range": (0.0, 0.03), "bins": 6}
 @pytest.fixture(scope="module")
 def pile(tmp_path_factory):
     out = tmp_path_factory.mktemp("binary") / "pile"
-    run_pile3d(out, precise="yes", floor="spheres", binary="yes")
+    run_pile3d(out, precise="yes", floor="spheres", binary="yes", yaml="yes")
     return out
 
 
@@ -70,6 +71,27 @@ def test_the_binary_dump_averages_to_the_same_fields_on_every_route(pile, tmp_pa
     for k in text.values:
         assert np.allclose(dask.values[k], text.values[k], rtol=1e-12, atol=0,
                            equal_nan=True), k
+
+
+def test_a_dump_yaml_is_the_text_dump(pile, tmp_path, caplog):
+    names, units = dump_header(pile / "atoms.yaml")
+    assert names == dump_header(pile / "atoms.dump")[0] and units[0] == "si"
+    text, yaml = list(DumpReader(pile / "atoms.dump")), list(DumpReader(pile / "atoms.yaml"))
+    assert len(yaml) == len(text) == 11
+    for t, y in zip(text, yaml):
+        assert (y.timestep, y.time, y.columns, y.boundary) == (t.timestep, t.time, t.columns,
+                                                               t.boundary)
+        assert np.array_equal(y.box, t.box) and np.array_equal(y.data, t.data)
+    some = list(DumpReader(pile / "atoms.yaml", ["x"], steps=(45500, 46500)))
+    assert [f.timestep for f in some] == [45500, 46000, 46500]
+    plain = _fields(pile / "atoms.dump", pile, t_min=0.46)
+    fields = _fields(pile / "atoms.yaml", pile, t_min=0.46)
+    for k in plain.values:
+        assert np.array_equal(fields.values[k], plain.values[k], equal_nan=True), k
+    lines = (pile / "atoms.yaml").read_text().splitlines(keepends=True)
+    cut = tmp_path / "cut.yaml"
+    cut.write_text("".join(lines[:-20]))
+    assert len(list(DumpReader(cut))) == 10 and "the last frame is cut" in caplog.text
 
 
 def test_a_cut_binary_dump_keeps_its_complete_frames(pile, tmp_path, caplog):

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from granavg.errors import UserError
+from granavg.io.selection import skipped, wanted
 
 #: The magic strings LAMMPS writes before each binary frame.
 MAGICS = (b"DUMPCUSTOM", b"DUMPATOM")
@@ -148,7 +149,7 @@ class BinaryScanner:
                                         "increase (remove the repeated frames)")
                     previous = step
                     self.seen += 1
-                    if self._skipped(head):
+                    if skipped(reader, step, head["time"]):
                         if reader.steps and step > reader.steps[1]:
                             return
                         continue
@@ -187,28 +188,14 @@ class BinaryScanner:
                             f"{head['n']}; the file is damaged")
         return flat.reshape(head["n"], width)
 
-    def _skipped(self, head) -> bool:
-        window, reader, step = self.reader.steps, self.reader, head["timestep"]
-        return window is not None and not (
-            window[0] <= step <= window[1]
-            and (len(window) < 3 or (step - window[0]) % window[2] == 0)) or (
-            reader.from_time is not None and head["time"] is not None
-            and head["time"] < reader.from_time)
-
     def _columns(self, head, rows):
         """The requested columns (all if none were), copied out of the file."""
         names = head["names"]
         if self.reader.headers_only or self.reader._first_only:
             return [], np.empty((head["n"], 0))
-        want = self.reader.columns if self.reader.columns is not None else names
-        missing = [c for c in want if c not in names]
-        if missing:
-            need = self.reader.needed_by.get(missing[0])
-            raise UserError(f"{self.path}: column '{missing[0]}' is missing (columns: "
-                            f"{' '.join(names)})" + (f"; {need} needs it" if need else "")
-                            + "; write it in the dump or do not ask for what needs it")
+        want = wanted(self.reader, self.path, names)
         data = np.ascontiguousarray(rows[:, [names.index(c) for c in want]])
         if not np.all(np.isfinite(data)):
             raise UserError(f"{self.path}: NaN or inf at timestep {head['timestep']}; the "
                             "run blew up or the file is damaged")
-        return list(want), data
+        return want, data

@@ -45,7 +45,7 @@ from isal import igzip
 
 from granavg.errors import ParameterError, UserError, literal, named
 from granavg.engine.kernels import lookup
-from granavg.io import binary_dump
+from granavg.io import binary_dump, yaml_dump
 from granavg.io.box import Box
 from granavg.io.contacts import contact_columns, contact_couples
 from granavg.io.dumpfile import open_text
@@ -107,6 +107,8 @@ def dump_header(path):
     path = first_file(path)
     if binary_dump.is_binary(path):
         return binary_dump.header(path)
+    if yaml_dump.is_yaml(path):
+        return yaml_dump.header(path)
     opener = igzip.open if str(path).endswith(".gz") else open
     units, previous = None, ""
     try:
@@ -538,11 +540,12 @@ def inertia_of(atoms) -> tuple:
 
 def _claims(path) -> bool:
     """A LAMMPS text dump (plain or gzip; the first of a series) starts with an ``ITEM:``
-    line, a binary one with its format header (:mod:`granavg.io.binary_dump`)."""
+    line, a binary one with its format header (:mod:`granavg.io.binary_dump`), a ``dump
+    yaml`` with its first document (:mod:`granavg.io.yaml_dump`)."""
     try:
         if "*" in Path(path).name or "%" in Path(path).name:
             path = first_file(path)
-        if binary_dump.is_binary(path):
+        if binary_dump.is_binary(path) or yaml_dump.is_yaml(path):
             return True
         with open_text(path) as fh:
             return fh.read(5) == "ITEM:"
@@ -550,7 +553,7 @@ def _claims(path) -> bool:
         return False
 
 
-FORMAT = Format("lammps", "LAMMPS dumps, text or binary: dump custom (atoms) and dump "
+FORMAT = Format("lammps", "LAMMPS dumps, text, binary or yaml: dump custom (atoms) and dump "
                 "local (contacts: pair/local + property/local, or granavg's own columns)",
                 _claims, LammpsDumps,
                 ("atom_map", "contact_map", "wall_types", "dt", "units", "dim", "steps",

@@ -87,8 +87,9 @@ class DumpFrame:
 
 
 class DumpReader:
-    """Lazy reader of one LAMMPS dump, text (plain or gzip) or binary
-    (:mod:`granavg.io.binary_dump`); iterate to get frames.
+    """Lazy reader of one LAMMPS dump, text (plain or gzip), binary
+    (:mod:`granavg.io.binary_dump`) or ``dump yaml`` (:mod:`granavg.io.yaml_dump`);
+    iterate to get frames.
 
     Parameters
     ----------
@@ -222,12 +223,15 @@ def first_file(path) -> Path:
 
 
 def _scanner(reader, path):
-    """The walker of one file: LAMMPS' binary layout (:mod:`granavg.io.binary_dump`)
-    where the file starts with it, else text."""
-    from granavg.io import binary_dump
+    """The walker of one file: LAMMPS' binary layout (:mod:`granavg.io.binary_dump`) or
+    ``dump yaml`` (:mod:`granavg.io.yaml_dump`) where the file starts as one, else
+    text."""
+    from granavg.io import binary_dump, yaml_dump
 
     if binary_dump.is_binary(path):
         return binary_dump.BinaryScanner(reader, path, DumpFrame)
+    if yaml_dump.is_yaml(path):
+        return yaml_dump.YamlScanner(reader, path, DumpFrame)
     return _Scanner(reader, path)
 
 
