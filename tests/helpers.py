@@ -191,6 +191,14 @@ def run_user_deck(deck, out, **variables):
         return lmp.last_thermo()
 
 
+def cli(capsys, *args):
+    """``granavg ARGS`` in this process: (exit code, stderr lines)."""
+    from granavg.cli import main
+
+    code = main([str(a) for a in args])
+    return code, capsys.readouterr().err.splitlines()
+
+
 def frame_lines(path):
     """The frames of a dump as lists of lines."""
     lines = Path(path).read_text().splitlines(keepends=True)

@@ -26,10 +26,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from granavg.cli import _finite, _parser, main
+from granavg.cli import _finite, _parser
 from granavg.io.profiles_io import read_profiles
 
-from .helpers import MAP3, frame_lines as frames, last_rows, run_user_deck
+from .helpers import MAP3, cli, frame_lines as frames, last_rows, run_user_deck
 
 NO_FT = "id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],force=c_pl[5]"
 MAP2 = ("id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],force=c_pl[5],"
@@ -63,12 +63,6 @@ def tilted(tmp_path_factory):
 def info_lines(caplog):
     """granavg's information lines, as the command logs them."""
     caplog.set_level(logging.INFO, logger="granavg")
-
-
-def cli(capsys, *args):
-    """``granavg ARGS`` in this process: (exit code, stderr lines)."""
-    code = main([str(a) for a in args])
-    return code, capsys.readouterr().err.splitlines()
 
 
 def refused(capsys, tmp_path, args, *needles):

@@ -34,6 +34,9 @@ class Format:
         ``open(atoms, contacts=None, **options)`` -> frame source.
     options : tuple of str
         The keyword options ``open`` takes (others given are refused).
+    selected_by : tuple of str
+        Options that name this format when no format is named (their files look like
+        another format's: LIGGGHTS' atoms are LAMMPS dumps).
     """
 
     name: str
@@ -41,6 +44,7 @@ class Format:
     claims: Callable
     open: Callable
     options: tuple = ()
+    selected_by: tuple = ()
 
 
 #: The formats, by name.
@@ -52,9 +56,14 @@ def available() -> dict:
     return FORMATS.all()
 
 
-def choose(atoms, fmt: str | None = None) -> Format:
-    """The format ``fmt``, or the first that claims the atoms file (one-line refusals)."""
+def choose(atoms, fmt: str | None = None, given=()) -> Format:
+    """The format ``fmt``; else the one an option in ``given`` selects
+    (:attr:`Format.selected_by`); else the first that claims the atoms file (one-line
+    refusals)."""
     known = available()
+    selected = [f for f in known.values() if any(k in f.selected_by for k in given)]
+    if fmt is None and selected:
+        return selected[0]
     if fmt is not None:
         if fmt not in known:
             raise ParameterError("fmt", f"{{param}} {literal(fmt)}: unknown; choose from "
@@ -71,8 +80,8 @@ def choose(atoms, fmt: str | None = None) -> Format:
 def open_frames(atoms, contacts=None, *, fmt: str | None = None, **options):
     """The frame source of ``atoms`` (and ``contacts``) in format ``fmt``, or in the
     first format that claims the atoms file; options left at None are not passed."""
-    chosen = choose(atoms, fmt)
     given = {k: v for k, v in options.items() if v not in (None, (), [], {})}
+    chosen = choose(atoms, fmt, given)
     foreign = [k for k in given if k not in chosen.options]
     if foreign:
         raise UserError(f"{atoms}: the {chosen.name} format takes no {foreign[0]} option "

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -190,6 +191,14 @@ def resolve_contacts(path, explicit: dict, dim: int) -> dict:
                    "ftx=c_pl[5],fty=c_pl[6]") if dim == 2 else (
                    "id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],dz=c_pl[4],"
                    "force=c_pl[5],ftx=c_pl[6],fty=c_pl[7],ftz=c_pl[8]")
+        unnamed = re.compile(r"^c_.+\[\d+\]$")
+        if not explicit and names and all(unnamed.match(n) for n in names):
+            raise ParameterError("contact_map", f"{literal(path)}: no column for "
+                                 f"{missing[0]}: its columns ({names[0]} .. {names[-1]}) are "
+                                 "unnamed; LIGGGHTS' compute pair/gran/local: give its "
+                                 "keywords ({liggghts} 'pos id force delta'); LAMMPS' "
+                                 "pair/local and property/local: map them with {param}, e.g. "
+                                 f"{literal(example)}")
         raise ParameterError("contact_map", f"{literal(path)}: no column for {missing[0]}; "
                              "map the pair/local and property/local columns with {param}, "
                              f"e.g. {literal(example)}")
@@ -434,19 +443,23 @@ class LammpsDumps(PairedDumps):
         return atoms
 
     def _contacts(self, fc, atoms, walls):
-        raw = fc.as_dict()
-        c = {ours: raw[theirs] for ours, theirs in self.cmap.items()}
-        check_integers(fc.path, fc, c, ("id1", "id2"))
-        if "wall" in c and "overlap" in c:                      # granavg's own format
-            rows = dict(c, packing=np.ones(len(c["id1"]), bool))
-        else:
-            rows = self._convert(c, fc, atoms, walls)
+        rows = self._rows(fc, atoms, walls)
         packing = rows.pop("packing")
         rows = check_contacts(fc.path, Columns(rows, fc))
         touching = self._touching(rows, fc)
         self.dropped["contacts_not_touching"] += int(np.sum(packing & ~touching))
         keep = packing & touching
         return {k: v[keep] for k, v in rows.items()}
+
+    def _rows(self, fc, atoms, walls) -> dict:
+        """The contact frame's rows as granavg's columns (:func:`~granavg.io.contacts.
+        contact_columns`' ``packing`` and ``reach`` included), not yet checked."""
+        raw = fc.as_dict()
+        c = {ours: raw[theirs] for ours, theirs in self.cmap.items()}
+        check_integers(fc.path, fc, c, ("id1", "id2"))
+        if "wall" in c and "overlap" in c:                      # granavg's own format
+            return dict(c, packing=np.ones(len(c["id1"]), bool))
+        return self._convert(c, fc, atoms, walls)
 
     def _touching(self, rows, fc):
         """Contacts among the rows: overlap > 0, or a normal force (the overlap of a pair

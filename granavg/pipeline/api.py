@@ -22,7 +22,7 @@ log = logging.getLogger(__name__)
 
 #: Options of anyone's dumps that a run directory's manifest says instead.
 DUMP_OPTIONS = ("density", "gravity", "fmt", "atom_map", "contact_map", "wall_types", "dt",
-                "units", "dim", "inertia")
+                "units", "dim", "inertia", "liggghts", "wall_contacts", "wall_keywords")
 
 
 def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=None,

@@ -13,7 +13,8 @@ from granavg.errors import UserError, message, named
 #: Options of the frames that only plain dumps take (a run directory's manifest says
 #: them); and every cells option that does not declare it builds a run's cells too.
 PLAIN_ONLY = ("density", "dt", "wall_types", "atom_columns", "contact_columns", "units",
-              "format", "gravity", "dim", "inertia")
+              "format", "gravity", "dim", "inertia", "liggghts", "wall_contacts",
+              "liggghts_walls")
 
 
 def cell_options() -> list:
@@ -88,7 +89,8 @@ def averaging(o, **extra) -> dict:
                 units=o["units"], wall_types=o["wall_types"], dim=o["dim"],
                 gravity=o["gravity"], inertia=o["inertia"],
                 atom_map=parse_map(o["atom_columns"]),
-                contact_map=parse_map(o["contact_columns"]))
+                contact_map=parse_map(o["contact_columns"]), liggghts=o["liggghts"],
+                wall_contacts=o["wall_contacts"], wall_keywords=o["liggghts_walls"])
 
 
 def average(o):
