@@ -4,6 +4,7 @@ the same file (issue: three dimensions at the scale of real 3D runs).
     python benchmarks/big_3d.py make DIR [--copies 36 37] [--frames 6]
     python benchmarks/big_3d.py time DIR [--ovito-python PY] [--grid 20 20 6]
     python benchmarks/big_3d.py series DIR [--files 24] [-n 3]
+    python benchmarks/big_3d.py threads DIR [--files 24] [--quantities nu] [--counts 1 2]
 
 ``make`` runs the 3D pile of tests/decks/pile_3d_si.lmp (755 spheres at rest on a floor,
 periodic in x and y, SI units), tiles its last frame NX x NY times side by side and
@@ -26,6 +27,10 @@ frames of DIR/big.dump in turn, time steps and times continued), as LAMMPS' ``du
 dump.*.txt`` writes them, and times ``granavg average 'DIR/series/dump.*.txt'`` (the same
 grid and quantities) with ``--workers 2`` against one process, whole processes in turn,
 ``-n`` pairs: the median of the pairs' ratios one process / two workers.
+
+``threads`` times one process on the same series with each ``--threads`` count (the
+files parsed on that many reader threads, the engine on as many), and ``cat`` of the
+files, ``-n`` rounds in turn; the profiles' hashes must agree.
 """
 
 from __future__ import annotations
@@ -206,6 +211,42 @@ def series_timing(d: Path, files: int, n: int, grid) -> None:
           f"{statistics.median(ratio):.2f} ({min(ratio):.2f}-{max(ratio):.2f}) |")
 
 
+def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts) -> None:
+    """One process on the series with each ``--threads`` count (readers and engine), and
+    ``cat`` of the files, paired runs in turn; the profiles' hashes compared."""
+    import hashlib
+    import statistics
+
+    out = d / "series"
+    if len(list(out.glob("dump.*.txt"))) != files:
+        write_series(d, files)
+    with tempfile.TemporaryDirectory() as tmp:
+        def average(k):
+            dest = f"{tmp}/t{k}.csv"
+            return ["sh", "-c", f'rm -f {dest}*; exec "$@"', "sh", sys.executable, "-m",
+                    "granavg", "average", "--atoms", str(out / "dump.*.txt"), "--grid",
+                    *map(str, grid), "--z-range", "0", "0.03", "--quantities", quantities,
+                    "--out", dest, "--no-progress", "--threads", str(k)]
+        cat = ["sh", "-c", f"cat {out}/dump.*.txt > /dev/null"]
+        run(average(counts[0]))                                   # the page cache warm
+        times = {k: [] for k in counts}
+        times["cat"] = []
+        for _ in range(n):
+            times["cat"].append(run(cat)[0])
+            for k in counts:
+                times[k].append(run(average(k))[0])
+        digests = {k: hashlib.sha256(Path(f"{tmp}/t{k}.csv").read_bytes()).hexdigest()[:12]
+                   for k in counts}
+    base = statistics.median(times[counts[0]])
+    print(f"| {files} files, --quantities {quantities} | wall s, median (range) | "
+          f"vs --threads {counts[0]} | profile sha256 |\n|---|---|---|---|")
+    for k, v in times.items():
+        med = statistics.median(v)
+        print(f"| {'cat' if k == 'cat' else f'--threads {k}'} | {med:.2f} "
+              f"({min(v):.2f}-{max(v):.2f}) | {base / med:.2f} | {digests.get(k, '-')} |")
+    print("identical profiles:", len(set(digests.values())) == 1)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="what", required=True)
@@ -222,8 +263,18 @@ def main(argv=None):
     sr.add_argument("--files", type=int, default=24)
     sr.add_argument("-n", type=int, default=3)
     sr.add_argument("--grid", type=int, nargs=3, default=(20, 20, 6))
+    th = sub.add_parser("threads")
+    th.add_argument("dir", type=Path)
+    th.add_argument("--files", type=int, default=24)
+    th.add_argument("-n", type=int, default=3)
+    th.add_argument("--grid", type=int, nargs=3, default=(20, 20, 6))
+    th.add_argument("--quantities", default="nu")
+    th.add_argument("--counts", type=int, nargs="+", default=(1, 2))
     args = ap.parse_args(argv)
-    if args.what == "make":
+    if args.what == "threads":
+        threads_timing(args.dir, args.files, args.n, args.grid, args.quantities,
+                       args.counts)
+    elif args.what == "make":
         make(args.dir, args.copies, args.frames)
     elif args.what == "series":
         series_timing(args.dir, args.files, args.n, args.grid)

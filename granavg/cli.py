@@ -227,7 +227,7 @@ def _frames_and_cells(avg):
     plain = avg.add_argument_group("plain LAMMPS dumps (no run directory; every number in "
                                    "the dump's own units)")
     plain.add_argument("--format", help="input format of --atoms/--contacts (lammps, "
-                       "liggghts, vtk, csv; "
+                       "liggghts, vtk, yade-vtk, csv; "
                        "default: the one the file looks like)")
     plain.add_argument("--units", metavar="STYLE", help="LAMMPS units style of the dumps "
                        "(si, lj, real, metal, cgs, electron, micro, nano) when they have no "

@@ -9,8 +9,12 @@ is raised where the frame would have come, and stopping early stops the thread.
 
 from __future__ import annotations
 
+import itertools
 import queue
 import threading
+from collections import deque
+
+from granavg.engine import threads
 
 #: Frames read ahead at most (memory: this many frames beyond the one averaged; a
 #: million-sphere frame is about 100 MB).
@@ -19,7 +23,8 @@ _END = object()
 
 
 class Prefetched:
-    """``frames`` read ahead in a background thread; every other attribute (``dropped``,
+    """``frames`` read ahead in a background thread (none where granavg is given one
+    thread: :func:`granavg.engine.threads.count`); every other attribute (``dropped``,
     ``box``, ``units``, ...) is the source's."""
 
     def __init__(self, frames, depth: int = DEPTH):
@@ -29,40 +34,85 @@ class Prefetched:
         return getattr(self.frames, name)
 
     def __iter__(self):
-        q: queue.Queue = queue.Queue(self.depth)
-        stop = threading.Event()
-
-        def put(item) -> bool:
-            while not stop.is_set():
-                try:
-                    q.put(item, timeout=0.1)
-                    return True
-                except queue.Full:
-                    continue
-            return False
-
-        def read():
-            try:
-                for frame in self.frames:
-                    if not put((frame, None)):
-                        return
-                put((_END, None))
-            except BaseException as exc:          # handed to the consumer, raised there
-                put((None, exc))
-
-        worker = threading.Thread(target=read, name="granavg-reader", daemon=True)
-        worker.start()
+        if threads.count() <= 1:                  # one core: read where averaged
+            yield from self.frames
+            return
+        ahead = Ahead(self.frames, self.depth)
         try:
-            while True:
-                frame, error = q.get()
-                if error is not None:
-                    raise error
-                if frame is _END:
-                    return
-                yield frame
+            yield from ahead
         finally:
-            stop.set()
-            worker.join(timeout=1.0)
+            ahead.close()
+
+
+class Ahead:
+    """The frames of ``frames``, read on a thread started at once, at most ``depth``
+    ahead of the consumer; iterate once, then (or to stop early) ``close()``."""
+
+    def __init__(self, frames, depth: int = DEPTH, name: str = "granavg-reader"):
+        self._q: queue.Queue = queue.Queue(depth)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._read, args=(frames,), name=name,
+                                        daemon=True)
+        self._thread.start()
+
+    def _put(self, item) -> bool:
+        while not self._stop.is_set():
+            try:
+                self._q.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def _read(self, frames):
+        try:
+            for frame in frames:
+                if not self._put((frame, None)):
+                    return
+            self._put((_END, None))
+        except BaseException as exc:          # handed to the consumer, raised there
+            self._put((None, exc))
+
+    def __iter__(self):
+        while True:
+            frame, error = self._q.get()
+            if error is not None:
+                raise error
+            if frame is _END:
+                return
+            yield frame
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=1.0)
+
+
+def in_order(sources, width: int, depth: int = DEPTH):
+    """(key, frames) of each ``(key, iterable)`` in ``sources``, in order, with up to
+    ``width`` of them read at once, each on a thread of its own (:class:`Ahead`, at most
+    ``depth`` frames ahead): the files of a series, or the pieces of one file, parsed on
+    several cores (the parser releases the GIL), memory bounded by ``width`` x ``depth``
+    frames, and the frames in the order one thread would read them, so that everything
+    downstream is the same."""
+    sources = iter(sources)
+    if width <= 1:
+        yield from sources
+        return
+    started: deque = deque()
+
+    def start():
+        for key, frames in itertools.islice(sources, 1):
+            started.append((key, Ahead(frames, depth, name="granavg-read")))
+    for _ in range(width):
+        start()
+    try:
+        while started:
+            yield started[0]
+            started.popleft()[1].close()
+            start()
+    finally:
+        for _, ahead in started:
+            ahead.close()
 
 
 class ReadAhead:

@@ -21,17 +21,19 @@ import mmap
 import re
 import sys
 import zlib
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from isal import igzip, isal_zlib
 
+from granavg.engine import threads
 from granavg.errors import UserError
 from granavg.io.dumpfile import gzip_chunks
 from granavg.io.parse import MALFORMED, NOT_FINITE, OK, count_newlines, joined, \
     parse_block, skip_rows
-from granavg.io.prefetch import ReadAhead
+from granavg.io.prefetch import ReadAhead, in_order
 
 log = logging.getLogger(__name__)
 
@@ -155,12 +157,32 @@ class DumpReader:
             yield from self._processor_frames(self.files[0])
             return
         if len(self.files) == 1:
-            yield from _scanner(self, self.files[0]).frames()
+            pieces = self._pieces(self.files[0])
+            if not pieces[0]:
+                yield from _scanner(self, self.files[0]).frames()
+                return
+            last = None
+            pieces, depth = pieces
+            for _, frames in in_order(((k, _Scanner(self, self.files[0], span).frames(
+                    must_hold=False)) for k, span in enumerate(pieces)), len(pieces),
+                    depth):
+                for frame in frames:
+                    if last is not None and frame.timestep <= last:
+                        raise UserError(f"{self.files[0]}:{frame.line}: timestep "
+                                        f"{frame.timestep} does not follow timestep {last}; "
+                                        "time steps must increase (remove the repeated "
+                                        "frames)")
+                    last = frame.timestep
+                    yield frame
             return
         last = None
-        for path in self._own_files():
-            scanner = _scanner(self, path)
-            for frame in scanner.frames(must_hold=False):
+        files = self._own_files()
+        width = min(threads.count(), len(files)) if not self._first_only else 1
+        for path, frames in in_order(((p, _scanner(self, p).frames(must_hold=False))
+                                      for p in files), width):
+            any_frame = False
+            for frame in frames:
+                any_frame = True
                 if last is not None and frame.timestep <= last[0]:
                     raise UserError(
                         f"{path}:{frame.line}: timestep {frame.timestep} does not follow "
@@ -168,10 +190,46 @@ class DumpReader:
                         "increasing time steps (remove the repeated or stray file)")
                 last = (frame.timestep, path)
                 yield frame
-            if scanner.seen == 0:
+            if not any_frame:
                 log.warning("%s: holds no complete frame (empty or cut); skipped, the other "
                             "files of %s are used", path, self.path)
 
+
+    def _pieces(self, path) -> tuple:
+        """A plain text file of :data:`PIECE` bytes or more cut into one piece per
+        reader thread at frame starts: ((first byte, end byte, its line) of each piece,
+        the frames each may read ahead: :data:`AHEAD` bytes over the pieces, as the first
+        frame's size gives it); ([], 0) where it is read whole (gzip, binary, yaml,
+        small, one thread, headers only)."""
+        width = threads.count()
+        size = path.stat().st_size if path.is_file() else 0
+        if width <= 1 or size < PIECE or path.suffix == ".gz" or self.headers_only or \
+                self._first_only:
+            return [], 0
+        with open(path, "rb") as fh:
+            if fh.read(5) != b"ITEM:":
+                return [], 0
+            buf = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
+        try:
+            frame = _frame_start(buf, buf.find(b"ITEM: TIMESTEP") + 1) or size
+            starts = [0]
+            for k in range(1, width):
+                at = _frame_start(buf, k * size // width)
+                if at is not None and at > starts[-1]:
+                    starts.append(at)
+            view = np.frombuffer(buf, dtype=np.uint8)
+            bounds = list(zip(starts, starts[1:] + [size]))
+            # each piece's lines counted on a thread of its own (the count releases the
+            # GIL): the line numbers of the pieces' starts, for file:line messages
+            with ThreadPoolExecutor(len(bounds)) as pool:
+                counts = list(pool.map(lambda ab: count_newlines(view, *ab), bounds[:-1]))
+            del view
+            pieces = [(a, b, 1 + sum(counts[:k])) for k, (a, b) in enumerate(bounds)]
+        finally:
+            buf.close()
+        if len(pieces) <= 1:
+            return [], 0
+        return pieces, max(2, AHEAD // (len(pieces) * frame))
 
     def _processor_frames(self, path):
         """The frames of a dump written one file per processor (a ``%`` in its name):
@@ -198,6 +256,30 @@ class DumpReader:
             data = first.data if len(pieces) == 1 else np.concatenate([f.data for f in pieces])
             yield DumpFrame(first.timestep, first.time, first.columns, data, first.box,
                             first.line, first.boundary, first.triclinic, first.tilt, path)
+
+
+#: Plain text dumps of this many bytes or more are read in pieces, one per reader thread.
+PIECE = 64 << 20
+#: The text bytes of the frames the pieces of one file read ahead of the one averaged,
+#: together (about their parsed size): the memory that buys their parallel reading.
+AHEAD = 1 << 30
+
+
+def _frame_start(buf, at: int):
+    """The first byte of the first frame that starts at or after byte ``at``: its
+    ``ITEM: TIMESTEP`` line, or the ``ITEM: UNITS`` / ``ITEM: TIME`` header lines (each
+    with its value line) just before it; None if no frame starts there."""
+    k = buf.find(b"\nITEM: TIMESTEP\n", max(at - 1, 0))
+    if k < 0:
+        return None
+    start = k + 1
+    while start > at:
+        value = buf.rfind(b"\n", 0, start - 1) + 1              # the value line's start
+        head = buf.rfind(b"\n", 0, max(value - 1, 0)) + 1       # the header line's start
+        if value <= 0 or not buf[head:value].startswith((b"ITEM: TIME\n", b"ITEM: UNITS\n")):
+            break
+        start = head
+    return start
 
 
 def processor_files(path) -> list:
@@ -268,9 +350,11 @@ def numbered_series(path) -> list:
 class _Scanner:
     """Walks one file: a byte buffer refilled in chunks, a running line count."""
 
-    def __init__(self, reader: DumpReader, path):
+    def __init__(self, reader: DumpReader, path, span=None):
         self.reader = reader
         self.path = path
+        #: (first byte, end byte, line of the first byte) of a plain file's piece
+        self.span = span
         self.buf = b""
         self.pos = 0
         self.line = 1
@@ -287,7 +371,15 @@ class _Scanner:
         self.gzip = self.path.suffix == ".gz"
         opener = igzip.open if self.gzip else open  # ISA-L: 3x zlib
         with opener(self.path, "rb") as self.fh:
-            if not self.gzip and self.path.stat().st_size > 0:
+            if self.span is not None:
+                # a piece of a plain file, read on one of several threads: its own
+                # range mapped on its own
+                first, end, self.line = self.span
+                at = first // mmap.ALLOCATIONGRANULARITY * mmap.ALLOCATIONGRANULARITY
+                self.buf = mmap.mmap(self.fh.fileno(), end - at, offset=at,
+                                     access=mmap.ACCESS_READ)
+                self.pos, self.delivered, self.eof = first - at, len(self.buf), True
+            elif not self.gzip and self.path.stat().st_size > 0:
                 # a plain file is mapped, not read: the parser reads the page cache
                 # directly, with no copy into a buffer of its own
                 self.buf = mmap.mmap(self.fh.fileno(), 0, access=mmap.ACCESS_READ)
@@ -317,9 +409,10 @@ class _Scanner:
             frame = self._frame()
             if frame is None:
                 break
-            if isinstance(self.buf, mmap.mmap):
+            if isinstance(self.buf, mmap.mmap) and self.span is None:
                 # the mapped pages behind us are not needed again: let them go, so that
-                # memory stays flat however long the file
+                # memory stays flat however long the file (not in a piece: that would
+                # stop the other readers' cores, and the piece is unmapped at its end)
                 done = self.pos // mmap.PAGESIZE * mmap.PAGESIZE
                 if done > released:
                     self.buf.madvise(mmap.MADV_DONTNEED, released, done - released)

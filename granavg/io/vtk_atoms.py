@@ -14,6 +14,7 @@ atom dump (:mod:`granavg.io.liggghts`).
 from __future__ import annotations
 
 import logging
+import re
 from pathlib import Path
 
 import numpy as np
@@ -126,7 +127,10 @@ class VtkAtoms:
 
 
 def _claims(path) -> bool:
+    """A VTK file (or series), not Yade's spheres files (:mod:`granavg.io.yade_vtk`)."""
     path = Path(path)
+    if re.search(r"spheres\.(\d+|\*)\.vtu$", path.name):
+        return False
     try:
         first = numbered_series(path)[0][1] if "*" in path.name else path
     except UserError:

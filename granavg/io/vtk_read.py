@@ -76,6 +76,9 @@ def read_vtk(path) -> VtkData:
     vtkObject.GlobalWarningDisplayOff()
     legacy = open(path, "rb").read(14) == b"# vtk DataFile"
     reader = vtkGenericDataObjectReader() if legacy else vtkXMLGenericDataObjectReader()
+    if legacy:                    # every SCALARS and VECTORS array, not only the first
+        reader.ReadAllScalarsOn()
+        reader.ReadAllVectorsOn()
     reader.SetFileName(str(path))
     reader.Update()
     data = reader.GetOutput()

@@ -1,0 +1,93 @@
+"""Reading on several cores: the files of a series, and the pieces of one plain dump cut
+at frame starts, parsed on reader threads, their frames handed on in the order one
+thread reads them: the same frames (time step, line, every value) and the same fields,
+to the bit, on any number of threads; a damaged row in a later piece is named at its
+true file:line."""
+
+import numpy as np
+import pytest
+
+import granavg
+from granavg.engine import threads
+from granavg.io import reader
+from granavg.io.reader import DumpReader
+
+pytestmark = pytest.mark.slow            # LAMMPS runs of the 3D pile deck (session fixtures)
+
+CELLS = {"slabs": "z", "range": (0.0, 0.024), "bins": 6}
+MAP = {"id1": "c_pp[1]", "id2": "c_pp[2]", "dist": "c_pl[1]", "dx": "c_pl[2]",
+       "dy": "c_pl[3]", "dz": "c_pl[4]", "force": "c_pl[5]", "ftx": "c_pl[6]",
+       "fty": "c_pl[7]", "ftz": "c_pl[8]"}
+
+
+@pytest.fixture
+def restore_threads():
+    yield
+    threads.set_count(None)
+
+
+@pytest.fixture
+def small_pieces(monkeypatch):
+    """Any file of 4 kB or more is cut into pieces (one per thread)."""
+    monkeypatch.setattr(reader, "PIECE", 4096)
+
+
+def frames(path):
+    return [(f.timestep, f.line, f.time, f.data.copy()) for f in DumpReader(path)]
+
+
+def same(a, b):
+    return len(a) == len(b) and all(x[:3] == y[:3] and np.array_equal(x[3], y[3])
+                                    for x, y in zip(a, b))
+
+
+def test_one_file_in_pieces_gives_the_frames_of_one_thread(pile3d_one, small_pieces,
+                                                           restore_threads):
+    path = pile3d_one / "contacts.dump"
+    threads.set_count(1)
+    one = frames(path)
+    for n in (2, 3, 5):
+        threads.set_count(n)
+        pieces, depth = DumpReader(path)._pieces(path)
+        assert len(pieces) == n and depth >= 2
+        assert [p[0] for p in pieces] == sorted({p[0] for p in pieces})
+        assert same(one, frames(path)), n
+    assert len(one) > 5
+
+
+def test_fields_are_bit_identical_on_one_two_and_three_threads(pile3d_one, pile3d_series,
+                                                               small_pieces,
+                                                               restore_threads):
+    """A single dump (in pieces) and the same run's series (files in parallel), the
+    stress included (contacts read in pieces too)."""
+    results = {}
+    for n in (1, 2, 3):
+        threads.set_count(n)
+        for name, atoms, contacts in (
+                ("one", pile3d_one / "atoms.dump", pile3d_one / "contacts.dump"),
+                ("series", pile3d_series / "atoms.*.txt", pile3d_series / "contacts.*.txt")):
+            p = granavg.average(atoms, contacts=contacts, contact_map=MAP,
+                                cells=dict(CELLS), gravity=(0, 0, -9.81))
+            results[name, n] = p
+    for name in ("one", "series"):
+        a = results[name, 1]
+        for n in (2, 3):
+            b = results[name, n]
+            for k in a.values:
+                assert np.array_equal(a.values[k], b.values[k], equal_nan=True), (name, n, k)
+                assert np.array_equal(a.sem[k], b.sem[k], equal_nan=True), (name, n, k)
+    for k in ("nu", "sigma_zz"):                    # the same run, dumped two ways
+        assert np.array_equal(results["one", 1].values[k], results["series", 1].values[k])
+
+
+def test_a_damaged_row_in_a_later_piece_is_named_at_its_line(pile3d_one, tmp_path,
+                                                            small_pieces, restore_threads):
+    lines = (pile3d_one / "atoms.dump").read_text().splitlines(keepends=True)
+    bad = len(lines) - 3                          # a row of the last frame (0-based)
+    lines[bad] = lines[bad].replace(lines[bad].split()[4], "1.2.3", 1)
+    path = tmp_path / "atoms.dump"
+    path.write_text("".join(lines))
+    for n in (1, 3):
+        threads.set_count(n)
+        with pytest.raises(granavg.errors.UserError, match=f"atoms.dump:{bad + 1}:"):
+            frames(path)
