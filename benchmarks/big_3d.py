@@ -5,6 +5,7 @@ the same file (issue: three dimensions at the scale of real 3D runs).
     python benchmarks/big_3d.py time DIR [--ovito-python PY] [--grid 20 20 6]
     python benchmarks/big_3d.py series DIR [--files 24] [-n 3]
     python benchmarks/big_3d.py threads DIR [--files 24] [--quantities nu] [--counts 1 2]
+        [--layout series|single|gzip|all]
 
 ``make`` runs the 3D pile of tests/decks/pile_3d_si.lmp (755 spheres at rest on a floor,
 periodic in x and y, SI units), tiles its last frame NX x NY times side by side and
@@ -28,9 +29,11 @@ dump.*.txt`` writes them, and times ``granavg average 'DIR/series/dump.*.txt'`` 
 grid and quantities) with ``--workers 2`` against one process, whole processes in turn,
 ``-n`` pairs: the median of the pairs' ratios one process / two workers.
 
-``threads`` times one process on the same series with each ``--threads`` count (the
-files parsed on that many reader threads, the engine on as many), and ``cat`` of the
-files, ``-n`` rounds in turn; the profiles' hashes must agree.
+``threads`` times one process on the same frames with each ``--threads`` count (the
+files, or the pieces of one file, parsed on that many reader threads, the engine on as
+many), and the baseline that reads them without parsing, ``-n`` rounds in turn; the
+profiles' hashes must agree. Layouts: the series; one plain file of its frames
+(DIR/single.dump); the series gzipped (DIR/gz, zcat the baseline).
 """
 
 from __future__ import annotations
@@ -211,23 +214,48 @@ def series_timing(d: Path, files: int, n: int, grid) -> None:
           f"{statistics.median(ratio):.2f} ({min(ratio):.2f}-{max(ratio):.2f}) |")
 
 
-def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts) -> None:
-    """One process on the series with each ``--threads`` count (readers and engine), and
-    ``cat`` of the files, paired runs in turn; the profiles' hashes compared."""
-    import hashlib
-    import statistics
+def layouts(d: Path, files: int) -> dict:
+    """The same frames three ways: the series (DIR/series), one plain file of them all
+    (DIR/single.dump) and the series gzipped (DIR/gz, level 1); with the baseline that
+    reads each without parsing (cat, zcat)."""
+    from isal import igzip
 
     out = d / "series"
     if len(list(out.glob("dump.*.txt"))) != files:
         write_series(d, files)
+    names = sorted(out.glob("dump.*.txt"), key=lambda p: int(p.name.split(".")[1]))
+    single, gz = d / "single.dump", d / "gz"
+    if not single.exists():
+        with open(single, "wb") as fh:
+            for p in names:
+                fh.write(p.read_bytes())
+    gz.mkdir(exist_ok=True)
+    for p in names:
+        if not (gz / f"{p.name}.gz").exists():
+            with igzip.open(gz / f"{p.name}.gz", "wb", compresslevel=1) as fh:
+                fh.write(p.read_bytes())
+    return {"series": (out / "dump.*.txt", f"cat {out}/dump.*.txt"),
+            "single": (single, f"cat {single}"),
+            "gzip": (gz / "dump.*.txt.gz", f"zcat {gz}/dump.*.txt.gz")}
+
+
+def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts,
+                   layout: str = "series") -> None:
+    """One process on one layout of the frames (:func:`layouts`) with each
+    ``--threads`` count (readers and engine), and its baseline (cat, zcat), runs in
+    turn; the profiles' hashes compared."""
+    import hashlib
+    import statistics
+
+    atoms, baseline = layouts(d, files)[layout]
     with tempfile.TemporaryDirectory() as tmp:
         def average(k):
             dest = f"{tmp}/t{k}.csv"
             return ["sh", "-c", f'rm -f {dest}*; exec "$@"', "sh", sys.executable, "-m",
-                    "granavg", "average", "--atoms", str(out / "dump.*.txt"), "--grid",
+                    "granavg", "average", "--atoms", str(atoms), "--grid",
                     *map(str, grid), "--z-range", "0", "0.03", "--quantities", quantities,
                     "--out", dest, "--no-progress", "--threads", str(k)]
-        cat = ["sh", "-c", f"cat {out}/dump.*.txt > /dev/null"]
+        cat = ["sh", "-c", f"{baseline} > /dev/null"]
         run(average(counts[0]))                                   # the page cache warm
         times = {k: [] for k in counts}
         times["cat"] = []
@@ -238,11 +266,11 @@ def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts) -
         digests = {k: hashlib.sha256(Path(f"{tmp}/t{k}.csv").read_bytes()).hexdigest()[:12]
                    for k in counts}
     base = statistics.median(times[counts[0]])
-    print(f"| {files} files, --quantities {quantities} | wall s, median (range) | "
+    print(f"| {layout}: {files} frames, --quantities {quantities} | wall s, median (range) | "
           f"vs --threads {counts[0]} | profile sha256 |\n|---|---|---|---|")
     for k, v in times.items():
         med = statistics.median(v)
-        print(f"| {'cat' if k == 'cat' else f'--threads {k}'} | {med:.2f} "
+        print(f"| {baseline.split()[0] if k == 'cat' else f'--threads {k}'} | {med:.2f} "
               f"({min(v):.2f}-{max(v):.2f}) | {base / med:.2f} | {digests.get(k, '-')} |")
     print("identical profiles:", len(set(digests.values())) == 1)
 
@@ -270,10 +298,13 @@ def main(argv=None):
     th.add_argument("--grid", type=int, nargs=3, default=(20, 20, 6))
     th.add_argument("--quantities", default="nu")
     th.add_argument("--counts", type=int, nargs="+", default=(1, 2))
+    th.add_argument("--layout", choices=("series", "single", "gzip", "all"),
+                    default="series")
     args = ap.parse_args(argv)
     if args.what == "threads":
-        threads_timing(args.dir, args.files, args.n, args.grid, args.quantities,
-                       args.counts)
+        for layout in (args.layout,) if args.layout != "all" else ("series", "single", "gzip"):
+            threads_timing(args.dir, args.files, args.n, args.grid, args.quantities,
+                           args.counts, layout)
     elif args.what == "make":
         make(args.dir, args.copies, args.frames)
     elif args.what == "series":

@@ -51,6 +51,7 @@ def test_one_file_in_pieces_gives_the_frames_of_one_thread(pile3d_one, small_pie
         pieces, depth = DumpReader(path)._pieces(path)
         assert len(pieces) == n and depth >= 2
         assert [p[0] for p in pieces] == sorted({p[0] for p in pieces})
+        assert all(p[2] == 1 for p in pieces)              # each counts its own lines
         assert same(one, frames(path)), n
     assert len(one) > 5
 

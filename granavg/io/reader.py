@@ -21,7 +21,6 @@ import mmap
 import re
 import sys
 import zlib
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -161,19 +160,7 @@ class DumpReader:
             if not pieces[0]:
                 yield from _scanner(self, self.files[0]).frames()
                 return
-            last = None
-            pieces, depth = pieces
-            for _, frames in in_order(((k, _Scanner(self, self.files[0], span).frames(
-                    must_hold=False)) for k, span in enumerate(pieces)), len(pieces),
-                    depth):
-                for frame in frames:
-                    if last is not None and frame.timestep <= last:
-                        raise UserError(f"{self.files[0]}:{frame.line}: timestep "
-                                        f"{frame.timestep} does not follow timestep {last}; "
-                                        "time steps must increase (remove the repeated "
-                                        "frames)")
-                    last = frame.timestep
-                    yield frame
+            yield from self._piece_frames(self.files[0], *pieces)
             return
         last = None
         files = self._own_files()
@@ -194,6 +181,34 @@ class DumpReader:
                 log.warning("%s: holds no complete frame (empty or cut); skipped, the other "
                             "files of %s are used", path, self.path)
 
+
+    def _piece_frames(self, path, pieces, depth):
+        """The frames of a plain file read in ``pieces`` (:meth:`_pieces`), each on a
+        thread of its own, handed on in order. A piece counts its lines from its own
+        start; its frames' lines (and a damage's file:line) are set absolute here, the
+        lines of the pieces before it being known by then."""
+        scanners = [_Scanner(self, path, span) for span in pieces]
+        last, offset = None, 0
+        for k, (scanner, frames) in enumerate(in_order(
+                ((s, s.frames(must_hold=False)) for s in scanners), len(scanners), depth)):
+            if k:
+                offset += scanners[k - 1].line - 1
+            try:
+                for frame in frames:
+                    frame.line += offset
+                    if last is not None and frame.timestep <= last:
+                        raise UserError(f"{path}:{frame.line}: timestep {frame.timestep} "
+                                        f"does not follow timestep {last}; time steps must "
+                                        "increase (remove the repeated frames)")
+                    last = frame.timestep
+                    yield frame
+            except UserError as exc:
+                if not k:
+                    raise
+                where = re.escape(f"{path}:")
+                text = re.sub(where + r"(\d+)", lambda m: f"{path}:{int(m.group(1)) + offset}",
+                              str(exc), count=1)
+                raise UserError(text) from None
 
     def _pieces(self, path) -> tuple:
         """A plain text file of :data:`PIECE` bytes or more cut into one piece per
@@ -217,14 +232,9 @@ class DumpReader:
                 at = _frame_start(buf, k * size // width)
                 if at is not None and at > starts[-1]:
                     starts.append(at)
-            view = np.frombuffer(buf, dtype=np.uint8)
-            bounds = list(zip(starts, starts[1:] + [size]))
-            # each piece's lines counted on a thread of its own (the count releases the
-            # GIL): the line numbers of the pieces' starts, for file:line messages
-            with ThreadPoolExecutor(len(bounds)) as pool:
-                counts = list(pool.map(lambda ab: count_newlines(view, *ab), bounds[:-1]))
-            del view
-            pieces = [(a, b, 1 + sum(counts[:k])) for k, (a, b) in enumerate(bounds)]
+            # each piece numbers its lines from its own start (1): its reader does not
+            # wait for the lines before it to be counted (:meth:`_piece_frames`)
+            pieces = [(a, b, 1) for a, b in zip(starts, starts[1:] + [size])]
         finally:
             buf.close()
         if len(pieces) <= 1:
