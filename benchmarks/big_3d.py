@@ -5,10 +5,11 @@ the same file (issue: three dimensions at the scale of real 3D runs).
     python benchmarks/big_3d.py time DIR [--ovito-python PY] [--grid 20 20 6]
     python benchmarks/big_3d.py series DIR [--files 24] [-n 3]
     python benchmarks/big_3d.py threads DIR [--files 24] [--quantities nu] [--counts 1 2]
-        [--layout series|single|gzip|all]
+        [--layout series|single|gzip|all] [--workers 2 4 ...]
 
-``make`` runs the 3D pile of tests/decks/pile_3d_si.lmp (755 spheres at rest on a floor,
-periodic in x and y, SI units), tiles its last frame NX x NY times side by side and
+``make`` takes the last frame of the 3D pile of tests/decks/pile_3d_si.lmp (755 spheres at
+rest on a floor, periodic in x and y, SI units; shipped as benchmarks/pile_frame.txt.gz,
+so that no LAMMPS is needed), tiles it NX x NY times side by side and
 writes DIR/big.dump: ``--frames`` frames of a LAMMPS text dump as LAMMPS writes it by
 default (%g; columns id type diameter mass x y z vx vy vz omegax omegay omegaz, every
 frame's velocities perturbed so that they differ), and DIR/two.dump, its first two
@@ -32,7 +33,8 @@ grid and quantities) with ``--workers 2`` against one process, whole processes i
 ``threads`` times one process on the same frames with each ``--threads`` count (the
 files, or the pieces of one file, parsed on that many reader threads, the engine on as
 many), and the baseline that reads them without parsing, ``-n`` rounds in turn; the
-profiles' hashes must agree. Layouts: the series; one plain file of its frames
+profiles' hashes must agree; ``--workers N ...`` adds a local dask cluster of N workers
+for each N (its start included; a single gzip file cannot be split). Layouts: the series; one plain file of its frames
 (DIR/single.dump); the series gzipped (DIR/gz, zcat the baseline).
 """
 
@@ -69,26 +71,21 @@ for _ in DumpReader(sys.argv[1]):
 """
 
 
-def pile_frame(workdir: Path) -> np.ndarray:
-    """The settled pile's last frame, columns :data:`COLUMNS`."""
-    from granavg.sim.lammps_session import lammps_session
+#: The settled pile's last frame (tests/decks/pile_3d_si.lmp with its defaults, LAMMPS
+#: 2025.7.22), shipped so that the data is made the same way where LAMMPS is absent.
+FRAME = Path(__file__).with_name("pile_frame.txt.gz")
 
-    deck = ROOT / "tests" / "decks" / "pile_3d_si.lmp"
-    with lammps_session(["-log", str(workdir / "log.lammps"), "-var", "out", str(workdir)]) as lmp:
-        lmp.file(str(deck))
-    text = (workdir / "atoms.dump").read_text()
-    last = text.rsplit("ITEM: ATOMS", 1)[1].splitlines()
-    names = last[0].split()
-    rows = np.array([ln.split() for ln in last[1:] if ln.strip()], float)
-    return rows[:, [names.index(c) for c in COLUMNS]]
+
+def pile_frame() -> np.ndarray:
+    """The settled pile's last frame, columns :data:`COLUMNS` (:data:`FRAME`)."""
+    return np.loadtxt(FRAME)
 
 
 def make(out: Path, copies, frames: int) -> Path:
     import pandas as pd
 
     out.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory() as tmp:
-        base = pile_frame(Path(tmp))
+    base = pile_frame()
     nx, ny = copies
     n0 = len(base)
     tiles = []
@@ -240,38 +237,40 @@ def layouts(d: Path, files: int) -> dict:
 
 
 def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts,
-                   layout: str = "series") -> None:
+                   layout: str = "series", workers=()) -> None:
     """One process on one layout of the frames (:func:`layouts`) with each
-    ``--threads`` count (readers and engine), and its baseline (cat, zcat), runs in
-    turn; the profiles' hashes compared."""
+    ``--threads`` count (readers and engine), ``--workers`` N (a local dask cluster,
+    start-up included) for each of ``workers``, and the layout's baseline (cat, zcat),
+    runs in turn; the profiles' hashes compared."""
     import hashlib
     import statistics
 
     atoms, baseline = layouts(d, files)[layout]
+    runs = {f"--threads {k}": ["--threads", str(k)] for k in counts}
+    runs.update({f"--workers {w}": ["--workers", str(w)] for w in workers})
     with tempfile.TemporaryDirectory() as tmp:
-        def average(k):
-            dest = f"{tmp}/t{k}.csv"
+        def average(name):
+            dest = f"{tmp}/{name.replace(' ', '')}.csv"
             return ["sh", "-c", f'rm -f {dest}*; exec "$@"', "sh", sys.executable, "-m",
                     "granavg", "average", "--atoms", str(atoms), "--grid",
                     *map(str, grid), "--z-range", "0", "0.03", "--quantities", quantities,
-                    "--out", dest, "--no-progress", "--threads", str(k)]
-        cat = ["sh", "-c", f"{baseline} > /dev/null"]
-        run(average(counts[0]))                                   # the page cache warm
-        times = {k: [] for k in counts}
-        times["cat"] = []
+                    "--out", dest, "--no-progress", *runs[name]]
+        first = next(iter(runs))
+        run(average(first))                                      # the page cache warm
+        times = {name: [] for name in (*runs, baseline.split()[0])}
         for _ in range(n):
-            times["cat"].append(run(cat)[0])
-            for k in counts:
-                times[k].append(run(average(k))[0])
-        digests = {k: hashlib.sha256(Path(f"{tmp}/t{k}.csv").read_bytes()).hexdigest()[:12]
-                   for k in counts}
-    base = statistics.median(times[counts[0]])
+            times[baseline.split()[0]].append(run(["sh", "-c", f"{baseline} > /dev/null"])[0])
+            for name in runs:
+                times[name].append(run(average(name))[0])
+        digests = {name: hashlib.sha256(Path(f"{tmp}/{name.replace(' ', '')}.csv")
+                                        .read_bytes()).hexdigest()[:12] for name in runs}
+    base = statistics.median(times[first])
     print(f"| {layout}: {files} frames, --quantities {quantities} | wall s, median (range) | "
-          f"vs --threads {counts[0]} | profile sha256 |\n|---|---|---|---|")
-    for k, v in times.items():
+          f"vs {first} | profile sha256 |\n|---|---|---|---|")
+    for name, v in times.items():
         med = statistics.median(v)
-        print(f"| {baseline.split()[0] if k == 'cat' else f'--threads {k}'} | {med:.2f} "
-              f"({min(v):.2f}-{max(v):.2f}) | {base / med:.2f} | {digests.get(k, '-')} |")
+        print(f"| {name} | {med:.2f} ({min(v):.2f}-{max(v):.2f}) | {base / med:.2f} | "
+              f"{digests.get(name, '-')} |")
     print("identical profiles:", len(set(digests.values())) == 1)
 
 
@@ -300,11 +299,12 @@ def main(argv=None):
     th.add_argument("--counts", type=int, nargs="+", default=(1, 2))
     th.add_argument("--layout", choices=("series", "single", "gzip", "all"),
                     default="series")
+    th.add_argument("--workers", type=int, nargs="*", default=())
     args = ap.parse_args(argv)
     if args.what == "threads":
         for layout in (args.layout,) if args.layout != "all" else ("series", "single", "gzip"):
             threads_timing(args.dir, args.files, args.n, args.grid, args.quantities,
-                           args.counts, layout)
+                           args.counts, layout, args.workers)
     elif args.what == "make":
         make(args.dir, args.copies, args.frames)
     elif args.what == "series":
