@@ -313,9 +313,10 @@ def _time(p, prefix=""):
 
 def _threads(p):
     """--threads (average, scales)."""
-    p.add_argument("--threads", metavar="N", help="threads of the engine: the chunks of a "
-                   "frame's particles summed on N cores (default: the cores available, or "
-                   "GRANAVG_THREADS; the same result for any N)")
+    p.add_argument("--threads", metavar="N", help="cores to use: the files of a series (or "
+                   "the pieces of one plain dump) read on N threads and the chunks of a "
+                   "frame's particles summed on N (default: the cores available, or "
+                   "GRANAVG_THREADS; 1: one core; the same result for any N)")
 
 
 def _finite(text):

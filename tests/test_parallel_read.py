@@ -92,3 +92,37 @@ def test_a_damaged_row_in_a_later_piece_is_named_at_its_line(pile3d_one, tmp_pat
         threads.set_count(n)
         with pytest.raises(granavg.errors.UserError, match=f"atoms.dump:{bad + 1}:"):
             frames(path)
+
+
+def big_frames(path, n=70_000, frames=3):
+    """A plain dump of ``frames`` frames of ``n`` spheres (more than one engine chunk)."""
+    rng = np.random.default_rng(3)
+    with open(path, "w") as fh:
+        for k in range(frames):
+            fh.write(f"ITEM: TIMESTEP\n{100 * k}\nITEM: NUMBER OF ATOMS\n{n}\n"
+                     "ITEM: BOX BOUNDS pp pp ff\n0 1\n0 1\n0 0.1\n"
+                     "ITEM: ATOMS id radius x y z vx vy vz\n")
+            rows = np.column_stack([np.arange(1, n + 1), np.full(n, 0.004),
+                                    rng.uniform(0, 1, (n, 2)), rng.uniform(0.004, 0.096, n),
+                                    rng.normal(size=(n, 3))])
+            np.savetxt(fh, rows, fmt=["%d", "%g", "%g", "%g", "%g", "%g", "%g", "%g"])
+    return path
+
+
+def test_workers_on_one_machine_with_big_frames_average_in_this_process(tmp_path, caplog):
+    """Frames of more than one engine chunk: --workers without a scheduler says in one
+    line that one process uses every core and averages in it (no cluster started: no
+    dask metadata), the fields those of one process."""
+    import logging
+
+    path = big_frames(tmp_path / "big.dump")
+    cells = {"slabs": "z", "range": (0.0, 0.1), "bins": 4}
+    one = granavg.average(path, dt=1.0, cells=dict(cells), quantities=["nu", "v"])
+    with caplog.at_level(logging.INFO, logger="granavg"):
+        two = granavg.average(path, dt=1.0, cells=dict(cells), quantities=["nu", "v"],
+                              workers=2)
+    said = [m for m in caplog.messages if "averaging in this process" in m]
+    assert len(said) == 1 and "70000 particles" in said[0], caplog.messages
+    assert "dask" not in two.meta
+    for k in one.values:
+        assert np.array_equal(one.values[k], two.values[k], equal_nan=True), k

@@ -1,4 +1,6 @@
-"""The engine's threads: the chunks of a frame's particles summed on several cores.
+"""The engine's threads: the chunks of a frame's particles summed on several cores (the
+count also sets the reader threads of :mod:`granavg.io.reader`; one: no thread beside
+the engine).
 
 The compiled kernels release the GIL, so chunks of a frame's particles
 (:data:`granavg.engine.cell_average.CHUNK` each) run on threads of one pool. Their partial

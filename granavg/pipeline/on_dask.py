@@ -16,10 +16,11 @@ import numpy as np
 
 from granavg.engine import threads
 from granavg.engine.accumulate import CellAccumulator
+from granavg.engine.cell_average import CHUNK
 from granavg.engine.fields import Fields
 from granavg.dask_cluster import Cluster, cluster_client, refusal_safe
-from granavg.errors import ParameterError, literal
-from granavg.pipeline.dumps import dump_averager
+from granavg.errors import ParameterError, literal, named
+from granavg.pipeline.dumps import average_dumps, dump_averager
 from granavg.pipeline.runs import run_averager
 
 log = logging.getLogger(__name__)
@@ -176,6 +177,24 @@ def _dump_chunk(atoms, contacts, window, options):
             dict(frames.dropped))
 
 
+def _one_process_pays(atoms, workers: int) -> bool:
+    """Whether one process averages the dumps at least as fast as a local cluster: where
+    its frames hold :data:`~granavg.engine.cell_average.CHUNK` particles or more, one
+    process already reads (a series' files, a plain file's pieces) and sums (a frame's
+    chunks) on every core, and a cluster would only add its start and its workers'
+    imports (measured: docs/running-big.md). Said in one line."""
+    from granavg.io.reader import DumpReader
+
+    head = DumpReader(atoms, []).first_header()
+    if head is None or len(head.data) < CHUNK:
+        return False
+    log.info(named("{workers} %d: frames of %d particles are read and averaged on every "
+                   "core by one process, which a local dask cluster would only slow down "
+                   "(its start); averaging in this process on %d threads (a cluster of "
+                   "machines: {scheduler})"), workers, len(head.data), threads.count())
+    return True
+
+
 def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
                        scheduler: str | None = None, chunks: int | None = None,
                        **options) -> Fields:
@@ -183,7 +202,9 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
     dumps each worker can read its own part of: a ``dump.*`` file series, or a plain
     (uncompressed) file (each worker skips to its frames by scanning). Identical
     profiles; ``meta["dask"]`` records the chunks. A single gzip file is refused: it is
-    one stream, which only one process can decompress."""
+    one stream, which only one process can decompress. Without a scheduler, frames of
+    :data:`~granavg.engine.cell_average.CHUNK` particles or more are averaged in this
+    process, said in one line (:func:`_one_process_pays`)."""
     from granavg.io import formats
     from granavg.io.reader import DumpReader, series
 
@@ -198,6 +219,8 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
                                  "that only one process can decompress, so {param} cannot "
                                  "help; give a dump.* series or an uncompressed dump, or "
                                  "leave out {param}")
+    if scheduler is None and _one_process_pays(atoms, workers):
+        return average_dumps(atoms, contacts, **options)
     base, frames = dump_averager(atoms, contacts, scan_early=False, **options)  # checks;
     # the first two frames read
     base.frames = ()                                  # (and stops its reader thread)
