@@ -419,10 +419,10 @@ class _Scanner:
             frame = self._frame()
             if frame is None:
                 break
-            if isinstance(self.buf, mmap.mmap) and self.span is None:
+            if isinstance(self.buf, mmap.mmap):
                 # the mapped pages behind us are not needed again: let them go, so that
-                # memory stays flat however long the file (not in a piece: that would
-                # stop the other readers' cores, and the piece is unmapped at its end)
+                # memory stays flat however long the file (a piece's own mapping: no
+                # other reader waits on it)
                 done = self.pos // mmap.PAGESIZE * mmap.PAGESIZE
                 if done > released:
                     self.buf.madvise(mmap.MADV_DONTNEED, released, done - released)
