@@ -426,7 +426,7 @@ class CellAverage:
             "base_blocks": int(len(counts)),
             "jackknife_blocks": replicates.n if replicates else 0}
         reps = slot.replicas
-        if len(counts) >= 2 and reps is not None and len(reps.blocks) < 2:
+        if len(counts) >= 2 and reps is not None and reps.n_blocks < 2:
             warn("one_sector_block", "the frames span a single block of the sectors' "
                  "accumulator: errors from time alone")
         elif len(counts) >= 2 and reps is not None:
