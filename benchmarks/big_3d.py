@@ -28,13 +28,16 @@ process (start-up included), best of 3, with its peak memory:
 frames of DIR/big.dump in turn, time steps and times continued), as LAMMPS' ``dump ...
 dump.*.txt`` writes them, and times ``granavg average 'DIR/series/dump.*.txt'`` (the same
 grid and quantities) with ``--workers 2`` against one process, whole processes in turn,
-``-n`` pairs: the median of the pairs' ratios one process / two workers.
+``-n`` pairs: the median of the pairs' ratios one process / two workers (the cluster
+kept: GRANAVG_COST_MODEL=off).
 
 ``threads`` times one process on the same frames with each ``--threads`` count (the
 files, or the pieces of one file, parsed on that many reader threads, the engine on as
 many), and the baseline that reads them without parsing, ``-n`` rounds in turn; the
 profiles' hashes must agree; ``--workers N ...`` adds a local dask cluster of N workers
-for each N (its start included; a single gzip file cannot be split). Layouts: the series; one plain file of its frames
+for each N (its start included; GRANAVG_COST_MODEL=off, so that the cluster itself is
+timed where ``--workers`` would average in one process; a single gzip file cannot be
+split). Layouts: the series; one plain file of its frames
 (DIR/single.dump); the series gzipped (DIR/gz, zcat the baseline).
 """
 
@@ -194,7 +197,8 @@ def series_timing(d: Path, files: int, n: int, grid) -> None:
     quantities = "nu,rho,v,omega,dsigma,dsigma_fluct"
 
     def average(extra, dest):
-        return ["sh", "-c", f'rm -f {dest}*; exec "$@"', "sh", sys.executable, "-m", "granavg",
+        return ["sh", "-c", f'rm -f {dest}*; exec env GRANAVG_COST_MODEL=off "$@"', "sh",
+                sys.executable, "-m", "granavg",
                 "average", "--atoms", str(out / "dump.*.txt"), "--grid", *map(str, grid),
                 "--z-range", "0", "0.03", "--quantities", quantities, "--out", str(dest),
                 "--no-progress", *extra]
@@ -251,7 +255,8 @@ def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts,
     with tempfile.TemporaryDirectory() as tmp:
         def average(name):
             dest = f"{tmp}/{name.replace(' ', '')}.csv"
-            return ["sh", "-c", f'rm -f {dest}*; exec "$@"', "sh", sys.executable, "-m",
+            return ["sh", "-c", f'rm -f {dest}*; exec env GRANAVG_COST_MODEL=off "$@"', "sh",
+                    sys.executable, "-m",
                     "granavg", "average", "--atoms", str(atoms), "--grid",
                     *map(str, grid), "--z-range", "0", "0.03", "--quantities", quantities,
                     "--out", dest, "--no-progress", *runs[name]]

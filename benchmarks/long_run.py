@@ -28,7 +28,7 @@ def main(run, out, times=20):
     out.mkdir(parents=True)
     m = json.loads((run / "manifest.json").read_text())
     d = m["derived"]
-    period = d["n_shear_steps"] + d["dump_every_steps"]
+    period = (d["n_shear_steps"] // d["dump_every_steps"] + 1) * d["dump_every_steps"]
     for name in ("atoms", "contacts"):
         repeat_dump(run / f"{name}.dump.gz", out / f"{name}.dump.gz", times, period)
     d["n_shear_steps"] = period * times - d["dump_every_steps"]

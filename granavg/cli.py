@@ -151,10 +151,12 @@ def _parser() -> argparse.ArgumentParser:
                      "animation, and its folder <out>.vtu.d)")
     avg.add_argument("--workers", type=int, help="average on a local dask cluster of this "
                      "many processes (frames split in chunks; same result as serial): run "
-                     "directories, LAMMPS dump.* series and uncompressed dumps")
-    avg.add_argument("--scheduler", metavar="ADDRESS", help="average on this dask "
-                     "scheduler's workers (tcp://host:8786); they must see the run directory "
-                     "or the dumps")
+                     "directories, LAMMPS dump.* series and uncompressed dumps; where one "
+                     "process is as fast (big frames, a gzip stream, little work: "
+                     "docs/running-big.md) it says so and averages in this process")
+    avg.add_argument("--scheduler", metavar="ADDRESS", help="average on this running dask "
+                     "scheduler's workers (tcp://host:8786; reused, not closed); they must "
+                     "see the run directory or the dumps")
     avg.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     _threads(avg)
 

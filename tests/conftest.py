@@ -4,8 +4,14 @@ built once. The helpers (the real CLI in a subprocess, the decks' runners, dumps
 without granavg) live in tests/helpers.py and are re-exported here.
 
 A session fixture's directory is read, never written, by the tests: they write their
-outputs into their own tmp_path."""
+outputs into their own tmp_path.
 
+The tests' small dumps are averaged faster in one process than on a local dask cluster,
+which `--workers` then skips (said in one line); GRANAVG_COST_MODEL=off keeps the
+cluster (two chunks per worker) so that the tests of the dask path test it (the rule's
+own tests set it on)."""
+
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -16,6 +22,7 @@ from .helpers import (SMALL_CELL, SMALL_PRESET, dump_positions, run_cli, run_pil
                       run_pile3d, small_cell_args)
 
 ROOT = Path(__file__).resolve().parent.parent
+os.environ["GRANAVG_COST_MODEL"] = "off"
 
 
 @pytest.fixture(scope="session")

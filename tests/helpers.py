@@ -40,9 +40,10 @@ SMALL_CELL = ["R_i=0.04", "R_o=0.0826", "n_small=250", "n_large=40", "Omega=0.5"
               "restart_dt=1"]
 
 
-def run_cli(*args, timeout=600, **kwargs):
-    """Run ``python -m granavg ARGS`` for real; returns the CompletedProcess."""
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
+def run_cli(*args, timeout=600, env=None, **kwargs):
+    """Run ``python -m granavg ARGS`` for real (in ``env``, default this process'
+    environment); returns the CompletedProcess."""
+    env = dict(os.environ if env is None else env, PYTHONUNBUFFERED="1")
     return subprocess.run([sys.executable, "-m", "granavg", *map(str, args)],
                           capture_output=True, text=True, timeout=timeout, env=env, **kwargs)
 

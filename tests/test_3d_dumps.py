@@ -10,6 +10,7 @@ periodic box hold every sphere's volume (images across the periodic faces); a du
 file series reads as the single dump; the CLI refuses 2D-only options in one line."""
 
 import gzip
+import os
 import math
 
 import numpy as np
@@ -188,12 +189,21 @@ def test_dask_workers_average_a_series_and_a_plain_dump_as_one_process_does(pile
 
 
 def test_dask_workers_refuse_a_single_gzip_dump_in_one_line(pile, tmp_path):
-    """One gzip file is one stream: --workers cannot split it, and says so."""
+    """One gzip file is one stream: a cluster cannot split it. A cluster asked for
+    (GRANAVG_COST_MODEL=off, as with --scheduler) is refused in one line; by
+    default --workers says so in one line and averages in this process."""
     out, _ = pile
     gz = tmp_path / "atoms.dump.gz"
     gz.write_bytes(gzip.compress((out / "atoms.dump").read_bytes()))
-    proc = run_cli("average", "--atoms", gz, "--slabs", "z", "--workers", "2",
-                   "--out", tmp_path / "x.csv", "--no-progress")
+    args = ["average", "--atoms", gz, "--slabs", "z", "--workers", "2", "--no-progress"]
+    proc = run_cli(*args, "--out", tmp_path / "x.csv")
     assert proc.returncode == 2 and "one gzip file is one stream" in proc.stderr, proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "x.csv").exists()
+    auto = run_cli(*args, "--out", tmp_path / "y.csv",
+                   env=dict(os.environ, GRANAVG_COST_MODEL="on"))
+    one = run_cli(*args[:-3], "--no-progress", "--out", tmp_path / "z.csv")
+    assert auto.returncode == one.returncode == 0, auto.stderr
+    said = [l for l in auto.stderr.splitlines() if "averaging in this process" in l]
+    assert len(said) == 1 and "one gzip stream" in said[0], auto.stderr
+    assert (tmp_path / "y.csv").read_bytes() == (tmp_path / "z.csv").read_bytes()

@@ -94,14 +94,24 @@ def test_memory_stays_bounded_on_a_long_run():
     assert acc.n_blocks <= 8 and acc.weight == acc.n_frames == 20_000
 
 
-def test_a_base_block_split_between_accumulators_merges_to_round_off():
-    rng = np.random.default_rng(4)
-    fr = frames(rng, 200)
-    one = accumulate(fr, 4)
-    ragged = accumulate(fr[:77], 4).merge(accumulate(fr[77:131], 4)).merge(
-        accumulate(fr[131:], 4))
-    assert ragged.weight == pytest.approx(one.weight, rel=1e-14)
-    assert np.allclose(ragged.mean(), one.mean(), rtol=1e-12, atol=1e-12)
+@pytest.mark.parametrize("max_blocks", [None, 2, 4, 16])
+@pytest.mark.parametrize("seed", range(4))
+def test_base_blocks_split_between_accumulators_merge_to_round_off(seed, max_blocks):
+    """Cuts anywhere (a base block's frames in two accumulators): no frame lost or
+    counted twice, the sums to round-off, whatever the merge order."""
+    rng = np.random.default_rng(10 + seed)
+    fr = [(k, t, s, 1.0) for k, t, s, _ in frames(rng, int(rng.integers(50, 400)))]
+    one = accumulate(fr, max_blocks)
+    for k in (2, 5, 13):
+        cuts = sorted(set(rng.integers(1, len(fr), size=k - 1)))
+        bounds = [0, *cuts, len(fr)]
+        ragged = merged_in_random_order(
+            rng, [accumulate(fr[a:b], max_blocks) for a, b in zip(bounds[:-1], bounds[1:])])
+        counts, sums = ragged.block_sums()
+        want_counts, want_sums = one.block_sums()
+        assert ragged.n_frames == one.n_frames and ragged.level == one.level
+        assert np.array_equal(counts, want_counts), k
+        assert np.allclose(sums, want_sums, rtol=1e-12, atol=1e-9 * np.abs(want_sums).max())
 
 
 def test_frames_out_of_time_order_are_refused():

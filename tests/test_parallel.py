@@ -24,8 +24,24 @@ def test_chunk_windows_cover_every_frame_once_and_cut_at_blocks(small_run):
         assert 1 <= len(windows) <= n
         covered = [s for s in steps if any(a <= s <= b for a, b in windows)]
         assert covered == [s for s in steps if s * dt >= t_min]
-        for (_, b), (a, _) in zip(windows[:-1], windows[1:]):      # no block split
-            assert int((b * dt - t_min) / block + 1e-9) < int((a * dt - t_min) / block + 1e-9)
+        held = [[s for s in covered if a <= s <= b] for a, b in windows]
+        assert sum(map(len, held)) == len(covered) and all(held)
+        for one, two in zip(held[:-1], held[1:]):                  # no block split
+            assert int((one[-1] * dt - t_min) / block + 1e-9) < int((two[0] * dt - t_min) / block + 1e-9)
+
+
+def test_chunk_windows_hold_frames_off_the_manifests_dump_grid():
+    """A frame between the dump interval's steps (a run continued with other dump
+    settings) still falls in exactly one window: none is lost between two chunks."""
+    m = {"derived": {"first_dump_step": 0, "n_shear_steps": 10_000, "dump_every_steps": 100,
+                     "dt_s": 1e-3}}
+    off = [50, 1050, 3333, 5001, 9999, 12_345]
+    for t_min, n in ((0.0, 4), (0.04, 7), (1.0, 3)):
+        windows = chunk_windows(m, t_min, 0.5, n)
+        assert len(windows) == n
+        for s in [*range(0, 10_001, 100), *off]:
+            inside = sum(a <= s <= b for a, b in windows)
+            assert inside == (s * 1e-3 >= t_min), (s, windows)
 
 
 @pytest.mark.slow

@@ -109,12 +109,14 @@ def big_frames(path, n=70_000, frames=3):
     return path
 
 
-def test_workers_on_one_machine_with_big_frames_average_in_this_process(tmp_path, caplog):
+def test_workers_on_one_machine_with_big_frames_average_in_this_process(tmp_path, caplog,
+                                                                        monkeypatch):
     """Frames of more than one engine chunk: --workers without a scheduler says in one
     line that one process uses every core and averages in it (no cluster started: no
     dask metadata), the fields those of one process."""
     import logging
 
+    monkeypatch.setenv("GRANAVG_COST_MODEL", "on")
     path = big_frames(tmp_path / "big.dump")
     cells = {"slabs": "z", "range": (0.0, 0.1), "bins": 4}
     one = granavg.average(path, dt=1.0, cells=dict(cells), quantities=["nu", "v"])

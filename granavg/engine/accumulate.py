@@ -118,8 +118,23 @@ class CellAccumulator:
     def _put(self, level: int, index: int, n, s) -> None:
         """Place the finished tree node (level, index): up the tree while its sibling
         exists (added, lower index first) or holds no frame; kept as a part where the
-        sibling may still come; a block at the accumulator's level."""
+        sibling may still come; a block at the accumulator's level. A node sharing a
+        base block with one held (two accumulators added frames of it) is added to that
+        one: to round-off only."""
+        for up in range(level + 1, self.level + 1):        # held inside a larger node
+            key = (up, index >> (up - level))
+            host = self._parts.get(key) if up < self.level else self._blocks.get(key[1])
+            if host is not None:
+                host[0], host[1] = host[0] + n, host[1] + s
+                return
+        for key in [k for k in self._parts if k[0] < level and
+                    k[1] >> (level - k[0]) == index]:      # larger than nodes held
+            inner = self._parts.pop(key)
+            n, s = n + inner[0], s + inner[1]
         while level < self.level:
+            same = self._parts.pop((level, index), None)
+            if same is not None:
+                n, s = same[0] + n, same[1] + s
             sib = index ^ 1
             other = self._parts.pop((level, sib), None)
             if other is not None:

@@ -8,9 +8,12 @@ to use a cluster (the run directory must be readable by every worker).
 from __future__ import annotations
 
 import logging
+import math
+import os
 import resource
 import sys
 from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 
@@ -19,9 +22,10 @@ from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.cell_average import CHUNK
 from granavg.engine.fields import Fields
 from granavg.dask_cluster import Cluster, cluster_client, refusal_safe
-from granavg.errors import ParameterError, literal, named
+from granavg.errors import ParameterError, UserError, literal, named
+from granavg.io.reader import DumpReader, numbered_series, series
 from granavg.pipeline.dumps import average_dumps, dump_averager
-from granavg.pipeline.runs import run_averager
+from granavg.pipeline.runs import average_run, run_averager, run_dumps
 
 log = logging.getLogger(__name__)
 
@@ -29,17 +33,24 @@ log = logging.getLogger(__name__)
 def chunk_windows(manifest: dict, t_min: float, block_time: float, n_chunks: int,
                   t_max: float | None = None) -> list:
     """Time-step windows ``(first, last)`` of a run's dump frames with t_min <= t <=
-    t_max (:func:`cut_windows`)."""
+    t_max (:func:`cut_windows`), cut where the manifest's dump interval puts frames; the
+    first reaches back to t_min's step and the last has no end, so that a frame off
+    that grid (a run continued with other dump settings) is still in one window."""
     d = manifest["derived"]
     steps = np.arange(d["first_dump_step"], d["n_shear_steps"] + 1, d["dump_every_steps"])
-    return cut_windows(steps, steps * d["dt_s"], t_min, block_time, n_chunks, t_max)
+    windows = cut_windows(steps, steps * d["dt_s"], t_min, block_time, n_chunks, t_max)
+    if windows:
+        first = min(windows[0][0], math.ceil(t_min / d["dt_s"] - 1e-9))
+        windows[0] = (first, windows[0][1])
+        windows[-1] = (windows[-1][0], sys.maxsize)
+    return windows
 
 
 def cut_windows(steps, times, t_min: float, block_time: float, n_chunks: int,
                 t_max: float | None = None) -> list:
     """Time-step windows ``(first, last)`` of the frames (``steps`` at ``times``) with
     t_min <= t <= t_max, cut only at block boundaries into at most ``n_chunks`` parts of
-    about equal frame counts."""
+    about equal frame counts; each reaches to the step before the next one's first."""
     steps, times = np.asarray(steps), np.asarray(times, float)
     keep = (times >= t_min) & (times <= (np.inf if t_max is None else t_max))
     steps, times = steps[keep], times[keep]
@@ -51,7 +62,8 @@ def cut_windows(steps, times, t_min: float, block_time: float, n_chunks: int,
     cuts = sorted({int(starts[np.argmin(np.abs(starts - k * len(steps) / n_chunks))])
                    for k in range(n_chunks)} | {0})
     bounds = cuts + [len(steps)]
-    return [(int(steps[a]), int(steps[b - 1])) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+    firsts = [int(steps[a]) for a in bounds[:-1]]
+    return [(a, b - 1) for a, b in zip(firsts, firsts[1:])] + [(firsts[-1], int(steps[-1]))]
 
 
 @refusal_safe
@@ -76,9 +88,13 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     scheduler : str, optional
         Address of a dask scheduler (``tcp://host:8786``).
     chunks : int, optional
-        Number of chunks (default 2 per worker).
+        Number of chunks (default :func:`chunk_count`).
     client : dask.distributed.Client, optional
         Use this client (and its cluster) instead of starting one; for many runs.
+
+    Without a scheduler (or client), where one process is as fast
+    (:func:`one_process_reason`: a run's dumps are gzip streams), the run is averaged in
+    this process, said in one line.
     **options
         ``bins``, ``edges``, ``t_min``, ``block_time``, ``quantities``, ``atoms``,
         ``contacts`` as for ``average_run``.
@@ -86,10 +102,16 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     The profiles' ``meta["dask"]`` records the chunks and each worker's peak memory (B).
     """
     base = run_averager(run_dir, fed=True, **options)      # validates; reads no frame
-    windows = chunk_windows(base.meta["run_manifest"], base.t_min, base.block_time,
-                            chunks or 2 * workers, base.t_max)
+    manifest = base.meta["run_manifest"]
+    paths = [p for p in run_dumps(run_dir, manifest, options.get("atoms"),
+                                  options.get("contacts")) if p]
+    if scheduler is None and client is None and in_this_process(
+            one_process_reason(paths, workers)):
+        return average_run(run_dir, progress=False, **options)
     with cluster_client(workers, scheduler, _threads_each(workers)) if client is None else \
             _given(client) as dask_jobs:
+        windows = chunk_windows(manifest, base.t_min, base.block_time,
+                                chunks or chunk_count(paths, dask_jobs.n_workers), base.t_max)
         futures = [dask_jobs.client.submit(_chunk, str(run_dir), w, options, pure=False)
                    for w in windows]
         results = dask_jobs.gather(futures)
@@ -145,8 +167,6 @@ def series_windows(atoms, contacts, time_of, t_min: float, block_time: float,
     series' numbers the atom series'); None where it is not, or for a single file (then
     the frames are listed by a scan). A window reaches to the step before the next
     one's first file, so files of several frames stay whole."""
-    from granavg.io.reader import DumpReader, numbered_series
-
     numbered = numbered_series(atoms)
     steps = [n for n, _ in numbered]
     if len(numbered) < 2 or (contacts is not None and
@@ -177,76 +197,150 @@ def _dump_chunk(atoms, contacts, window, options):
             dict(frames.dropped))
 
 
-def _one_process_pays(atoms, workers: int) -> bool:
-    """Whether one process averages the dumps at least as fast as a local cluster: where
-    its frames hold :data:`~granavg.engine.cell_average.CHUNK` particles or more, one
-    process already reads (a series' files, a plain file's pieces) and sums (a frame's
-    chunks) on every core, and a cluster would only add its start and its workers'
-    imports (measured: docs/running-big.md). Said in one line."""
-    from granavg.io.reader import DumpReader
+#: One process's averaging speed on one core, in text bytes per second, for frames
+#: of fewer than :data:`~granavg.engine.cell_average.CHUNK` particles (where it sums
+#: a frame on one thread): 240-245 MB/s measured (docs/running-big.md).
+ONE_CORE_RATE = 250e6
+#: A local cluster's fixed cost, s: ``a + b x workers`` for its start, the workers'
+#: imports, the chunks' listing, the merge and the close (2.2 s for 2 workers measured
+#: here; 4.65 s to start and close 16 on a 16-core machine; docs/running-big.md).
+CLUSTER_COST = (1.6, 0.3)
+#: Work (s at :data:`ONE_CORE_RATE`) of a chunk at least: 25 times a chunk's own cost
+#: on a running cluster (40 ms measured: set-up, first header, the sums sent back).
+CHUNK_WORK = 1.0
 
-    head = DumpReader(atoms, []).first_header()
-    if head is None or len(head.data) < CHUNK:
+
+def text_bytes(paths) -> int:
+    """The text bytes of the dump files ``paths``: a gzip file's from its trailer (the
+    uncompressed size modulo 2**32, lifted to at least the compressed size)."""
+    total = 0
+    for path in paths:
+        size = Path(path).stat().st_size
+        if str(path).endswith(".gz") and size >= 18:
+            with open(path, "rb") as fh:
+                fh.seek(-4, 2)
+                inner = int.from_bytes(fh.read(4), "little")
+            while inner < size:
+                inner += 1 << 32
+            size = inner
+        total += size
+    return total
+
+
+def one_process_reason(paths, workers: int, frame_particles: int = 0) -> str | None:
+    """Why one process averages the dump files ``paths`` at least as fast as a local
+    cluster of ``workers`` processes, or None where the cluster pays: frames of
+    :data:`~granavg.engine.cell_average.CHUNK` particles or more (one process reads and
+    sums them on every core), one gzip stream (each worker would inflate it up to its
+    chunk; measured 1.4x slower on 2 workers), or too little work to pay back the
+    cluster's fixed cost (:data:`ONE_CORE_RATE`, :data:`CLUSTER_COST`)."""
+    if frame_particles >= CHUNK:
+        return (f"frames of {frame_particles} particles are read and summed on every core "
+                "by one process")
+    if any(len(series(p)) == 1 and str(p).endswith(".gz") for p in paths):
+        return "one gzip stream, which every worker would inflate up to its part"
+    work = text_bytes(f for p in paths for f in series(p)) / ONE_CORE_RATE
+    cost = CLUSTER_COST[0] + CLUSTER_COST[1] * workers
+    if work * (1 - 1 / workers) <= cost:
+        return (f"about {work:.1f} s of work on one core, which {workers} workers would "
+                f"cut by less than a local cluster's fixed cost (about {cost:.1f} s)")
+    return None
+
+
+def cost_model() -> bool:
+    """Whether the cost model decides (``GRANAVG_COST_MODEL=on``, the default): off,
+    ``--workers`` always starts its local cluster and the chunks are two per worker."""
+    wanted = os.environ.get("GRANAVG_COST_MODEL", "on")
+    if wanted not in ("on", "off"):
+        raise UserError(f"GRANAVG_COST_MODEL={wanted!r}: give on (a local dask cluster only "
+                        "where it pays, chunks sized to their work) or off")
+    return wanted == "on"
+
+
+def in_this_process(reason: str | None) -> bool:
+    """Say in one line that a local cluster would only slow this average down, and why
+    (:func:`one_process_reason`); False where there is no reason, or the cost model is
+    off (:func:`cost_model`)."""
+    if reason is None or not cost_model():
         return False
-    log.info(named("{workers} %d: frames of %d particles are read and averaged on every "
-                   "core by one process, which a local dask cluster would only slow down "
-                   "(its start); averaging in this process on %d threads (a cluster of "
-                   "machines: {scheduler})"), workers, len(head.data), threads.count())
+    log.info(named("{workers}: %s, so a local dask cluster would only be slower; averaging "
+                   "in this process on %d threads (a running cluster: {scheduler})"),
+             reason, threads.count())
     return True
+
+
+def chunk_count(paths, workers: int) -> int:
+    """Chunks for ``workers`` processes: two each where each chunk then holds
+    :data:`CHUNK_WORK` or more, else one each, else fewer (at least one); two each where
+    the cost model is off (:func:`cost_model`)."""
+    workers = max(int(workers or 1), 1)
+    if not cost_model():
+        return 2 * workers
+    work = text_bytes(f for p in paths for f in series(p)) / ONE_CORE_RATE
+    if work >= 2 * workers * CHUNK_WORK:
+        return 2 * workers
+    return workers if work >= workers * CHUNK_WORK else max(1, int(work // CHUNK_WORK))
 
 
 def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
                        scheduler: str | None = None, chunks: int | None = None,
-                       **options) -> Fields:
+                       client=None, **options) -> Fields:
     """:func:`granavg.pipeline.dumps.average_dumps` on dask workers, for LAMMPS
     dumps each worker can read its own part of: a ``dump.*`` file series, or a plain
     (uncompressed) file (each worker skips to its frames by scanning). Identical
-    profiles; ``meta["dask"]`` records the chunks. A single gzip file is refused: it is
-    one stream, which only one process can decompress. Without a scheduler, frames of
-    :data:`~granavg.engine.cell_average.CHUNK` particles or more are averaged in this
-    process, said in one line (:func:`_one_process_pays`)."""
+    profiles; ``meta["dask"]`` records the chunks. Without a scheduler (or client),
+    where one process is as fast (:func:`one_process_reason`), the dumps are averaged in
+    this process, said in one line; on a cluster a single gzip file is refused (one
+    stream that every worker would inflate up to its part). Chunks:
+    :func:`chunk_count` for the cluster's workers, unless ``chunks`` is given."""
     from granavg.io import formats
-    from granavg.io.reader import DumpReader, series
 
     chosen = formats.choose(atoms, options.get("fmt")).name
     if chosen != "lammps":
         raise ParameterError("workers", f"{literal(atoms)}: {{param}} averages LAMMPS dumps; "
                              f"average {chosen} files in this process (leave out {{param}})")
-    for path in filter(None, (atoms, contacts)):
+    paths = [p for p in (atoms, contacts) if p]
+    if scheduler is None and client is None:
+        head = DumpReader(atoms, []).first_header()
+        if in_this_process(one_process_reason(paths, workers, 0 if head is None
+                                              else len(head.data))):
+            return average_dumps(atoms, contacts, **options)
+    for path in paths:
         files = series(path)
         if len(files) == 1 and files[0].suffix == ".gz":
-            raise ParameterError("workers", f"{literal(path)}: one gzip file is one stream "
-                                 "that only one process can decompress, so {param} cannot "
-                                 "help; give a dump.* series or an uncompressed dump, or "
-                                 "leave out {param}")
-    if scheduler is None and _one_process_pays(atoms, workers):
-        return average_dumps(atoms, contacts, **options)
+            raise ParameterError("scheduler" if scheduler else "workers",
+                                 f"{literal(path)}: one gzip file is one stream "
+                                 "that every worker would inflate up to its part, so a "
+                                 "cluster cannot help; give a dump.* series or an "
+                                 "uncompressed dump, or leave out {param}")
     base, frames = dump_averager(atoms, contacts, scan_early=False, **options)  # checks;
     # the first two frames read
     base.frames = ()                                  # (and stops its reader thread)
-    n_chunks = chunks or 2 * workers
-    by_file = series_windows(atoms, contacts, frames.time, base.t_min, base.block_time,
-                             n_chunks, base.t_max)
-    listed_by = "file names" if by_file is not None else "header scan"
-    if by_file is not None:                  # each worker opens its own files alone
-        windows, named = by_file, {"named_steps": True}
-    else:
-        heads = list(DumpReader(atoms, [], headers_only=True))     # no row is parsed
-        windows = cut_windows([f.timestep for f in heads], [frames.time(f) for f in heads],
-                              base.t_min, base.block_time, n_chunks, base.t_max)
-        named = {}
-    if not windows:
-        raise ParameterError("t_min", f"no frame at t >= {base.t_min:g}, the start of the "
-                             "average ({param}); lower it")
-    fixed = dict(options, quantities=base.groups, block_time=base.block_time,
-                 check_cells=None, time=resolved_time(base, options.get("time")),
-                 **named)                             # checked above
-    with cluster_client(workers, scheduler, _threads_each(workers)) as dask_jobs:
+    with cluster_client(workers, scheduler, _threads_each(workers)) if client is None else \
+            _given(client) as dask_jobs:
+        workers_used = dask_jobs.n_workers
+        n_chunks = chunks or chunk_count(paths, workers_used)
+        by_file = series_windows(atoms, contacts, frames.time, base.t_min, base.block_time,
+                                 n_chunks, base.t_max)
+        listed_by = "file names" if by_file is not None else "header scan"
+        if by_file is not None:                  # each worker opens its own files alone
+            windows, named = by_file, {"named_steps": True}
+        else:
+            heads = list(DumpReader(atoms, [], headers_only=True))     # no row is parsed
+            windows = cut_windows([f.timestep for f in heads],
+                                  [frames.time(f) for f in heads], base.t_min,
+                                  base.block_time, n_chunks, base.t_max)
+            named = {}
+        if not windows:
+            raise ParameterError("t_min", f"no frame at t >= {base.t_min:g}, the start of "
+                                 "the average ({param}); lower it")
+        fixed = dict(options, quantities=base.groups, block_time=base.block_time,
+                     check_cells=None, time=resolved_time(base, options.get("time")),
+                     **named)                             # checked above
         futures = [dask_jobs.client.submit(_dump_chunk, str(atoms),
                                            str(contacts) if contacts else None, w, fixed,
                                            pure=False) for w in windows]
         results = dask_jobs.gather(futures)
-        workers_used = dask_jobs.n_workers
     base.prepare()
     dropped = {}
     for state, _, rows in results:

@@ -66,10 +66,7 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
         raise UserError("give the run directory: its manifest holds h, rho_p and the rings")
     run_dir = validate.run_directory(run_dir)
     manifest = validate.check_manifest(read_manifest(run_dir), run_dir / "manifest.json")
-    ext = "dump.gz" if manifest["scene"].get("gzip", True) else "dump"
-    atoms = Path(atoms) if atoms else run_dir / f"atoms.{ext}"
-    if contacts is None and (run_dir / f"contacts.{ext}").exists():
-        contacts = run_dir / f"contacts.{ext}"
+    atoms, contacts = run_dumps(run_dir, manifest, atoms, contacts)
     body = scene_body_forces(manifest)
     smooth_edge = kernel not in (None, "exact") and get_kernel(kernel).smooth_edge
     groups = groups_for(quantities, contacts is not None, bool(body), smooth=smooth_edge,
@@ -107,3 +104,14 @@ def chosen_sectors(profiles, default="auto"):
     """The number of sectors a single run's profiles took for their errors (to average the
     same run over other cells with the same replicas), or ``default``."""
     return (profiles.meta.get("errors", {}).get("sectors") or {}).get("sectors", default)
+
+
+def run_dumps(run_dir, manifest: dict, atoms=None, contacts=None) -> tuple:
+    """The atoms and contacts dumps a run's average reads: those given, else the run
+    directory's (contacts None where it has none)."""
+    run_dir = Path(run_dir)
+    ext = "dump.gz" if manifest["scene"].get("gzip", True) else "dump"
+    atoms = Path(atoms) if atoms else run_dir / f"atoms.{ext}"
+    if contacts is None and (run_dir / f"contacts.{ext}").exists():
+        contacts = run_dir / f"contacts.{ext}"
+    return atoms, contacts
