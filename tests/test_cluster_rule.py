@@ -5,7 +5,9 @@ is done in this process, said in one line, with the same fields; the chunks are 
 that each holds far more work than its own cost."""
 
 import gzip
+import json
 import logging
+import os
 
 import numpy as np
 import pytest
@@ -66,16 +68,21 @@ def test_chunks_hold_at_least_a_chunks_worth_of_work(tmp_path, cost_model_on):
     assert chunks(0.2 * CHUNK_WORK, 16) == 1
 
 
-def test_a_small_series_on_workers_is_averaged_in_this_process_in_one_line(tmp_path, cost_model_on):
-    """The example pile's frames as a dump.* series: far too little work for a cluster."""
+def pile_series(tmp_path):
+    """The example pile's frames as a dump.* series, and the CLI's arguments for it."""
     from granavg.examples import pile_3d
 
     frames = gzip.decompress(pile_3d.atoms.read_bytes()).decode().split("ITEM: TIMESTEP\n")
     for k, f in enumerate(frames[1:]):
         (tmp_path / f"dump.{k}.txt").write_text("ITEM: TIMESTEP\n" + f)
-    series = tmp_path / "dump.*.txt"
-    args = ["average", "--atoms", series, "--slabs", "z", "--bins", 3, "--dt", 1e-5,
-            "--quantities", "nu,v", "--no-progress"]
+    return ["average", "--atoms", tmp_path / "dump.*.txt", "--slabs", "z", "--bins", 3,
+            "--dt", 1e-5, "--quantities", "nu,v", "--no-progress"]
+
+
+def test_a_small_series_on_workers_is_averaged_in_this_process_in_one_line(tmp_path,
+                                                                          cost_model_on):
+    """The example pile's frames as a dump.* series: far too little work for a cluster."""
+    args = pile_series(tmp_path)
     one = run_cli(*args, "--out", tmp_path / "one.csv")
     two = run_cli(*args, "--workers", 2, "--out", tmp_path / "two.csv")
     assert one.returncode == two.returncode == 0, two.stderr
@@ -95,6 +102,33 @@ def test_a_runs_gzip_dumps_on_workers_are_averaged_in_this_process(caplog, cost_
     for k in one.values:
         assert np.array_equal(one.values[k], two.values[k], equal_nan=True), k
         assert np.array_equal(one.sem[k], two.sem[k], equal_nan=True), k
+
+
+@pytest.mark.slow
+def test_a_running_cluster_is_used_by_scheduler_and_left_running(tmp_path):
+    """--scheduler: the command averages on the given cluster's workers (the cost model
+    does not overrule it) and leaves the cluster running for the next command."""
+    from dask.distributed import Client, LocalCluster
+
+    args = pile_series(tmp_path)
+    one = run_cli(*args, "--out", tmp_path / "one.csv")
+    assert one.returncode == 0, one.stderr
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        for k in range(2):
+            proc = run_cli(*args, "--scheduler", cluster.scheduler_address,
+                           "--out", tmp_path / f"c{k}.csv",
+                           env=dict(os.environ, GRANAVG_COST_MODEL="on"))
+            assert proc.returncode == 0, proc.stderr
+            assert "averaging in this process" not in proc.stderr
+            meta = json.loads((tmp_path / f"c{k}.csv.json").read_text())
+            assert meta["dask"]["workers"] == 2, meta["dask"]
+            a = granavg.read(tmp_path / "one.csv")
+            b = granavg.read(tmp_path / f"c{k}.csv")
+            for q in a.values:
+                assert np.array_equal(a.values[q], b.values[q], equal_nan=True), q
+        with Client(cluster) as client:                        # still there, both workers
+            assert len(client.scheduler_info()["workers"]) == 2
 
 
 def test_chunks_are_two_per_worker_with_the_cost_model_off(tmp_path):
