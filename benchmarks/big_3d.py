@@ -5,7 +5,7 @@ the same file (issue: three dimensions at the scale of real 3D runs).
     python benchmarks/big_3d.py time DIR [--ovito-python PY] [--grid 20 20 6]
     python benchmarks/big_3d.py series DIR [--files 24] [-n 3]
     python benchmarks/big_3d.py threads DIR [--files 24] [--quantities nu] [--counts 1 2]
-        [--layout series|single|gzip|all] [--workers 2 4 ...]
+        [--layout series|single|gzip|all] [--workers 2 4 ...] [--stages]
 
 ``make`` takes the last frame of the 3D pile of tests/decks/pile_3d_si.lmp (755 spheres at
 rest on a floor, periodic in x and y, SI units; shipped as benchmarks/pile_frame.txt.gz,
@@ -38,7 +38,10 @@ profiles' hashes must agree; ``--workers N ...`` adds a local dask cluster of N 
 for each N (its start included; GRANAVG_COST_MODEL=off, so that the cluster itself is
 timed where ``--workers`` would average in one process; a single gzip file cannot be
 split). Layouts: the series; one plain file of its frames
-(DIR/single.dump); the series gzipped (DIR/gz, zcat the baseline).
+(DIR/single.dump); the series gzipped (DIR/gz, zcat the baseline). ``--stages`` adds,
+for each count, where one process' time goes: its imports, the set-up until the engine
+takes its first frame, the engine's time per frame in the steady state, and the end
+(medians of ``-n`` processes).
 """
 
 from __future__ import annotations
@@ -279,6 +282,44 @@ def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts,
     print("identical profiles:", len(set(digests.values())) == 1)
 
 
+STAGES = """
+import sys, time
+t0 = time.perf_counter()
+from granavg import cli
+from granavg.engine import cell_average
+imported, seen, add = time.perf_counter() - t0, [], cell_average.CellAverage.add
+def timed(self, frame):
+    seen.append(time.perf_counter() - t0)
+    return add(self, frame)
+cell_average.CellAverage.add = timed
+try:
+    cli.main(sys.argv[1:])
+except SystemExit:
+    pass
+print(imported, seen[0], (seen[-1] - seen[0]) / (len(seen) - 1), time.perf_counter() - t0)
+"""
+
+
+def stages(atoms, grid, quantities: str, counts, n: int) -> None:
+    """Where one process' time goes on each ``--threads`` count (:data:`STAGES`)."""
+    import statistics
+
+    print("| --threads | imports s | first frame at s | per frame ms | end s |\n"
+          "|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for k in counts:
+            rows = []
+            for i in range(n):
+                out = subprocess.run(
+                    [sys.executable, "-c", STAGES, "average", "--atoms", str(atoms), "--grid",
+                     *map(str, grid), "--z-range", "0", "0.03", "--quantities", quantities,
+                     "--out", f"{tmp}/s{k}-{i}.csv", "--no-progress", "--threads", str(k)],
+                    capture_output=True, text=True, check=True).stdout.split()
+                rows.append([float(x) for x in out])
+            a, b, c, d = (statistics.median(col) for col in zip(*rows))
+            print(f"| {k} | {a:.2f} | {b:.2f} | {1000 * c:.0f} | {d:.2f} |")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = ap.add_subparsers(dest="what", required=True)
@@ -305,11 +346,15 @@ def main(argv=None):
     th.add_argument("--layout", choices=("series", "single", "gzip", "all"),
                     default="series")
     th.add_argument("--workers", type=int, nargs="*", default=())
+    th.add_argument("--stages", action="store_true")
     args = ap.parse_args(argv)
     if args.what == "threads":
         for layout in (args.layout,) if args.layout != "all" else ("series", "single", "gzip"):
             threads_timing(args.dir, args.files, args.n, args.grid, args.quantities,
                            args.counts, layout, args.workers)
+            if args.stages:
+                stages(layouts(args.dir, args.files)[layout][0], args.grid, args.quantities,
+                       args.counts, args.n)
     elif args.what == "make":
         make(args.dir, args.copies, args.frames)
     elif args.what == "series":
