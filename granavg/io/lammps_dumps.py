@@ -244,7 +244,7 @@ def dimension(path, explicit_map, dim=None) -> tuple:
         return dim, "given"
     if zcol is None:
         return 2, f"{first_file(path)} has no z column"
-    frame = next((f for f in DumpReader(path, [zcol]) if len(f.data)), None)
+    frame = next((f for f in DumpReader(path, [zcol], readers=1) if len(f.data)), None)
     if frame is None:
         raise UserError(f"{path}: no frame holds an atom; give a dump of a run with atoms")
     z = frame.column(zcol)

@@ -114,10 +114,15 @@ class DumpReader:
         in the window, the number in each file's name being its first time step (as
         LAMMPS names them; a dask client checks it against each file's first header,
         :meth:`first_header`), so that a worker reads its own files alone.
+    readers : int, optional
+        Reader threads (the files of a series, or the pieces of one plain file, parsed at
+        once); default granavg's thread count (:func:`granavg.engine.threads.count`). One
+        where only the first frames are wanted: a frame read ahead on another thread
+        would be parsed for nothing, and closing the reader waits for it.
     """
 
     def __init__(self, path, columns=None, needed_by=None, steps=None, headers_only=False,
-                 named_steps=False):
+                 named_steps=False, readers=None):
         self.path = Path(path)
         self.numbered = numbered_series(self.path)
         self.files = [p for _, p in self.numbered]
@@ -126,6 +131,7 @@ class DumpReader:
         self.steps = steps
         self.headers_only = headers_only
         self.named_steps = named_steps
+        self.readers = readers
         #: frames whose ``ITEM: TIME`` is below this are scanned past, their rows not parsed
         self.from_time = None
         self._first_only = False
@@ -164,7 +170,7 @@ class DumpReader:
             return
         last = None
         files = self._own_files()
-        width = min(threads.count(), len(files)) if not self._first_only else 1
+        width = min(self._width(), len(files)) if not self._first_only else 1
         for path, frames in in_order(((p, _scanner(self, p).frames(must_hold=False))
                                       for p in files), width):
             any_frame = False
@@ -181,6 +187,10 @@ class DumpReader:
                 log.warning("%s: holds no complete frame (empty or cut); skipped, the other "
                             "files of %s are used", path, self.path)
 
+
+    def _width(self) -> int:
+        """The reader threads: ``readers``, else granavg's thread count."""
+        return self.readers or threads.count()
 
     def _piece_frames(self, path, pieces, depth):
         """The frames of a plain file read in ``pieces`` (:meth:`_pieces`), each on a
@@ -216,7 +226,7 @@ class DumpReader:
         the frames each may read ahead: :data:`AHEAD` bytes over the pieces, as the first
         frame's size gives it); ([], 0) where it is read whole (gzip, binary, yaml,
         small, one thread, headers only)."""
-        width = threads.count()
+        width = self._width()
         size = path.stat().st_size if path.is_file() else 0
         if width <= 1 or size < PIECE or path.suffix == ".gz" or self.headers_only or \
                 self._first_only:
