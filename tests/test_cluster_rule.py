@@ -14,7 +14,6 @@ import pytest
 
 import granavg
 from granavg.examples import couette_2d
-from granavg.pipeline import on_dask
 from granavg.pipeline.on_dask import (CHUNK_WORK, CLUSTER_COST, ONE_CORE_RATE, chunk_count,
                                       one_process_reason, text_bytes)
 
@@ -39,6 +38,9 @@ def test_a_gzip_files_text_size_comes_from_its_trailer(tmp_path):
     gz.write_bytes(gzip.compress(text))
     plain = sparse(tmp_path / "b.dump", 12345)
     assert text_bytes([gz]) == len(text) and text_bytes([gz, plain]) == len(text) + 12345
+    for k, size in enumerate((1000, 2500)):                  # one file per processor
+        sparse(tmp_path / f"atoms.{k}.dump", size)
+    assert text_bytes([tmp_path / "atoms.%.dump"]) == 3500
 
 
 @pytest.mark.parametrize("workers", [2, 4, 16])
@@ -135,7 +137,9 @@ def test_chunks_are_two_per_worker_with_the_cost_model_off(tmp_path):
     assert chunk_count([sparse(tmp_path / "a.dump", 1000)], 3) == 6
 
 
-def test_the_cost_model_switch_is_checked(monkeypatch):
-    monkeypatch.setenv("GRANAVG_COST_MODEL", "sometimes")
-    with pytest.raises(granavg.errors.UserError, match="GRANAVG_COST_MODEL='sometimes'"):
-        on_dask.in_this_process("a reason")
+def test_the_cost_model_switch_is_checked_in_one_line(tmp_path):
+    proc = run_cli(*pile_series(tmp_path), "--workers", 2, "--out", tmp_path / "x.csv",
+                   env=dict(os.environ, GRANAVG_COST_MODEL="sometimes"))
+    assert proc.returncode == 2, proc.stderr
+    assert "GRANAVG_COST_MODEL='sometimes': give on" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr

@@ -23,7 +23,7 @@ from granavg.engine.cell_average import CHUNK
 from granavg.engine.fields import Fields
 from granavg.dask_cluster import Cluster, cluster_client, refusal_safe
 from granavg.errors import ParameterError, UserError, literal, named
-from granavg.io.reader import DumpReader, numbered_series, series
+from granavg.io.reader import DumpReader, numbered_series, processor_files, series
 from granavg.pipeline.dumps import average_dumps, dump_averager
 from granavg.pipeline.runs import average_run, run_averager, run_dumps
 
@@ -105,8 +105,7 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     manifest = base.meta["run_manifest"]
     paths = [p for p in run_dumps(run_dir, manifest, options.get("atoms"),
                                   options.get("contacts")) if p]
-    if scheduler is None and client is None and in_this_process(
-            one_process_reason(paths, workers)):
+    if scheduler is None and client is None and in_this_process(paths, workers):
         return average_run(run_dir, progress=False, **options)
     with cluster_client(workers, scheduler, _threads_each(workers)) if client is None else \
             _given(client) as dask_jobs:
@@ -211,10 +210,12 @@ CHUNK_WORK = 1.0
 
 
 def text_bytes(paths) -> int:
-    """The text bytes of the dump files ``paths``: a gzip file's from its trailer (the
-    uncompressed size modulo 2**32, lifted to at least the compressed size)."""
+    """The text bytes of the dump files ``paths`` (a ``%`` in a name: every processor's
+    file): a gzip file's from its trailer (the uncompressed size modulo 2**32, lifted to
+    at least the compressed size)."""
     total = 0
-    for path in paths:
+    for path in (f for p in paths for f in
+                 ([q for _, q in processor_files(p)] if "%" in Path(p).name else [p])):
         size = Path(path).stat().st_size
         if str(path).endswith(".gz") and size >= 18:
             with open(path, "rb") as fh:
@@ -257,11 +258,14 @@ def cost_model() -> bool:
     return wanted == "on"
 
 
-def in_this_process(reason: str | None) -> bool:
-    """Say in one line that a local cluster would only slow this average down, and why
-    (:func:`one_process_reason`); False where there is no reason, or the cost model is
-    off (:func:`cost_model`)."""
-    if reason is None or not cost_model():
+def in_this_process(paths, workers: int, frame_particles=lambda: 0) -> bool:
+    """Whether one process averages ``paths`` (:func:`one_process_reason`, the cost model
+    on: :func:`cost_model`; ``frame_particles()`` the first frame's count), said in one
+    line with the reason."""
+    if not cost_model():
+        return False
+    reason = one_process_reason(paths, workers, frame_particles())
+    if reason is None:
         return False
     log.info(named("{workers}: %s, so a local dask cluster would only be slower; averaging "
                    "in this process on %d threads (a running cluster: {scheduler})"),
@@ -301,9 +305,10 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
                              f"average {chosen} files in this process (leave out {{param}})")
     paths = [p for p in (atoms, contacts) if p]
     if scheduler is None and client is None:
-        head = DumpReader(atoms, []).first_header()
-        if in_this_process(one_process_reason(paths, workers, 0 if head is None
-                                              else len(head.data))):
+        def particles():
+            head = DumpReader(atoms, []).first_header()
+            return 0 if head is None else len(head.data)
+        if in_this_process(paths, workers, particles):
             return average_dumps(atoms, contacts, **options)
     for path in paths:
         files = series(path)
