@@ -33,7 +33,8 @@ kept: GRANAVG_COST_MODEL=off).
 
 ``threads`` times one process on the same frames with each ``--threads`` count (the
 files, or the pieces of one file, parsed on that many reader threads, the engine on as
-many), and the baseline that reads them without parsing, ``-n`` rounds in turn; the
+many), and the baseline that reads them without parsing, ``-n`` rounds in turn (each process
+right after an untimed read of its files: :func:`cached`); the
 profiles' hashes must agree; ``--workers N ...`` adds a local dask cluster of N workers
 for each N (its start included; GRANAVG_COST_MODEL=off, so that the cluster itself is
 timed where ``--workers`` would average in one process; a single gzip file cannot be
@@ -135,6 +136,19 @@ def run(cmd) -> tuple:
     return wall, usage.ru_maxrss / 1024
 
 
+def cached(pattern) -> None:
+    """Read the files of ``pattern`` (a path, or a glob) whole, untimed, so that the
+    process timed next finds them in the page cache: a kernel that pages out cold page
+    cache (a VM's memory reclaim can, within seconds) would otherwise make some rounds
+    read from disk."""
+    import glob
+
+    for name in glob.glob(str(pattern)):
+        with open(name, "rb") as fh:
+            while fh.read(1 << 24):
+                pass
+
+
 def best(cmd, repeat=3) -> tuple:
     runs = [run(cmd) for _ in range(repeat)]
     return min(w for w, _ in runs), max(m for _, m in runs)
@@ -207,8 +221,12 @@ def series_timing(d: Path, files: int, n: int, grid) -> None:
                 "--no-progress", *extra]
     with tempfile.TemporaryDirectory() as tmp:
         one, two = average([], f"{tmp}/one.csv"), average(["--workers", "2"], f"{tmp}/two.csv")
-        run(one)                                               # the page cache warm
-        pairs = [(run(one)[0], run(two)[0]) for _ in range(n)]
+        pairs = []
+        for _ in range(n):
+            cached(out / "dump.*.txt")
+            t_one = run(one)[0]
+            cached(out / "dump.*.txt")
+            pairs.append((t_one, run(two)[0]))
     a, b = zip(*pairs)
     ratio = [x / y for x, y in pairs]
     print(f"| {files} files | one process s | --workers 2 s | one / two workers |\n"
@@ -267,8 +285,10 @@ def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts,
         run(average(first))                                      # the page cache warm
         times = {name: [] for name in (*runs, baseline.split()[0])}
         for _ in range(n):
+            cached(atoms)
             times[baseline.split()[0]].append(run(["sh", "-c", f"{baseline} > /dev/null"])[0])
             for name in runs:
+                cached(atoms)
                 times[name].append(run(average(name))[0])
         digests = {name: hashlib.sha256(Path(f"{tmp}/{name.replace(' ', '')}.csv")
                                         .read_bytes()).hexdigest()[:12] for name in runs}
@@ -310,6 +330,7 @@ def stages(atoms, grid, quantities: str, counts, n: int) -> None:
         for k in counts:
             rows = []
             for i in range(n):
+                cached(atoms)
                 out = subprocess.run(
                     [sys.executable, "-c", STAGES, "average", "--atoms", str(atoms), "--grid",
                      *map(str, grid), "--z-range", "0", "0.03", "--quantities", quantities,

@@ -4,7 +4,8 @@
 # series, as one plain file and as a gzip series; one process on 1, 4 and every core,
 # local clusters of 2, 4, 8 and every worker (the cluster itself timed:
 # GRANAVG_COST_MODEL=off), against cat and zcat in the same rounds, the profiles' hashes
-# compared, and where one process' time goes (--stages).
+# compared, where one process' time goes (--stages), and the series again with numpy's
+# huge-page advice on (the command turns it off: docs/running-big.md, "Huge pages").
 #   sh benchmarks/many_cores.sh DIR        (from the repo root; PYTHON: the interpreter)
 # Needs about 16 GB free in DIR. Not yet run on many cores: its time there is unmeasured.
 set -e
@@ -18,3 +19,6 @@ echo "machine: $N cores,$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2)"
 "$PY" benchmarks/big_3d.py threads "$DIR" --files 48 --layout single --counts 4 "$N" -n 2
 "$PY" benchmarks/big_3d.py threads "$DIR" --files 48 --layout gzip --counts 4 "$N" \
   --workers "$N" -n 2
+echo "numpy's huge-page advice on (NUMPY_MADVISE_HUGEPAGE=1):"
+NUMPY_MADVISE_HUGEPAGE=1 "$PY" benchmarks/big_3d.py threads "$DIR" --files 48 --layout series \
+  --counts "$N" -n 2

@@ -14,6 +14,10 @@ import textwrap
 # sees only small matrices, and an OpenBLAS pool of idle threads spins a core after each
 # call (~0.1 s of CPU). Set before numpy loads; a user's own setting wins.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+# Each frame's arrays are allocated and freed again; numpy's advice to back large arrays
+# with 2 MB pages makes each new one cost a huge page's first touch in the kernel
+# (measured: docs/running-big.md, "Huge pages"). Off for the command unless set.
+os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
 
 from granavg import __version__
 from granavg.errors import UserError, name_parameters, named

@@ -167,3 +167,25 @@ def test_the_cli_refuses_a_bad_thread_count_with_exit_code_2(tmp_path):
         "granavg: error: --threads '0': give a whole number of threads, 1 or more (this "
         f"machine has {threads.cores()} cores)"]
     assert not (tmp_path / "p.csv").exists()
+
+
+@pytest.mark.parametrize("given, advised", [(None, "False"), ("1", "True"), ("0", "False")])
+def test_the_command_turns_numpys_huge_page_advice_off_unless_set(given, advised):
+    """The command's frames are allocated and freed frame after frame: numpy's advice to
+    back them with 2 MB pages is off in its process (docs/running-big.md, "Huge pages"),
+    unless NUMPY_MADVISE_HUGEPAGE is set; a library user's process is left as it is."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    if given is not None:
+        env["NUMPY_MADVISE_HUGEPAGE"] = given
+    probe = ("import {0}; import numpy; m = getattr(numpy, '_core', None) or numpy.core; "
+             "print(m.multiarray._set_madvise_hugepage(True))")
+    out = subprocess.run([sys.executable, "-c", probe.format("granavg.cli")], env=env,
+                         capture_output=True, text=True, check=True).stdout.split()
+    assert out == [advised]
+    library = subprocess.run([sys.executable, "-c", probe.format("granavg.engine")],
+                             env=env, capture_output=True, text=True, check=True).stdout.split()
+    assert library == ["True" if given != "0" else "False"]
