@@ -94,6 +94,58 @@ def test_a_damaged_row_in_a_later_piece_is_named_at_its_line(pile3d_one, tmp_pat
             frames(path)
 
 
+def test_a_duplicate_id_in_a_later_piece_is_named_at_both_its_lines(pile3d_one, tmp_path,
+                                                                     small_pieces,
+                                                                     restore_threads):
+    """The atoms' checks run on the reader thread that parsed the frame; one that fails
+    there is done again where the frame's lines are final, so both lines it names are
+    the file's own, on any number of threads."""
+    from granavg.io.lammps_dumps import LammpsDumps
+
+    lines = (pile3d_one / "atoms.dump").read_text().splitlines(keepends=True)
+    bad = len(lines) - 3                          # a row of the last frame (0-based)
+    head = lines[bad - 1].split()[0]              # the row before's id
+    lines[bad] = head + lines[bad][len(lines[bad].split()[0]):]
+    path = tmp_path / "atoms.dump"
+    path.write_text("".join(lines))
+    for n in (1, 3):
+        threads.set_count(n)
+        with pytest.raises(granavg.errors.UserError,
+                           match=rf"atoms.dump:{bad + 1}: atom id {head} appears twice .*"
+                                 rf"\(also line {bad}\)"):
+            list(LammpsDumps(path))
+
+
+def test_the_atoms_are_made_ready_on_the_reader_threads(pile3d_one, pile3d_series,
+                                                        small_pieces, restore_threads,
+                                                        monkeypatch):
+    """A frame's per-frame work (units, wrapping, checks) runs on the reader threads, in
+    parallel, not on the one thread that hands the frames on; the frames are the same."""
+    import threading
+
+    from granavg.io.lammps_dumps import LammpsDumps
+
+    where = []
+    made = LammpsDumps._atoms
+
+    def recorded(self, fa):
+        where.append(threading.current_thread().name)
+        return made(self, fa)
+    monkeypatch.setattr(LammpsDumps, "_atoms", recorded)
+    for path in (pile3d_one / "atoms.dump", pile3d_series / "atoms.*.txt"):
+        threads.set_count(1)
+        where.clear()
+        one = list(LammpsDumps(path))
+        assert set(where) == {"MainThread"} and len(where) == len(one)
+        threads.set_count(3)
+        where.clear()
+        many = list(LammpsDumps(path))
+        assert set(where) == {"granavg-read"} and len(where) == len(many), (path, where)
+        for a, b in zip(one, many):
+            assert a.timestep == b.timestep and a.atoms.keys() == b.atoms.keys()
+            assert all(np.array_equal(a.atoms[k], b.atoms[k]) for k in a.atoms)
+
+
 def big_frames(path, n=70_000, frames=3):
     """A plain dump of ``frames`` frames of ``n`` spheres (more than one engine chunk)."""
     rng = np.random.default_rng(3)

@@ -326,7 +326,8 @@ class LammpsDumps(PairedDumps):
                                  "(3D: sphere)")
         self.inertia = (inertia, "given") if inertia else None
         window = dict(steps=steps, named_steps=named_steps)
-        super().__init__(DumpReader(atoms, sorted(set(self.amap.values())), **window),
+        super().__init__(DumpReader(atoms, sorted(set(self.amap.values())), **window,
+                                    prepare=self._atoms),
                          DumpReader(contacts, sorted(set(self.cmap.values())), **window)
                          if self.cmap is not None else None, dt, unit_system)
 
@@ -393,11 +394,14 @@ class LammpsDumps(PairedDumps):
         return frame
 
     def frame(self, fa, fc) -> Frame:
-        atoms, walls = self._atoms(fa)
+        atoms, walls = fa.prepared or self._atoms(fa)     # done on a reader thread, or here
+        atoms = self._turned(atoms)
         contacts = self._contacts(fc, atoms, walls) if fc is not None else None
         return Frame(fa.timestep, self.time(fa), atoms, contacts)
 
     def _atoms(self, fa):
+        """The atoms' columns (ours, unscaled, wrapped into the box, checked) and the
+        walls' ids and radii of one frame: no state, so the reader threads run it."""
         raw = fa.as_dict()
         col = {ours: raw[theirs] for ours, theirs in self.amap.items()}
         axes = "xyz"[:self.dim]
@@ -418,11 +422,10 @@ class LammpsDumps(PairedDumps):
             col["radius"] = 0.5 * col["radius"]
         col = check_atoms(fa.path, Columns(col, fa))
         if not len(self.wall_types):
-            return self._turned(col), {}
+            return col, {}
         wall = np.isin(col["type"], self.wall_types)
         walls = {"id": col["id"][wall], "radius": col["radius"][wall]} if "id" in col else {}
-        atoms = {k: v[~wall] for k, v in col.items()}
-        return self._turned(atoms), walls
+        return {k: v[~wall] for k, v in col.items()}, walls
 
     def _turned(self, atoms):
         """The atoms with their moments of inertia where they are not the engine's

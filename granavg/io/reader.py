@@ -77,6 +77,8 @@ class DumpFrame:
     triclinic: bool = False
     tilt: tuple = (0.0, 0.0, 0.0)
     path: Path | None = None
+    #: what the reader's ``prepare`` made of the frame (None: not done)
+    prepared: object = field(default=None, repr=False)
 
     def column(self, name: str) -> np.ndarray:
         """The column called ``name``, shape (n_rows,)."""
@@ -119,10 +121,17 @@ class DumpReader:
         once); default granavg's thread count (:func:`granavg.engine.threads.count`). One
         where only the first frames are wanted: a frame read ahead on another thread
         would be parsed for nothing, and closing the reader waits for it.
+    prepare : callable, optional
+        ``prepare(frame)``, run on the thread that parsed the frame (so on every reader
+        thread at once), its result kept as ``frame.prepared``: a format's per-frame
+        work (units, wrapping, checks) off the consumer's thread. A ``UserError`` it
+        raises leaves ``prepared`` None, for the consumer to do it again where the
+        frame's file:line is final (a piece of a file counts its lines from its own
+        start) and raise it there.
     """
 
     def __init__(self, path, columns=None, needed_by=None, steps=None, headers_only=False,
-                 named_steps=False, readers=None):
+                 named_steps=False, readers=None, prepare=None):
         self.path = Path(path)
         self.numbered = numbered_series(self.path)
         self.files = [p for _, p in self.numbered]
@@ -132,6 +141,7 @@ class DumpReader:
         self.headers_only = headers_only
         self.named_steps = named_steps
         self.readers = readers
+        self.prepare = prepare
         #: frames whose ``ITEM: TIME`` is below this are scanned past, their rows not parsed
         self.from_time = None
         self._first_only = False
@@ -164,15 +174,15 @@ class DumpReader:
         if len(self.files) == 1:
             pieces = self._pieces(self.files[0])
             if not pieces[0]:
-                yield from _scanner(self, self.files[0]).frames()
+                yield from self._ready(_scanner(self, self.files[0]).frames())
                 return
             yield from self._piece_frames(self.files[0], *pieces)
             return
         last = None
         files = self._own_files()
         width = min(self._width(), len(files)) if not self._first_only else 1
-        for path, frames in in_order(((p, _scanner(self, p).frames(must_hold=False))
-                                      for p in files), width):
+        for path, frames in in_order(((p, self._ready(_scanner(self, p).frames(
+                must_hold=False))) for p in files), width):
             any_frame = False
             for frame in frames:
                 any_frame = True
@@ -188,6 +198,18 @@ class DumpReader:
                             "files of %s are used", path, self.path)
 
 
+    def _ready(self, frames):
+        """``frames`` with :attr:`prepare` run on each (on the thread iterating them)."""
+        if self.prepare is None:
+            yield from frames
+            return
+        for frame in frames:
+            try:
+                frame.prepared = self.prepare(frame)
+            except UserError:
+                frame.prepared = None             # raised by the consumer, lines final
+            yield frame
+
     def _width(self) -> int:
         """The reader threads: ``readers``, else granavg's thread count."""
         return self.readers or threads.count()
@@ -200,7 +222,8 @@ class DumpReader:
         scanners = [_Scanner(self, path, span) for span in pieces]
         last, offset = None, 0
         for k, (scanner, frames) in enumerate(in_order(
-                ((s, s.frames(must_hold=False)) for s in scanners), len(scanners), depth)):
+                ((s, self._ready(s.frames(must_hold=False))) for s in scanners),
+                len(scanners), depth)):
             if k:
                 offset += scanners[k - 1].line - 1
             try:
@@ -274,8 +297,9 @@ class DumpReader:
                                 f"{first.path} has {first.timestep}; the files of one "
                                 "dump's processors must hold the same frames")
             data = first.data if len(pieces) == 1 else np.concatenate([f.data for f in pieces])
-            yield DumpFrame(first.timestep, first.time, first.columns, data, first.box,
-                            first.line, first.boundary, first.triclinic, first.tilt, path)
+            whole = DumpFrame(first.timestep, first.time, first.columns, data, first.box,
+                              first.line, first.boundary, first.triclinic, first.tilt, path)
+            yield from self._ready([whole])
 
 
 #: Plain text dumps of this many bytes or more are read in pieces, one per reader thread.
