@@ -199,7 +199,7 @@ class DumpReader:
 
 
     def _ready(self, frames):
-        """``frames`` with :attr:`prepare` run on each (on the thread iterating them)."""
+        """``frames`` with the ``prepare`` given run on each (on the thread iterating them)."""
         if self.prepare is None:
             yield from frames
             return
