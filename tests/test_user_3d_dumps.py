@@ -414,6 +414,43 @@ def test_an_empty_first_frame_does_not_make_a_pour_2d(capsys, pour, tmp_path):
     assert read_profiles(tmp_path / "d.csv").meta["inputs"]["dim"] == 3
 
 
+def test_the_dimension_is_told_from_the_first_rows_where_their_z_differ(tmp_path,
+                                                                       monkeypatch):
+    """A 3D dump is known as one from its first frame's first rows (their z differ), its
+    rows not parsed for it (plain and gzip); where those rows share one z the whole
+    frame is read, and a z that differs further on still makes it 3D."""
+    import gzip
+
+    from granavg.io import lammps_dumps, reader
+
+    n = lammps_dumps.Z_SAMPLE + 50
+
+    def dump(name, z):
+        rows = "".join(f"{k + 1} {k * 0.01:g} 0.5 {z[k]:g} 0.004\n" for k in range(n))
+        text = (f"ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n{n}\nITEM: BOX BOUNDS pp pp ff\n"
+                f"0 11\n0 1\n0 1\nITEM: ATOMS id x y z radius\n{rows}")
+        path = tmp_path / name
+        if name.endswith(".gz"):
+            path.write_bytes(gzip.compress(text.encode()))
+        else:
+            path.write_text(text)
+        return path
+    parsed = []
+    rows = reader._Scanner._rows
+    monkeypatch.setattr(reader._Scanner, "_rows",
+                        lambda self, *a: parsed.append(1) or rows(self, *a))
+    varied = np.random.default_rng(0).uniform(0.1, 0.9, n)
+    for name in ("varied.dump", "varied.dump.gz"):
+        assert lammps_dumps.dimension(dump(name, varied), {}) == (3, "z differs")
+        assert parsed == [], name
+    late = np.where(np.arange(n) < lammps_dumps.Z_SAMPLE, 0.0, 0.5)
+    assert lammps_dumps.dimension(dump("late.dump", late), {}) == (3, "z differs")
+    assert parsed
+    parsed.clear()
+    dim, why = lammps_dumps.dimension(dump("flat.dump", np.zeros(n)), {})
+    assert dim == 2 and "has z = 0" in why and parsed
+
+
 def test_2d_says_why_when_it_asks_for_the_thickness(capsys, pour, tilted, tmp_path):
     flat = drop_columns(pour / "atoms.dump", tmp_path / "flat.dump", {"z", "vz"})
     refused(capsys, tmp_path, ("average", "--atoms", flat, "--dt", 0.001, "--slabs", "y",

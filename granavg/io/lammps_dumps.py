@@ -35,6 +35,7 @@ of contacts into the frames the engine averages (in the dumps' own units):
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 import re
@@ -42,7 +43,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from isal import igzip
 
 from granavg.errors import ParameterError, UserError, literal, named
 from granavg.engine.kernels import lookup
@@ -110,23 +110,54 @@ def dump_header(path):
         return binary_dump.header(path)
     if yaml_dump.is_yaml(path):
         return yaml_dump.header(path)
-    opener = igzip.open if str(path).endswith(".gz") else open
-    units, previous = None, ""
     try:
-        with opener(path, "rb") as fh:
-            for k, raw in enumerate(fh):
-                line = raw.decode("ascii", "replace")
-                if previous.startswith("ITEM: UNITS"):
-                    units = (line.strip(), f"{path}:{k + 1}")
-                if line.startswith(("ITEM: ATOMS", "ITEM: ENTRIES")):
-                    return line.split()[2:], units
-                if k > 1000:
-                    break
-                previous = line
+        with open_text(path, "rb") as fh:
+            return _columns_line(fh, path)
     except (OSError, EOFError) as exc:
         raise UserError(f"{path}: not readable ({exc})") from None
+
+
+def _columns_line(fh, path):
+    """Read a text dump up to its first ``ITEM: ATOMS`` / ``ITEM: ENTRIES`` line (within
+    its first 1000 lines): (its column names, the ``ITEM: UNITS`` before it or None)."""
+    units, previous = None, ""
+    for k, raw in enumerate(fh):
+        line = raw.decode("ascii", "replace")
+        if previous.startswith("ITEM: UNITS"):
+            units = (line.strip(), f"{path}:{k + 1}")
+        if line.startswith(("ITEM: ATOMS", "ITEM: ENTRIES")):
+            return line.split()[2:], units
+        if k > 1000:
+            break
+        previous = line
     raise UserError(f"{path}: no 'ITEM: ATOMS' or 'ITEM: ENTRIES' header; give a LAMMPS "
                     "dump custom (atoms) or dump local (contacts)")
+
+
+#: The first frame's rows read to tell a 3D dump at once, by z differing among them
+#: (:func:`dimension`; where they all share one z, the whole frame is read).
+Z_SAMPLE = 1000
+
+
+def _first_z(path, zcol, rows: int = Z_SAMPLE) -> np.ndarray:
+    """The z of the first ``rows`` atoms of a text dump's first frame, read from its
+    text; empty where the frame holds none, the dump is not text or the rows do not
+    read (the whole frame's reading then says why)."""
+    path = first_file(path)
+    if binary_dump.is_binary(path) or yaml_dump.is_yaml(path):
+        return np.empty(0)
+    try:
+        with open_text(path, "rb") as fh:
+            names, _ = _columns_line(fh, path)
+            k = names.index(zcol)
+            z = []
+            for raw in itertools.islice(fh, rows):
+                if raw.startswith(b"ITEM:"):
+                    break
+                z.append(float(raw.split()[k]))
+        return np.array(z)
+    except (OSError, EOFError, UserError, ValueError, IndexError):
+        return np.empty(0)
 
 
 def resolve_atoms(path, explicit: dict, dim: int) -> dict:
@@ -244,6 +275,10 @@ def dimension(path, explicit_map, dim=None) -> tuple:
         return dim, "given"
     if zcol is None:
         return 2, f"{first_file(path)} has no z column"
+    if dim is None:
+        z = _first_z(path, zcol)
+        if len(z) and np.ptp(z) > 0:
+            return 3, "z differs"               # the whole first frame not parsed for it
     frame = next((f for f in DumpReader(path, [zcol], readers=1) if len(f.data)), None)
     if frame is None:
         raise UserError(f"{path}: no frame holds an atom; give a dump of a run with atoms")
