@@ -43,6 +43,9 @@ split). Layouts: the series; one plain file of its frames
 for each count, where one process' time goes: its imports, the set-up until the engine
 takes its first frame, the engine's time per frame in the steady state, and the end
 (medians of ``-n`` processes).
+
+Every timing first compiles granavg's bytecode (``compileall``), as an install does:
+the timed processes do not compile the modules edited since.
 """
 
 from __future__ import annotations
@@ -369,6 +372,11 @@ def main(argv=None):
     th.add_argument("--workers", type=int, nargs="*", default=())
     th.add_argument("--stages", action="store_true")
     args = ap.parse_args(argv)
+    if args.what != "make":
+        # the bytecode of the sources as they are, as an install leaves it (`make`): else,
+        # after an edit and with PYTHONDONTWRITEBYTECODE set, each process compiles again
+        subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "granavg")],
+                       check=True)
     if args.what == "threads":
         for layout in (args.layout,) if args.layout != "all" else ("series", "single", "gzip"):
             threads_timing(args.dir, args.files, args.n, args.grid, args.quantities,

@@ -7,6 +7,8 @@ set -e
 OUT=${1:?usage: run_all.sh OUTDIR}
 ROOT=$(cd "$(dirname "$0")/.." && pwd); BIN=${VIRTUAL_ENV:-$ROOT/.venv}/bin
 mkdir -p "$OUT"
+# the bytecode of the sources as they are (as `make` leaves it), not compiled per process
+"$BIN/python" -m compileall -q "$ROOT/granavg"
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2)"
 echo "## LAMMPS"; sh "$ROOT/workflows/lammps_timing.sh" "$OUT/timing" 10000
 echo "## reader, engine, memory"
