@@ -7,7 +7,8 @@ the same file (issue: three dimensions at the scale of real 3D runs).
     python benchmarks/big_3d.py threads DIR [--files 24] [--quantities nu] [--counts 1 2]
         [--layout series|single|gzip|all] [--workers 2 4 ...] [--stages]
 
-``make`` takes the last frame of the 3D pile of tests/decks/pile_3d_si.lmp (755 spheres at
+``make`` (every core: the frames formatted in processes, the layouts written on
+threads) takes the last frame of the 3D pile of tests/decks/pile_3d_si.lmp (755 spheres at
 rest on a floor, periodic in x and y, SI units; shipped as benchmarks/pile_frame.txt.gz,
 so that no LAMMPS is needed), tiles it NX x NY times side by side and
 writes DIR/big.dump: ``--frames`` frames of a LAMMPS text dump as LAMMPS writes it by
@@ -39,7 +40,8 @@ profiles' hashes must agree; ``--workers N ...`` adds a local dask cluster of N 
 for each N (its start included; GRANAVG_COST_MODEL=off, so that the cluster itself is
 timed where ``--workers`` would average in one process; a single gzip file cannot be
 split). Layouts: the series; one plain file of its frames
-(DIR/single.dump); the series gzipped (DIR/gz, zcat the baseline). ``--stages`` adds,
+(DIR/single.dump); the series gzipped (DIR/gz; the baseline: zcat of one file times
+the files over the cores). ``--stages`` adds,
 for each count, where one process' time goes: its imports, the set-up until the engine
 takes its first frame, the engine's time per frame in the steady state, and the end
 (medians of ``-n`` processes).
@@ -51,11 +53,13 @@ the timed processes do not compile the modules edited since.
 from __future__ import annotations
 
 import argparse
+import itertools
 import os
 import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -92,8 +96,6 @@ def pile_frame() -> np.ndarray:
 
 
 def make(out: Path, copies, frames: int) -> Path:
-    import pandas as pd
-
     out.mkdir(parents=True, exist_ok=True)
     base = pile_frame()
     nx, ny = copies
@@ -109,21 +111,38 @@ def make(out: Path, copies, frames: int) -> Path:
     atoms = np.concatenate(tiles)
     rng = np.random.default_rng(1)
     path = out / "big.dump"
-    with open(path, "w") as fh, open(out / "two.dump", "w") as two:
-        for k in range(frames):
-            a = atoms.copy()
-            a[:, 7:13] += rng.normal(0, 1e-4, (len(a), 6))
-            table = pd.DataFrame(a, columns=COLUMNS).astype({"id": int, "type": int})
-            text = (f"ITEM: UNITS\nsi\nITEM: TIME\n{0.001 * k:g}\nITEM: TIMESTEP\n{100 * k}\n"
-                    f"ITEM: NUMBER OF ATOMS\n{len(a)}\nITEM: BOX BOUNDS pp pp ff\n"
-                    f"0 {nx * SIDE:g}\n0 {ny * SIDE:g}\n0 0.09\n"
-                    f"ITEM: ATOMS {' '.join(COLUMNS)}\n"
-                    + table.to_csv(sep=" ", header=False, index=False, float_format="%g"))
+    perturbed = (atoms + np.pad(rng.normal(0, 1e-4, (len(atoms), 6)), ((0, 0), (7, 0)))
+                 for _ in range(frames))
+    with open(path, "w") as fh, open(out / "two.dump", "w") as two, \
+            ProcessPoolExecutor(min(frames, os.cpu_count() or 1)) as pool:
+        # each frame formatted in a process of its own (the %g text is the slow part)
+        for k, text in enumerate(pool.map(frame_text, range(frames), perturbed,
+                                          itertools.repeat((nx, ny)))):
             fh.write(text)
             if k < 2:                     # the first two frames alone: memory against frames
                 two.write(text)
     print(f"{path}: {len(atoms)} spheres x {frames} frames, {path.stat().st_size / 1e6:.0f} MB")
     return path
+
+
+def frame_text(k: int, a: np.ndarray, tiles) -> str:
+    """Frame ``k`` of :func:`make` as LAMMPS writes it (%g, the :data:`COLUMNS`)."""
+    import pandas as pd
+
+    nx, ny = tiles
+    table = pd.DataFrame(a, columns=COLUMNS).astype({"id": int, "type": int})
+    return (f"ITEM: UNITS\nsi\nITEM: TIME\n{0.001 * k:g}\nITEM: TIMESTEP\n{100 * k}\n"
+            f"ITEM: NUMBER OF ATOMS\n{len(a)}\nITEM: BOX BOUNDS pp pp ff\n"
+            f"0 {nx * SIDE:g}\n0 {ny * SIDE:g}\n0 0.09\n"
+            f"ITEM: ATOMS {' '.join(COLUMNS)}\n"
+            + table.to_csv(sep=" ", header=False, index=False, float_format="%g"))
+
+
+def on_cores(fn, items) -> list:
+    """``fn`` of each item on a thread per core (file writes, reads and ISA-L's
+    compression release the GIL)."""
+    with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
+        return list(pool.map(fn, items))
 
 
 def run(cmd) -> tuple:
@@ -146,10 +165,11 @@ def cached(pattern) -> None:
     read from disk."""
     import glob
 
-    for name in glob.glob(str(pattern)):
+    def read(name):
         with open(name, "rb") as fh:
             while fh.read(1 << 24):
                 pass
+    on_cores(read, glob.glob(str(pattern)))
 
 
 def best(cmd, repeat=3) -> tuple:
@@ -199,11 +219,13 @@ def write_series(d: Path, files: int) -> Path:
     frames = ["ITEM: UNITS" + f for f in text.split("ITEM: UNITS")[1:]]
     out = d / "series"
     out.mkdir(exist_ok=True)
-    for k in range(files):
+
+    def write(k):
         head, rest = frames[k % len(frames)].split("ITEM: NUMBER OF ATOMS", 1)
         (out / f"dump.{100 * k}.txt").write_text(
             f"ITEM: UNITS\nsi\nITEM: TIME\n{0.001 * k:g}\nITEM: TIMESTEP\n{100 * k}\n"
             f"ITEM: NUMBER OF ATOMS{rest}")
+    on_cores(write, range(files))
     print(f"{out}: {files} files, {sum(p.stat().st_size for p in out.iterdir()) / 1e6:.0f} MB")
     return out
 
@@ -241,8 +263,10 @@ def series_timing(d: Path, files: int, n: int, grid) -> None:
 
 def layouts(d: Path, files: int) -> dict:
     """The same frames three ways: the series (DIR/series), one plain file of them all
-    (DIR/single.dump) and the series gzipped (DIR/gz, level 1); with the baseline that
-    reads each without parsing (cat, zcat)."""
+    (DIR/single.dump) and the series gzipped (DIR/gz, level 1), each as (path, the
+    baseline's name, its command, the factor on its time): ``cat`` of the files, and
+    ``zcat`` of one gzip file times the files over the cores (what every core
+    decompressing its share of the files at zcat's speed would take)."""
     from isal import igzip
 
     out = d / "series"
@@ -250,18 +274,30 @@ def layouts(d: Path, files: int) -> dict:
         write_series(d, files)
     names = sorted(out.glob("dump.*.txt"), key=lambda p: int(p.name.split(".")[1]))
     single, gz = d / "single.dump", d / "gz"
-    if not single.exists():
-        with open(single, "wb") as fh:
-            for p in names:
-                fh.write(p.read_bytes())
+    sizes = [p.stat().st_size for p in names]
+    if not single.exists() or single.stat().st_size != sum(sizes):
+        # each file written at its own offset, on a thread per core
+        fd = os.open(single, os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
+        try:
+            os.ftruncate(fd, sum(sizes))
+            starts = itertools.accumulate([0] + sizes[:-1])
+            on_cores(lambda job: os.pwrite(fd, job[0].read_bytes(), job[1]),
+                     zip(names, starts))
+        finally:
+            os.close(fd)
     gz.mkdir(exist_ok=True)
-    for p in names:
+
+    def compress(p):
         if not (gz / f"{p.name}.gz").exists():
             with igzip.open(gz / f"{p.name}.gz", "wb", compresslevel=1) as fh:
                 fh.write(p.read_bytes())
-    return {"series": (out / "dump.*.txt", f"cat {out}/dump.*.txt"),
-            "single": (single, f"cat {single}"),
-            "gzip": (gz / "dump.*.txt.gz", f"zcat {gz}/dump.*.txt.gz")}
+    on_cores(compress, names)
+    cores = os.cpu_count() or 1
+    return {"series": (out / "dump.*.txt", "cat", f"cat {out}/dump.*.txt", 1),
+            "single": (single, "cat", f"cat {single}", 1),
+            # the issue's gzip baseline: one file's zcat, times the files over the cores
+            "gzip": (gz / "dump.*.txt.gz", f"zcat of one file x {files}/{cores}",
+                     f"zcat {gz / names[0].name}.gz", files / cores)}
 
 
 def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts,
@@ -273,7 +309,7 @@ def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts,
     import hashlib
     import statistics
 
-    atoms, baseline = layouts(d, files)[layout]
+    atoms, label, baseline, factor = layouts(d, files)[layout]
     runs = {f"--threads {k}": ["--threads", str(k)] for k in counts}
     runs.update({f"--workers {w}": ["--workers", str(w)] for w in workers})
     with tempfile.TemporaryDirectory() as tmp:
@@ -285,11 +321,11 @@ def threads_timing(d: Path, files: int, n: int, grid, quantities: str, counts,
                     *map(str, grid), "--z-range", "0", "0.03", "--quantities", quantities,
                     "--out", dest, "--no-progress", *runs[name]]
         first = next(iter(runs))
-        run(average(first))                                      # the page cache warm
-        times = {name: [] for name in (*runs, baseline.split()[0])}
+        run(average(list(runs)[-1]))                             # the page cache warm
+        times = {name: [] for name in (*runs, label)}
         for _ in range(n):
             cached(atoms)
-            times[baseline.split()[0]].append(run(["sh", "-c", f"{baseline} > /dev/null"])[0])
+            times[label].append(factor * run(["sh", "-c", f"{baseline} > /dev/null"])[0])
             for name in runs:
                 cached(atoms)
                 times[name].append(run(average(name))[0])
