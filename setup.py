@@ -6,7 +6,7 @@ import os
 from Cython.Build import cythonize
 from setuptools import Extension, setup
 
-KERNELS = ["granavg/io/_parse.pyx", "granavg/io/_checks.pyx", "granavg/engine/_weights.pyx",
+KERNELS = ["granavg/io/_parse.pyx", "granavg/engine/_checks.pyx", "granavg/engine/_weights.pyx",
            "granavg/engine/_sphere_weights.pyx", "granavg/engine/_sums.pyx",
            "granavg/engine/cells/_sectors.pyx", "granavg/sim/_contact_state.pyx"]
 

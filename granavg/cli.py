@@ -66,6 +66,17 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message):
         raise UserError(f"{message} (see {self.prog} --help)")
 
+    def parse_args(self, args=None, namespace=None):
+        """argparse's, a species group among the arguments it does not know refused
+        with how to write it (:func:`granavg.pipeline.commands.misplaced_group`)."""
+        from granavg.pipeline.commands import misplaced_group
+
+        options, unknown = self.parse_known_args(args, namespace)
+        if unknown:
+            misplaced_group(unknown, "an argument no option takes")
+            self.error("unrecognized arguments: " + " ".join(unknown))
+        return options
+
     def format_help(self):
         from granavg.pipeline.commands import catalogues
 
@@ -138,12 +149,14 @@ def _parser() -> argparse.ArgumentParser:
                      "width, in the data's length unit (m for runs): " + WIDTHS)
     _branch_and_errors(avg)
     _time(avg)
-    avg.add_argument("--species", metavar="SPEC", help="a mixture's partial fields per "
-                     "species beside the whole's (the table's species column, 'all' the "
-                     "whole): by atom type (type), by size (radius; radius:E1,E2,... size "
-                     "classes between these radii) or named groups of types (small=1,2 "
-                     "large=3); with the force density between species (f_inter), the "
-                     "concentration c and the segregation flux seg (docs/species.md)")
+    avg.add_argument("--species", nargs="+", metavar="SPEC", help="a mixture's partial "
+                     "fields per species beside the whole's (the table's species column, "
+                     "'all' the whole): by atom type (type), by size (radius; "
+                     "radius:E1,E2,... size classes between these radii) or named groups "
+                     "of types, one NAME=TYPES each (--species small=1,2 large=3; run "
+                     "directories go before it); with the force density between species "
+                     "(f_inter), the concentration c and the segregation flux seg "
+                     "(docs/species.md)")
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
     avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")

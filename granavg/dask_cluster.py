@@ -49,8 +49,12 @@ def local_cluster(workers: int, threads_each: int | None = None):
 def _quiet_worker():
     """In a worker of granavg's local cluster: only dask's errors are logged (the
     workers' logging is set up from the environment at their start, before any config
-    reaches them)."""
+    reaches them), and granavg's lines go to the client alone (forwarded there, said
+    once however many workers say them: :func:`cluster_client`)."""
     logging.getLogger("distributed").setLevel(logging.ERROR)
+    own = logging.getLogger("granavg")
+    own.setLevel(logging.INFO)
+    own.propagate = False
 
 
 def _mute_worker():
@@ -139,6 +143,7 @@ def cluster_client(workers: int = 2, scheduler: str | None = None,
             client = _connect(Client, scheduler, cluster)
             if cluster is not None:
                 client.run(_quiet_worker)
+                client.forward_logging("granavg", level=logging.INFO)
             if not received:
                 yield Cluster(client, received)
         except _Stopped:

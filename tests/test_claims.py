@@ -116,3 +116,17 @@ def test_a_claim_that_holds_only_by_its_tolerance_says_so():
     _, exact = verdicts()
     claim = next(c for c in exact["claims"] if c["claim"] == CLAIMS["exponents"])
     assert claim["verdict"] == "reproduced" and claim["note"] == ""
+
+
+def test_each_claim_names_the_figures_that_show_it():
+    """A claim's entry names the report's figures that draw its data, so the report can
+    refer to them; every figure of the paper's report but the time series shows one."""
+    from granavg.analysis.figures import FIGURES
+
+    _, summary = verdicts()
+    named = {n for c in summary["claims"] for n in c["figures"]}
+    assert named <= set(FIGURES)
+    assert set(FIGURES) - named == {"timeseries"}
+    shown = {c["claim"]: c["figures"] for c in summary["claims"]}
+    assert shown[CLAIMS["decay"]] == ["fig2"] and shown[CLAIMS["power"]] == []
+    assert shown[CLAIMS["rotation"]] == ["fig8", "fig9"]

@@ -523,7 +523,7 @@ def test_frames_skipped_by_a_step_window_keep_the_line_numbers_after_them(tmp_pa
 
 
 def test_the_integer_check_finds_the_first_bad_row_and_the_first_huge_id():
-    from granavg.io._checks import not_integers
+    from granavg.engine._checks import not_integers
     v = np.array([1.0, 2.0, 2.5, np.nan, 2.0 ** 53, 7.0])
     assert not_integers(v, False, 2.0 ** 53) == (2, -1)          # ids off: no huge row
     assert not_integers(v, True, 2.0 ** 53) == (2, 4)
@@ -535,7 +535,7 @@ def test_the_integer_check_finds_the_first_bad_row_and_the_first_huge_id():
 
 
 def test_the_contact_rows_check_finds_each_fault_in_one_pass():
-    from granavg.io._checks import contact_rows_checked
+    from granavg.engine._checks import contact_rows_checked
     id1, id2 = np.array([1.0, 2.0, 3.0, 4.0]), np.array([2.0, 2.0, 0.0, 5.0])
     wall = np.array([0.0, 0.0, 1.0, 3.0])
     nx, ny = np.array([1.0, 0.6, 0.0, 0.0]), np.array([0.0, 0.8, 1.0, 1.1])

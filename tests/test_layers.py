@@ -404,7 +404,7 @@ def test_the_name_check_sees_a_name(tmp_path):
 
 TESTS = Path(__file__).resolve().parent
 #: The test package's modules any test module may import.
-SHARED = ("helpers", "conftest")
+SHARED = ("helpers", "damage", "conftest")
 
 
 def imported_test_modules(path: Path, own: set) -> list:
@@ -431,7 +431,8 @@ def imported_test_modules(path: Path, own: set) -> list:
 
 def test_no_test_module_imports_another():
     """What several test modules use (helpers, deck runners, synthetic profiles) lives
-    in tests/helpers.py, fixtures in tests/conftest.py: a test module imports no other
+    in tests/helpers.py, the damage harness in tests/damage.py, fixtures in
+    tests/conftest.py: a test module imports no other
     test module, so each can be read, run and changed alone."""
     own = {p.stem for p in TESTS.glob("*.py")}
     found = {p.name: wrong for p in sorted(TESTS.glob("*.py"))

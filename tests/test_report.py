@@ -1,6 +1,8 @@
 """Analysis, figures and report of a real (small) run, and degenerate input."""
 
 import json
+import re
+from html import unescape
 
 import matplotlib.image as mpimg
 import numpy as np
@@ -10,11 +12,13 @@ import pytest
 from granavg.analysis.claims import analyze
 from matplotlib.container import ErrorbarContainer
 
-from granavg.analysis.figures import FIGURES, fig2, fig4, fig6
+from granavg.analysis.figures import CAPTIONS, FIGURES, fig2, fig4, fig6
+from granavg.analysis.report import units_note, write_report
 from granavg.analysis.rounding import pm
 from granavg.io.profiles_io import read_profiles
 
 from .conftest import run_cli
+from .helpers import SCENE, profiles as helper_profiles
 
 
 @pytest.fixture(scope="module")
@@ -118,7 +122,8 @@ def test_report_and_summary_hold_the_headline_numbers(report):
     assert len(summary["claims"]) == 14
     text = html.replace("&#x27;", "'")
     for claim in summary["claims"]:
-        assert claim["claim"] in text and claim["evidence"] in text
+        assert claim["claim"] in text
+        assert claim["evidence"].replace("+-", "&plusmn;") in text
         assert claim["tolerance"] and f"<td>{claim['tolerance']}</td>" in text
     run_table = html.split("<h2>Run</h2>")[1].split("</table>")[0]
     entries = [c.split("</td>")[0] for c in run_table.split("<td>")[1:]]
@@ -285,3 +290,155 @@ def test_no_axis_of_a_figure_lacks_its_quantity_and_unit(profiles, name):
         for label in (ax.get_ylabel(),) if twin else (ax.get_xlabel(), ax.get_ylabel()):
             assert "(" in label and label.endswith(")"), (name, ax.get_title(), label)
     fig.clf()
+
+
+# -- the figures beside their claims, one sign for plus-minus, true units -----------------
+
+def _html_text(page):
+    """The report's HTML without its embedded images."""
+    return re.sub(r"data:image/png;base64,[^']*", "", page)
+
+
+def _figures_of(page):
+    """(number, start, end, caption text) of every ``<figure>`` of a report, in order."""
+    out = []
+    for m in re.finditer(r"<figure id='figure-(\d+)'>(.*?)</figure>", page, re.S):
+        cap = re.search(r"<figcaption>(.*?)</figcaption>", m.group(2), re.S)
+        assert "<img" in m.group(2) and cap, m.group(0)[:200]
+        out.append((int(m.group(1)), m.start(), m.end(),
+                    unescape(re.sub(r"<[^>]+>", "", cap.group(1)))))
+    return out
+
+
+def _claim_rows(page):
+    """(claim row's HTML, its start) of every row of the claims' tables."""
+    claims = page.split("<h2>The paper's claims</h2>")[1].split("<h2>")[0]
+    offset = page.index(claims)
+    return [(m.group(0), offset + m.start())
+            for m in re.finditer(r"<tr><td>.*?</tr>", claims, re.S)]
+
+
+def check_figures_beside_their_claims(page, summary):
+    """Every figure captioned with what it plots (not "Fig. N"), numbered in order,
+    referenced outside itself, and each claim's figures referenced in its row and shown
+    right after the table that holds it."""
+    figures = _figures_of(page)
+    assert len(figures) == page.count("<img")                 # every image a figure
+    assert [n for n, *_ in figures] == list(range(1, len(figures) + 1))
+    for n, start, end, caption in figures:
+        text = re.sub(r"^Figure \d+\.\s*", "", caption)
+        assert len(text) > 80 and not re.fullmatch(r"Figs?\. ?\d+.*", text), caption
+        assert re.search(r"\((m|mm|Pa|1/s|1/m|deg|-|s|J)[,;) ]", text), caption
+        outside = page[:start] + page[end:]
+        assert f"href='#figure-{n}'>{n}</a>" in outside, n
+    where = {n: start for n, start, _, _ in figures}
+    rows = _claim_rows(page)
+    assert len(rows) == len(summary["claims"])
+    referenced = set()
+    for claim, (row, at) in zip(summary["claims"], rows):
+        numbers = [int(k) for k in re.findall(r"href='#figure-(\d+)'", row)]
+        assert len(numbers) == len(claim.get("figures", ())), (claim["claim"], row[:300])
+        if numbers:
+            assert "(see Figure" in row
+        for k in numbers:
+            between = page[at:where[k]]
+            assert where[k] > at and between.count("</table>") == 1, claim["claim"]
+            assert "<table" not in between and "<h2>" not in between, claim["claim"]
+        referenced.update(numbers)
+    by_claims = {n for n, *_ in figures} - referenced
+    assert len(by_claims) <= 2, by_claims          # Fig. 1 and the time series: sections'
+
+
+def check_one_sign_and_true_units(page):
+    """The report writes plus-minus one way (±), and says no "All quantities in SI"
+    beside values in mm or degrees."""
+    text = unescape(_html_text(page))
+    assert "+-" not in text and "±" in text
+    if re.search(r"(?<![\w/])(mm|deg)(?![\w/])", text):
+        assert "All quantities in SI" not in text
+        intro = text.split("<h2>")[0]
+        for unit in ("mm", "deg"):
+            if re.search(rf"(?<![\w/]){unit}(?![\w/])", text.split("<h2>", 1)[1]):
+                assert f"{unit} (" in intro, unit
+
+
+@pytest.mark.slow
+def test_the_reports_figures_sit_beside_the_claims_they_show(report):
+    """A real run's report: each figure after the claims it shows, with a caption that
+    says what is plotted; one plus-minus sign; a true statement of the units."""
+    summary = json.loads((report / "summary.json").read_text())
+    page = (report / "report.html").read_text(encoding="utf-8")
+    check_figures_beside_their_claims(page, summary)
+    check_one_sign_and_true_units(page)
+    assert "<h2>Figures</h2>" not in page
+
+
+MANIFEST = {"scene": {**SCENE, "e_n": 0.9},
+            "contact_law": {"k_n_N_per_m": 10.0, "mu": 0.5, "mu_wall": 0.5},
+            "derived": {"t_c_s": 0.01, "dt_s": 1e-4, "t_end_s": 30.0}}
+
+
+#: A mixture's section as :func:`granavg.pipeline.reporting._mixture` adds it.
+MIXTURE = {"errors": {"band": 0.01, "rest": 0.005, "excess": 0.011}, "c_band": 0.21,
+           "c_rest": 0.15, "excess": 0.06, "verdict": "segregates", "s_band_m": 0.006,
+           "band_rings": 3, "bands": {"type1": {"s_m": 0.0061, "s_err": 0.0004},
+                                      "type2": {"s_m": 0.0058, "s_err": 0.0005}}}
+MIXTURE_CLAIM = {"claim": "the shear band segregates", "kind": "measured",
+                 "verdict": "segregates", "tolerance": "3 standard errors of the excess",
+                 "evidence": "large disks' area share 0.210 +- 0.010 in the band",
+                 "reproduced": None, "note": "", "figures": ["mixture"]}
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    """A report of synthetic profiles (:func:`tests.helpers.profiles`) with a mixture's
+    section and every figure drawn as a small blank image: (html, summary)."""
+    d = tmp_path_factory.mktemp("synthetic")
+    summary = analyze(helper_profiles(20), helper_profiles(60), MANIFEST)
+    summary["mixture"] = MIXTURE
+    summary["claims"].append(MIXTURE_CLAIM)
+    png = d / "blank.png"
+    mpimg.imsave(png, np.zeros((4, 4)))
+    drawn = {n: png for n in ("fig1", *FIGURES, "mixture")}
+    path = write_report(summary, drawn, d / "report.html")
+    return path.read_text(encoding="utf-8"), summary
+
+
+def test_each_figure_follows_its_claims_with_a_caption(synthetic):
+    page, summary = synthetic
+    check_figures_beside_their_claims(page, summary)
+    assert page.count("<figure ") == len(FIGURES) + 2
+    pairs = re.findall(r"<figure id='figure-(\d+)'><img alt='[^']*the paper&#x27;s Fig\. "
+                       r"(\d)[,)]", page)
+    assert [int(a) for a, _ in pairs] == [int(b) for _, b in pairs] == list(range(1, 10))
+    mixture = page.split("<h2>The mixture</h2>")[1]
+    assert "The band's profiles (see Figure" in mixture and "&plusmn;" in mixture
+    row = next(r for r, _ in _claim_rows(page) if "eigen-rotation alternates" in r)
+    assert re.search(r"\(see Figures <a[^>]*>\d+</a> and <a[^>]*>\d+</a>\)", row), row
+
+
+def test_the_report_writes_plus_minus_one_way_and_its_units_truly(synthetic):
+    page, _ = synthetic
+    check_one_sign_and_true_units(page)
+    assert "mm (millimetres)" in page and "deg (degrees)" in page
+
+
+def test_a_report_without_figures_refers_to_none(tmp_path):
+    summary = analyze(helper_profiles(20), helper_profiles(60), MANIFEST)
+    page = write_report(summary, {}, tmp_path / "r.html").read_text(encoding="utf-8")
+    assert "<figure" not in page and "see Figure" not in page and "No figures" in page
+    check_one_sign_and_true_units(page)
+
+
+def test_the_unit_statement_names_the_units_shown():
+    assert "All quantities in SI" in units_note("<td>Pa</td><td>m</td>")
+    for body in ("<td>mm</td>", "s = 12.7 mm (statistical)", "angle 3.1 deg,"):
+        note = units_note(body)
+        assert "All quantities in SI" not in note and "except" in note, body
+    assert "mm" not in units_note("<img src='data:image/png;base64,+mm/deg+'>")
+
+
+def test_every_figure_has_a_caption():
+    assert set(FIGURES) | {"fig1", "mixture"} <= set(CAPTIONS)
+    for title, text in CAPTIONS.values():
+        assert title and len(text) > 80 and "(" in text

@@ -254,11 +254,15 @@ class Claim:
         where the data cannot hold it (no couple stress, no wall torque); it may add
         the numbers it reads to ``analysis.numbers`` and the figures' arrays to
         ``analysis.series``.
+    shows : tuple of str
+        The report's figures that draw its data (keys of
+        :data:`granavg.analysis.figures.FIGURES`), written into its entry as ``figures``.
     """
 
     name: str
     figure: str
     decide: Callable
+    shows: tuple = ()
 
 
 def _band(a: Analysis) -> dict:
@@ -564,24 +568,24 @@ def _eigen_rotation(a: Analysis) -> dict:
 
 #: The paper's claims and granavg's checks, in the report's order.
 CLAIMS = (
-    Claim("decay", "Fig. 2", _decay),
+    Claim("decay", "Fig. 2", _decay, ("fig2",)),
     Claim("decay_length", "Fig. 2", _compared("s_m", "decay length s", " mm", 1e3,
-                                              S_TOLERANCE)),
+                                              S_TOLERANCE), ("fig2",)),
     Claim("wall_velocity", "Fig. 2", _compared("v0_over_omega_Ri", "v0/(Omega R_i)", "",
-                                               1.0, V0_TOLERANCE)),
-    Claim("dilation", "Fig. 2", _dilation),
-    Claim("layering", "Fig. 2", _layering),
-    Claim("anisotropy", "Fig. 3", _anisotropy),
-    Claim("exponents", "Fig. 4, Eq. 10", _exponents),
-    Claim("quasi_static", "Fig. 4", _quasi_static),
-    Claim("identity", "Fig. 5", _identity),
-    Claim("master_curve", "Fig. 5", _collapse),
-    Claim("colinear", "Fig. 6", _colinear),
-    Claim("motion", "Fig. 7, Eqs. 11-12", _motion),
-    Claim("spins", "Figs. 8-9, micropolar", _spins_balance),
+                                               1.0, V0_TOLERANCE), ("fig2",)),
+    Claim("dilation", "Fig. 2", _dilation, ("fig2",)),
+    Claim("layering", "Fig. 2", _layering, ("fig2",)),
+    Claim("anisotropy", "Fig. 3", _anisotropy, ("fig3",)),
+    Claim("exponents", "Fig. 4, Eq. 10", _exponents, ("fig4",)),
+    Claim("quasi_static", "Fig. 4", _quasi_static, ("fig4",)),
+    Claim("identity", "Fig. 5", _identity, ("fig5",)),
+    Claim("master_curve", "Fig. 5", _collapse, ("fig5",)),
+    Claim("colinear", "Fig. 6", _colinear, ("fig6",)),
+    Claim("motion", "Fig. 7, Eqs. 11-12", _motion, ("fig7",)),
+    Claim("eigen_rotation", "Figs. 8-9", _eigen_rotation, ("fig8", "fig9")),
+    Claim("spins", "Figs. 8-9, micropolar", _spins_balance, ("spins",)),
     Claim("power", "the energy balance", _power),
     Claim("wall_loads", "the shear cell's torque", _wall_loads),
-    Claim("eigen_rotation", "Figs. 8-9", _eigen_rotation),
 )
 
 
@@ -613,7 +617,7 @@ def analyze(p20, p60, manifest, density_series=()) -> dict:
     for claim in CLAIMS:
         entry = claim.decide(a)
         if entry is not None:
-            a.claims.append(entry)
+            a.claims.append({**entry, "figures": list(claim.shows)})
     for p, errs in zip((p20, p60), _derived_errors(a.est, a.geo.k_n)):
         a.series[f"errors_{p.cells.n}"] = errs
     est = a.est

@@ -1,4 +1,5 @@
-"""The paper's Figs. 2-9 from two ring profiles and their analysis (SI units).
+"""The paper's Figs. 2-9 from two ring profiles and their analysis (SI units; the
+band's fitted s in mm), and :data:`CAPTIONS`, what each figure shows, for the report.
 
 Each ``figN`` takes the 20- and 60-ring profiles, the :func:`granavg.analysis.claims.analyze`
 summary and optionally the axes to draw on (``axes=None`` makes a figure), and returns
@@ -315,6 +316,93 @@ def fig_timeseries(p20, p60, summary, axes=None):
         a.legend(fontsize=6)
     return ax
 
+
+#: Each figure's caption for the report: (title, what is plotted against what, in which
+#: units, and what to look at). Closed symbols are the coarser rings, open ones the
+#: finer; error bars are one standard error.
+CAPTIONS = {
+    "fig1": (
+        "The packing and its contact forces (the paper's Fig. 1)",
+        "The disks at the time in the title, drawn to scale against x and y (m). Left: each "
+        "disk coloured by the horizontal stripe its centre lay in at the first dumped frame; "
+        "the stripes bend where the packing shears, near the inner wall. Right: the "
+        "contact network, each disk-disk contact a segment coloured by its normal force "
+        "in thirds (blue small, green medium, red large); look for the force chains."),
+    "timeseries": (
+        "The packing's state against time",
+        "Against time t (s), the averaging window shaded grey: the coordination number C "
+        "(contacts per disk), the bulk's static pressure -tr(sigma)/2 (Pa), the share of "
+        "rattlers (disks with fewer than 2 contacts, -), the mean and largest overlap over "
+        "the small diameter d_s (-), the kinetic energy (J) and the bulk's hexatic order "
+        "|psi_6| (-); one line per realisation of an ensemble. A steady window shows "
+        "fluctuations about a level, no trend."),
+    "fig2": (
+        "Density and velocity across the cell (the paper's Fig. 2)",
+        "Against the radius r (m). Left: the volume (in 2D: area) fraction nu (-); look "
+        "for the lower density (dilation) 1-3 diameters from each wall and the layering "
+        "oscillations next to the walls. Right: v_phi / (Omega r) (-) on a log scale, "
+        "the dotted line the exponential fit v0 exp(-(r - R_i)/s) / (Omega r) with "
+        "v0/(Omega R_i) and the decay length s (mm) in the legend; a straight stretch is "
+        "the exponential decay of the shear band, its length in decades the decay before "
+        "the noise."),
+    "fig3": (
+        "Fabric across the cell (the paper's Fig. 3)",
+        "Against the radius r (m). Left: the trace of the fabric tensor tr F (-), the "
+        "contacts' density. Right: its anisotropy |dev F| / tr F (-), |dev F| = "
+        "(F_1 - F_2)/2; the claim holds where every ring stays below 0.2."),
+    "fig4": (
+        "Stress across the cell (the paper's Fig. 4)",
+        "Stress components rr, rphi, phir and phiphi (Pa) against the radius r (m). Left: "
+        "the static (contact) stress, the lines the bulk's power laws r^n (Eq. 10: n = 0 "
+        "for sigma_rr and sigma_phiphi, -2 for the shear components). Middle: the dynamic "
+        "(kinetic) stress; right: its part from velocity fluctuations. Look at the scale: "
+        "the dynamic stress lies far below the static one in a quasi-static flow."),
+    "fig5": (
+        "Stiffness against fabric (the paper's Fig. 5)",
+        "Each bulk ring's stiffness over the normal spring k_n (1/m) against its tr F "
+        "(-). Left: the bulk stiffness 2 pi E / k_n = tr sigma / tr eps / k_n with the "
+        "straight bulk fit (dotted; its slope is 1/(2 pi h) for linear springs). Right: "
+        "the shear stiffness pi G / k_n = |dev sigma| / |dev eps| / k_n. With a density "
+        "series, every run's bulk rings: they should fall on one line."),
+    "fig6": (
+        "Orientation of fabric, stress and strain (the paper's Fig. 6)",
+        "The angle (deg) of the major axis of the fabric F, the stress sigma and the "
+        "strain eps to the radial direction e_r against the radius r (m); lines join the "
+        "coarser rings. Where the three angles differ (in the shear band, near the inner "
+        "wall) the tensors are not co-linear."),
+    "fig7": (
+        "The equations of motion (the paper's Fig. 7, Eqs. 11-12)",
+        "The residual r div T of each ring over the stress scale (the bulk's mean "
+        "|sigma_rr|, in Pa in the axis label; -) against the radius r (m). Left: radial "
+        "(Eq. 11); right: tangential (Eq. 12); for the static stress alone and for the "
+        "total T = sigma - dsigma. The total's residual should lie near 0 in the bulk; "
+        "the wall rings, where the walls' forces act, stand apart."),
+    "fig8": (
+        "Deformation rate and spin (the paper's Fig. 8)",
+        "Against the radius r (m), on a symmetric log scale (linear within 10^-3 1/s). "
+        "Left: the deformation rate -D_rphi (1/s), the dotted line that of the velocity "
+        "fit (Eq. 15). Right: the continuum spin -W_rphi (1/s) of the data and of the fit, "
+        "with the particles' mean rotation -omega (green line); where -omega departs from "
+        "-W_rphi the disks rotate against the flow's spin."),
+    "fig9": (
+        "Eigen-rotation near the inner wall (the paper's Fig. 9)",
+        "The eigen-rotation -omega* = -(omega - W_rphi) (1/s) of the rings near the inner "
+        "wall against the radius r (m). Look at its sign in the first two layers of disks: "
+        "the paper finds it alternates."),
+    "spins": (
+        "The paper's Figs. 8-9 in micropolar terms",
+        "Against the radius r (m). Left: the couple stress mu_r and mu_phi (N m / m^2). "
+        "Middle: -omega* (1/s, left axis) beside the couples the contacts pass per volume "
+        "(N m / m^3, right axis). Right: the spins' balance residual over the stress "
+        "scale (-), with the couples passed and with div mu, beside the forces' moments "
+        "alone; the grey band marks 0.1 either side of 0, the claim's limit."),
+    "mixture": (
+        "The mixture: segregation in the shear band",
+        "Against the distance from the inner wall r - R_i (mm). Left: the large disks' "
+        "share of the area fraction, c = nu_large / nu (-), the band shaded and the "
+        "dotted line its mean beyond the band; more large disks in the band is "
+        "segregation. Right: each species' v_phi (m/s, log scale)."),
+}
 
 FIGURES = {"timeseries": fig_timeseries, "fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,
            "fig7": fig7, "fig8": fig8, "fig9": fig9, "spins": fig_spins}

@@ -5,12 +5,20 @@ from __future__ import annotations
 import base64
 import html
 import json
+import logging
 import math
+import re
 from pathlib import Path
 
 from granavg.analysis.claims import PAPER
+from granavg.analysis.figures import CAPTIONS
 from granavg.analysis.rounding import plain, pm
 from granavg.engine.stationarity import DRIFT_Z
+
+log = logging.getLogger(__name__)
+
+#: The report's one sign for "plus or minus" (HTML).
+PM = "&plusmn;"
 
 _NUMBERS = [  # (section, key, label, unit, paper key); lengths of the band in mm
     ("shear_band", "v0_over_omega_Ri", "v0 / (Omega R_i)", "-", "v0_over_omega_Ri"),
@@ -65,9 +73,25 @@ def write_summary(summary: dict, path) -> Path:
 _SCALE = {"mm": 1e3}
 
 
+def esc(text) -> str:
+    """``text`` escaped for HTML, each ``+-`` written as the report's one sign, ±.
+
+    Parameters
+    ----------
+    text : object
+        Any text (converted with ``str``).
+
+    Returns
+    -------
+    str
+        HTML text.
+    """
+    return html.escape(str(text)).replace("+-", PM)
+
+
 def headline_rows(summary):
-    """(label, value +- error rounded to the error, unit, paper value) of every headline
-    number, in the unit of its row."""
+    """(label, value ± error rounded to the error (HTML), unit, paper value) of every
+    headline number, in the unit of its row."""
     rows = []
     for section, key, label, unit, paper in _NUMBERS:
         block = summary["numbers"].get(section) or {}
@@ -75,10 +99,10 @@ def headline_rows(summary):
             continue
         f = _SCALE.get(unit, 1.0)
         err, sys = block.get(f"{key}_err"), block.get(f"{key}_sys")
-        value = pm(f * block[key], f * err if err is not None else None)
+        value = pm(f * block[key], f * err if err is not None else None, sep=f" {PM} ")
         if sys is not None and math.isfinite(sys):
-            value += f" (statistical), +- {plain(f * sys, 2)} (estimator)"
-        rows.append((label, value.replace(" +- ", " &plusmn; "), unit,
+            value += f" (statistical), {PM} {plain(f * sys, 2)} (estimator)"
+        rows.append((label, value, unit,
                      "" if paper is None else f"{f * PAPER[paper]:g}"))
     return rows
 
@@ -121,19 +145,22 @@ def error_source(summary) -> str:
     return text + "."
 
 
-def stationarity_table(summary, e) -> list:
+def stationarity_table(summary, e, see="") -> list:
     """HTML rows judging the averaging window's steadiness (granavg.engine.stationarity):
-    each run's, and an ensemble's from the spread between its realisations."""
+    each run's, and an ensemble's from the spread between its realisations; ``see``: the
+    reference to the time series' figure (" (see Figure 12)"), or ""."""
     judged = {run: j for run, j in (summary.get("stationarity") or {}).items() if j}
     if not judged:
-        return ["<h2>Steady state</h2><p>No time series: steadiness not judged.</p>"]
+        return ["<h2>Steady state</h2><p>No time series: steadiness not judged."
+                + (f" The packing's state{see}." if see else "") + "</p>"]
     ens = next((j for j in judged.values() for r in j.values() if "n_runs" in r), None)
     out = ["<h2>Steady state</h2><p>Each quantity over the averaging window: means of its "
            "two halves and the change of a fitted line, against errors from its "
            "fluctuations (blocking analysis). <i>drifts</i>: beyond 3 errors; "
            "<i>undetermined</i>: beyond 3 errors that are only lower bounds. "
            "<i>resolution</i>: the smallest change between the halves that the test would "
-           "call a drift (3 errors; a lower bound where the errors are)."]
+           "call a drift (3 errors; a lower bound where the errors are)."
+           + (f" The time series{see}." if see else "")]
     if ens:
         r = next(iter(ens.values()))
         out.append(f" The <i>ensemble</i> rows judge the mean change over {r['n_runs']} "
@@ -151,7 +178,7 @@ def stationarity_table(summary, e) -> list:
             cls = {"drifts": "no", "steady": "yes"}.get(verdict, "")
             start = r.get("steady_from_s")
             resolution = r.get("resolution", DRIFT_Z * math.sqrt(2) * r["second_half_err"])
-            halves = [pm(r[k], r[f"{k}_err"]).replace(" +- ", " &plusmn; ")
+            halves = [pm(r[k], r[f"{k}_err"], sep=f" {PM} ")
                       for k in ("first_half", "second_half")]
             out.append(f"<tr><td>{e(str(run))}</td><td>{e(q)}</td><td>{halves[0]}</td>"
                        f"<td>{halves[1]}</td><td>{r['z']:.1f}</td>"
@@ -166,16 +193,16 @@ def stationarity_table(summary, e) -> list:
 SHORT = 60
 
 
-def mixture_table(summary, e) -> list:
+def mixture_table(summary, see="") -> list:
     """The mixture's section (:mod:`granavg.analysis.segregation`), where the summary
-    holds one."""
+    holds one; ``see``: the reference to its figure, or ""."""
     m = summary.get("mixture")
     if not m:
         return []
     err = m["errors"]
 
     def pm(x, dx, scale=1.0, digits=3):
-        return f"{x * scale:.{digits}f} +- {dx * scale:.{digits}f}"
+        return f"{x * scale:.{digits}f} +- {dx * scale:.{digits}f}"     # shown as ±
     rows = [("large disks' area share in the band", pm(m["c_band"], err["band"])),
             ("beyond the band", pm(m["c_rest"], err["rest"])),
             ("excess of the band", pm(m["excess"], err["excess"])),
@@ -185,8 +212,9 @@ def mixture_table(summary, e) -> list:
                      "(mm)", pm(b["s_m"], b.get("s_err", float("nan")), 1e3, 2)))
     out = [f"<h2>The mixture</h2><p>The band: r - R_i below {2 * m['s_band_m'] * 1e3:.1f} mm "
            f"(twice the mixture's s; {m['band_rings']} rings). Errors from the replicates of "
-           "the species and of the whole (docs/species.md).</p><table>"]
-    out += [f"<tr><th>{e(k)}</th><td>{e(v)}</td></tr>" for k, v in rows]
+           "the species and of the whole (docs/species.md)."
+           + (f" The band's profiles{see}." if see else "") + "</p><table>"]
+    out += [f"<tr><th>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in rows]
     return out + ["</table>"]
 
 
@@ -205,11 +233,176 @@ def _seconds(t):
     return "-" if t is None else f"{t:.4g}"
 
 
-def write_report(summary: dict, figures: dict, path, title="granavg report") -> Path:
-    """A self-contained ``report.html``: parameters, numbers, claims and Figs. 2-9."""
+#: Units a report may show beside SI's coherent ones, and what it measures in them.
+NON_SI = {"mm": "mm (millimetres) for the shear band's width and the disks' sizes",
+          "deg": "deg (degrees) for angles"}
+
+
+def units_note(body: str) -> str:
+    """The report's sentence on its units, true of ``body`` (the report's HTML): the
+    units besides coherent SI ones (:data:`NON_SI`) that it shows, if any.
+
+    Parameters
+    ----------
+    body : str
+        The report's HTML (embedded images are ignored).
+
+    Returns
+    -------
+    str
+        One or two sentences (HTML).
+    """
+    text = re.sub(r"data:[^'\"]*", "", body)
+    used = [what for unit, what in NON_SI.items()
+            if re.search(rf"(?<![\w/]){re.escape(unit)}(?![\w/])", text)]
+    if not used:
+        return "All quantities in SI units (m, s, kg, N, Pa), each with its unit."
+    return ("Each value is given with its unit (a table's unit column, a label's "
+            "parentheses or beside the number; - marks a ratio without unit): SI units "
+            "(m, s, kg, N, Pa), except " + "; ".join(used) + ".")
+
+
+def figure_order(summary, figures) -> dict:
+    """Each drawn figure's number in the report, in the order the report shows them:
+    Fig. 1 with the run, then the claims' figures in the claims' order, the time series
+    with the steady state, any other last.
+
+    Parameters
+    ----------
+    summary : dict
+        The analysis' summary; its claims name their figures (``figures``).
+    figures : dict of str -> path
+        The drawn figures, name -> PNG.
+
+    Returns
+    -------
+    dict of str -> int
+    """
+    placed = ["fig1", *(n for cl in summary["claims"] for n in cl.get("figures", ())),
+              "timeseries"]
+    names = dict.fromkeys([n for n in placed if n in figures] + list(figures))
+    return {name: k for k, name in enumerate(names, 1)}
+
+
+class FigureShelf:
+    """The report's figures: numbered by :func:`figure_order`, each one embedded once,
+    beside the first section that asks for it.
+
+    Parameters
+    ----------
+    summary : dict
+        The analysis' summary.
+    figures : dict of str -> path
+        The drawn figures, name -> PNG.
+    """
+
+    def __init__(self, summary, figures):
+        self.paths = dict(figures)
+        self.number = figure_order(summary, figures)
+        self.shown = set()
+
+    def see(self, names) -> str:
+        """The reference to the drawn figures among ``names``, as HTML links:
+        ``" (see Figure 3)"``, ``" (see Figures 8 and 9)"``; "" where none is drawn."""
+        refs = [f"<a href='#figure-{self.number[n]}'>{self.number[n]}</a>"
+                for n in names if n in self.number]
+        if not refs:
+            return ""
+        many = len(refs) > 1
+        return (f" (see Figure{'s' if many else ''} "
+                f"{', '.join(refs[:-1]) + ' and ' if many else ''}{refs[-1]})")
+
+    def place(self, names) -> list:
+        """The HTML of the figures among ``names`` not shown yet, each as a numbered
+        ``<figure>`` with its caption."""
+        out = []
+        for name in names:
+            if name in self.paths and name not in self.shown:
+                self.shown.add(name)
+                out.append(figure_html(name, self.number[name], self.paths[name]))
+        return out
+
+    def rest(self) -> list:
+        """The HTML of the figures no section showed (under their own heading)."""
+        left = [n for n in self.number if n not in self.shown]
+        return ["<h2>Other figures</h2>", *self.place(left)] if left else []
+
+
+def figure_html(name, number, png) -> str:
+    """One embedded figure with its caption (:data:`~granavg.analysis.figures.CAPTIONS`:
+    what is plotted, against what, in which units, what to look at).
+
+    Parameters
+    ----------
+    name : str
+        The figure's key (``fig2``, ``spins``, ...).
+    number : int
+        Its number in the report.
+    png : path
+        The PNG, embedded as base64.
+
+    Returns
+    -------
+    str
+        A ``<figure>`` element.
+    """
+    title, text = CAPTIONS.get(name, (None, None))
+    if title is None:
+        log.warning("figure %s has no caption; it is shown under its name", name)
+        title, text = f"The figure {name}", "See the figure's axes for its quantities."
+    data = base64.b64encode(Path(png).read_bytes()).decode()
+    return (f"<figure id='figure-{number}'><img alt='Figure {number}: {esc(title)}' "
+            f"src='data:image/png;base64,{data}'><figcaption><b>Figure {number}. "
+            f"{esc(title)}.</b> {esc(text)}</figcaption></figure>")
+
+
+def _claim_row(cl, shelf) -> str:
+    """One claim's row of the claims' table, with the reference to its figures."""
+    cls = {"reproduced": "yes", "holds": "yes", "not reproduced": "no",
+           "violated": "no"}.get(cl["verdict"], "")
+    note = f"<br><small>{esc(cl['note'])}</small>" if cl.get("note") else ""
+    return (f"<tr><td>{esc(cl['claim'])}{shelf.see(cl.get('figures', ()))}</td>"
+            f"<td>{esc(cl['kind'])}</td><td class='{cls}'>{esc(cl['verdict'])}{note}</td>"
+            f"<td>{esc(cl.get('tolerance', ''))}</td><td>{esc(cl['evidence'])}</td></tr>")
+
+
+def _claim_groups(claims) -> list:
+    """Consecutive claims that show the same figures, as (figures, claims) pairs."""
+    groups = []
+    for cl in claims:
+        shows = tuple(cl.get("figures", ()))
+        if groups and groups[-1][0] == shows:
+            groups[-1][1].append(cl)
+        else:
+            groups.append((shows, [cl]))
+    return groups
+
+
+_CLAIMS_INTRO = (
+    "<h2>The paper's claims</h2><p>A verdict is <i>reproduced</i> when the data show the "
+    "claim beyond twice its error and within its tolerance, <i>not reproduced</i> when "
+    "they show the opposite beyond twice its error, <i>inconclusive</i> otherwise. A "
+    "claim that holds only by its tolerance, its number many errors from the paper's, "
+    "says so beside its verdict. Identity checks test the averaging, not the paper's "
+    "physics. Each figure follows the claims it shows.</p>")
+_CLAIMS_HEAD = ("<table><tr><th>claim</th><th>kind</th><th>verdict</th><th>tolerance</th>"
+                "<th>the numbers</th></tr>")
+
+
+def claims_section(summary, shelf) -> list:
+    """The claims' tables, one per run of claims that show the same figures, each
+    followed by those figures."""
+    out = [_CLAIMS_INTRO]
+    for shows, claims in _claim_groups(summary["claims"]):
+        out += [_CLAIMS_HEAD, *(_claim_row(cl, shelf) for cl in claims), "</table>"]
+        out += shelf.place(shows)
+    return out
+
+
+def _run_rows(summary) -> list:
+    """(label, value) of the run's table."""
     run = summary["run"]
     scene, law, derived = run["scene"], run["contact_law"], run["derived"]
-    e = html.escape
     params = [("preset", run.get("preset")), ("disks", f"{scene['n_small']} + {scene['n_large']}"),
               ("R_i, R_o (m)", f"{scene['R_i']}, {scene['R_o']}"), ("Omega (rad/s)", scene["Omega"]),
               ("k_n (N/m)", law["k_n_N_per_m"]), ("e_n", scene["e_n"]),
@@ -228,55 +421,73 @@ def write_report(summary: dict, figures: dict, path, title="granavg report") -> 
     if "accuracy_class" in forecast:      # what the speed/accuracy study expects (docs/sweep)
         params.append(("accuracy class of the settings (docs/sweep)",
                        f"{forecast['accuracy_class']}: {forecast['accuracy_reason']}"))
-    parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{e(title)}</title>",
-             "<style>body{font-family:sans-serif;max-width:70em;margin:auto;padding:1em}"
-             "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #999;"
-             "padding:.25em .6em;text-align:left}.yes{color:#006400}.no{color:#b00000}"
-             "img{max-width:100%}</style></head><body>",
-             f"<h1>{e(title)}</h1><p>Luding et al. (2001), 2D Couette cell. All quantities in "
-             "SI units.</p><h2>Run</h2><table>"]
-    notes = []
-    for k, v in params:
+    return params
+
+
+def run_section(summary, shelf) -> list:
+    """The run's table (long entries cut, whole in numbered notes) and Fig. 1."""
+    parts, notes = ["<h2>Run</h2><table>"], []
+    for k, v in _run_rows(summary):
         short, full = _short(str(v))
         if full:
             notes.append(full)
             short += f" <sup>[{len(notes)}]</sup>"
-        parts.append(f"<tr><th>{e(str(k))}</th><td>{short}</td></tr>")
+        parts.append(f"<tr><th>{esc(k)}</th><td>{short.replace('+-', PM)}</td></tr>")
     parts.append("</table>")
-    parts += [f"<p class='note'>[{k}] {e(n)}</p>" for k, n in enumerate(notes, 1)]
-    parts.append("<h2>Headline numbers</h2><table><tr><th>quantity</th><th>value</th>"
-                 "<th>unit</th><th>paper</th></tr>")
-    parts += [f"<tr><td>{e(a)}</td><td>{b}</td><td>{e(c)}</td><td>{e(d)}</td></tr>"
+    parts += [f"<p class='note'>[{k}] {esc(n)}</p>" for k, n in enumerate(notes, 1)]
+    see = shelf.see(["fig1"])
+    if see:
+        parts.append(f"<p>The packing after shearing and its contact forces{see}.</p>")
+    return parts + shelf.place(["fig1"])
+
+
+def headline_section(summary) -> list:
+    """The headline numbers' table and where their errors come from."""
+    parts = ["<h2>Headline numbers</h2><table><tr><th>quantity</th><th>value</th>"
+             "<th>unit</th><th>paper</th></tr>"]
+    parts += [f"<tr><td>{esc(a)}</td><td>{b}</td><td>{esc(c)}</td><td>{esc(d)}</td></tr>"
               for a, b, c, d in headline_rows(summary)]
-    parts.append(f"</table><p>Errors: {e(error_source(summary))}</p>")
-    parts.append("<h2>The paper's claims</h2><p>A verdict is <i>reproduced</i> when the "
-                 "data show the claim beyond twice its error and within its tolerance, "
-                 "<i>not reproduced</i> when they show the opposite beyond twice its "
-                 "error, <i>inconclusive</i> otherwise. A claim that holds only by its "
-                 "tolerance, its number many errors from the paper's, says so beside "
-                 "its verdict. Identity checks test the averaging, not the paper's "
-                 "physics.</p><table><tr><th>claim</th><th>kind</th><th>verdict</th>"
-                 "<th>tolerance</th><th>the numbers</th></tr>")
-    for cl in summary["claims"]:
-        cls = {"reproduced": "yes", "holds": "yes", "not reproduced": "no",
-               "violated": "no"}.get(cl["verdict"], "")
-        note = f"<br><small>{e(cl['note'])}</small>" if cl.get("note") else ""
-        parts.append(f"<tr><td>{e(cl['claim'])}</td><td>{e(cl['kind'])}</td>"
-                     f"<td class='{cls}'>{e(cl['verdict'])}{note}</td>"
-                     f"<td>{e(cl.get('tolerance', ''))}</td><td>{e(cl['evidence'])}</td></tr>")
-    parts.append("</table>")
-    parts += stationarity_table(summary, e)
-    parts += mixture_table(summary, e)
-    parts.append("<h2>Figures</h2>" if figures else
-                 "<p>No figures: the analysis was asked for its numbers alone.</p>")
-    for name, png in figures.items():
-        data = base64.b64encode(Path(png).read_bytes()).decode()
-        title = {"spins": "Figs. 8-9 in micropolar terms",
-                 "mixture": "The mixture: large disks' concentration, each species' v_phi"
-                 }.get(name, name.replace("fig", "Fig. "))
-        parts.append(f"<h3>{e(title)}</h3>"
-                     f"<img alt='{e(name)}' src='data:image/png;base64,{data}'>")
-    parts.append("</body></html>")
+    return parts + [f"</table><p>Errors: {esc(error_source(summary))}</p>"]
+
+
+_STYLE = ("<style>body{font-family:sans-serif;max-width:70em;margin:auto;padding:1em}"
+          "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #999;"
+          "padding:.25em .6em;text-align:left}.yes{color:#006400}.no{color:#b00000}"
+          "img{max-width:100%}figure{margin:1em 0 2em}figcaption{font-size:90%;"
+          "max-width:60em}</style>")
+
+
+def write_report(summary: dict, figures: dict, path, title="granavg report") -> Path:
+    """A self-contained ``report.html``: the run, the headline numbers, the claims with
+    the figures that show them, the steady state and the mixture.
+
+    Parameters
+    ----------
+    summary : dict
+        The analysis' summary (:func:`granavg.analysis.claims.analyze`).
+    figures : dict of str -> path
+        The drawn figures, name -> PNG (empty: a report of numbers alone).
+    path : path
+        The HTML file to write.
+    title : str
+        The report's title.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    shelf = FigureShelf(summary, figures)
+    body = [*run_section(summary, shelf), *headline_section(summary),
+            *claims_section(summary, shelf),
+            *stationarity_table(summary, html.escape, shelf.see(["timeseries"])),
+            *shelf.place(["timeseries"]),
+            *mixture_table(summary, shelf.see(["mixture"])), *shelf.rest()]
+    if not figures:
+        body.append("<p>No figures: the analysis was asked for its numbers alone.</p>")
+    head = [f"<!doctype html><html><head><meta charset='utf-8'><title>{esc(title)}</title>",
+            f"{_STYLE}</head><body>", f"<h1>{esc(title)}</h1><p>Luding et al. (2001), 2D "
+            f"Couette cell. {units_note(chr(10).join(body))}</p>"]
     path = Path(path)
-    path.write_text("\n".join(parts))
+    path.write_text("\n".join([*head, *body, "</body></html>"]), encoding="utf-8")
     return path

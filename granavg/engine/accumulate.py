@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from granavg.engine.timing.axes import TIME_TOLERANCE
+
 
 class CellAccumulator:
     """Sums of frames' cell sums, per time block.
@@ -60,12 +62,12 @@ class CellAccumulator:
 
     def block_of(self, time: float) -> int:
         """Index of the (base) block holding time ``time`` (s)."""
-        return int(math.floor((time - self.t_min) / self.block_time + 1e-9))
+        return max(0, int(math.floor((time - self.t_min) / self.block_time + 1e-9)))
 
     def add(self, timestep: int, time: float, sums: np.ndarray, weight: float = 1.0) -> None:
         """Add one frame's sums, shape ``shape``, with a weight (a time kernel's; a
         block's count is the sum of its frames' weights). Frames come in time order."""
-        if time < self.t_min:
+        if time < self.t_min - TIME_TOLERANCE * self.block_time:      # (its rounding)
             raise ValueError(f"frame at t={time} s is before t_min={self.t_min} s")
         base = self.block_of(time)
         if self._open is not None and base != self._open[0]:

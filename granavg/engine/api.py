@@ -25,6 +25,7 @@ import numpy as np
 from granavg.engine import timing
 from granavg.engine.cell_average import CellAverage
 from granavg.engine.fields import Fields
+from granavg.engine.gate import Gate
 from granavg.engine.quantities import (QUANTITIES, groups_for, missing_columns,
                                        optional_columns)
 from granavg.engine.species import Classes, Species
@@ -107,12 +108,13 @@ def resolvable(cells, radius, warn: bool = True) -> None:
 
 
 def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
-             t_min: float = 0.0, block_time: float | None = None, units: UnitSystem = SI,
+             t_min: float | None = None, block_time: float | None = None, units: UnitSystem = SI,
              branch: str = "contact", sectors="auto", series=None,
              t_max: float | None = None, windows: float | None = None,
              window_frames: int | None = None, time_kernel: str | None = None,
              time_width: float | None = None, times=None,
-             interval: float | None = None, species=None) -> CellAverage:
+             interval: float | None = None, species=None,
+             window_start: float | None = None) -> CellAverage:
     """The averager of ``frames`` over ``cells`` (Eqs. 1-7): the one way every route
     (anyone's dumps, run directories, in situ, dask, ensembles, the scale study) builds
     its average, with every check and the same metadata. ``run()`` it, or
@@ -138,11 +140,16 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         v, omega, F, sigma, eps, coordination).
     quantities : sequence of str, optional
         Keys of :data:`granavg.engine.quantities.QUANTITIES`; default all the frames allow.
-    t_min, t_max : float
-        The frames averaged: t_min <= t <= t_max (s; t_max None: to the last).
+    t_min, t_max : float, optional
+        The frames averaged: t_min <= t <= t_max (s; None: from the first, to the last),
+        each bound within :data:`~granavg.engine.timing.axes.TIME_TOLERANCE` of the
+        frames' spacing (the rounding of a frame's time).
     windows : float, optional
-        A field per window of this length (s), from t_min: fields in time
+        A field per window of this length (s), from ``window_start``: fields in time
         (:class:`~granavg.engine.timing.axes.Windows`).
+    window_start : float, optional
+        The first window's start: default t_min where given, else the first frame's
+        time (what a dask client hands its workers, so that their windows agree).
     window_frames : int, optional
         A field per this many frames.
     time_kernel, time_width, times : optional
@@ -186,7 +193,7 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         Its fields (:meth:`~granavg.engine.cell_average.CellAverage.conclude`): values,
         standard errors, flags and jackknife replicates per cell, in ``units``.
     """
-    source = frames
+    source, gate = frames, Gate(cells.dim)
     if frames is None:
         if quantities is None or block_time is None:
             raise ValueError("an averager fed later needs its quantities and block time")
@@ -196,26 +203,29 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
                                  "workers of a run directory) does not see; average the "
                                  "dumps, or in one process")
         head, groups, lacking, has_mass = [], list(quantities), {}, True
-        axis = timing.axis(t_min=t_min, t_max=t_max, windows=windows,
+        axis = timing.axis(t_min=t_min or 0.0, t_max=t_max, windows=windows,
                            window_frames=window_frames, time_kernel=time_kernel,
-                           time_width=time_width, times=times, interval=interval)
+                           time_width=time_width, times=times, interval=interval,
+                           window_start=window_start)
         groups_for(groups, True, True, smooth=True, in_time=axis.derivative)
     else:
         it = iter(frames)
         head = list(itertools.islice(it, 2))
-        if not head and t_min > 0:      # a source may have scanned past the frames before
+        if not head and t_min:          # a source may have scanned past the frames before
             raise ParameterError("t_min", f"no frame at t >= {t_min:g}, the start of the "
-                                 "average ({param}); lower it")
+                                 "average ({param}); give an earlier one")
         if not head:
             raise UserError("no frame to average")
+        gate.ahead(head)                # every check of the first two frames, now
         has_mass = "mass" in head[0].atoms
-        spacing = head[1].time - head[0].time if len(head) == 2 else None
-        if spacing is not None and not spacing > 0:
-            raise UserError("frames must come in increasing time")
+        spacing = gate.spacing
         interval = interval if interval is not None else spacing
-        axis = timing.axis(t_min=t_min, t_max=t_max, windows=windows,
+        if window_start is None:        # windows from t_min, else from the first frame
+            window_start = t_min if t_min is not None else head[0].time
+        axis = timing.axis(t_min=t_min or 0.0, t_max=t_max, windows=windows,
                            window_frames=window_frames, time_kernel=time_kernel,
-                           time_width=time_width, times=times, interval=interval)
+                           time_width=time_width, times=times, interval=interval,
+                           window_start=window_start)
         kernel = getattr(cells, "kernel", None)
         groups = groups_for(quantities, head[0].contacts is not None, "bx" in head[0].atoms,
                             smooth=bool(kernel and kernel.smooth_edge),
@@ -241,10 +251,11 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         check_frame(head[0], cells, groups)
     classes = species if isinstance(species, Classes) or species is None else \
         Species.parse(species).classes(head[0].atoms)
+    t_min = t_min or 0.0
     avg = CellAverage(frames, cells, groups, rho_p if rho_p is not None else 1.0, t_min,
                       block_time, series, branch=branch, sectors=sectors,
                       check=None if head else (lambda frame: check_frame(frame, cells, groups)),
-                      source=source, t_max=t_max, axis=axis, classes=classes)
+                      source=source, t_max=t_max, axis=axis, classes=classes, gate=gate)
     window = {"t_min_s": t_min, **({"t_max_s": t_max} if t_max is not None else {}),
               "block_time_s": block_time}
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import logging
 import numbers
-import sys
 import threading
 from typing import Protocol
 
@@ -28,11 +27,13 @@ from granavg.engine.channels import CONTACT_BLOCKS, TIME_BLOCKS
 from granavg.engine.kernels import (BRANCHES, cell_sums, frame_rows, particle_channels,
                                    sector_sums, wall_points)
 from granavg.engine.fields import Fields
+from granavg.engine.gate import Gate
 from granavg.engine.species import with_species
 from granavg.engine.profiles import flags, standard_errors, values
 from granavg.engine.quantities import MICROPOLAR, MICROPOLAR_CONVENTIONS, QUANTITIES
 from granavg.engine.stationarity import DRIFT_Z, stationarity
 from granavg.engine.timing import Whole
+from granavg.engine.timing.axes import TIME_TOLERANCE
 from granavg.engine.uncertainty import structure
 from granavg.errors import ParameterError, named
 
@@ -167,8 +168,10 @@ class CellAverage:
     def __init__(self, frames, cells: Cells, groups, rho_p: float, t_min: float,
                  block_time: float, series: FrameObserver | None = None,
                  branch: str = "contact", sectors="auto", check=None, source=None,
-                 t_max: float | None = None, axis=None, classes=None):
+                 t_max: float | None = None, axis=None, classes=None, gate=None):
         self.frames, self.cells, self.groups = frames, cells, list(groups)
+        #: every frame's checks (:mod:`granavg.engine.gate`)
+        self.gate = gate if gate is not None else Gate(cells.dim)
         self.classes = classes
         self.t_max, self.axis = t_max, axis if axis is not None else Whole()
         self.check, self.source = check, frames if source is None else source
@@ -209,12 +212,11 @@ class CellAverage:
     def run(self, progress: bool | None = None) -> Fields:
         """Accumulate every frame with t_min <= t <= t_max; returns the fields."""
         self.prepare()
-        frames = self.frames
-        if progress or (progress is None and sys.stderr.isatty()):
-            from tqdm.auto import tqdm          # only where a bar shows: its import is 0.04 s
-            frames = tqdm(frames, desc="averaging", unit="frame")
+        from granavg.engine.progress import progress_of    # a bar, or log lines off a tty
+        frames = progress_of(self.frames, progress, "averaging")
         for frame in frames:
-            if self.t_max is not None and frame.time > self.t_max:
+            if self.t_max is not None and frame.time > self.t_max + self.slack():
+                self.gate.admit(frame)          # (a damaged frame is not passed over)
                 break                           # frames come in time order
             self.add(frame)
             if self.span is not None and self.span[2] == 1 and self.axis.kind == "smoothed":
@@ -227,6 +229,7 @@ class CellAverage:
         first frame) and an empty time series."""
         self.slots: dict[int, Slot] = {}
         self.span = None                # the first and last frame times added, and their number
+        self.extent = None              # the particles' reach (lo, hi) in x, y [, z], of them
         self.previous = None            # the last frame time added (their spacing)
         if self.series is not None:
             self.series.rows = []
@@ -255,18 +258,20 @@ class CellAverage:
     def add(self, frame):
         """Record the frame's state; accumulate it if t_min <= t <= t_max into the slots
         of the time axis it falls in (the first frame checked by ``check``)."""
+        self.gate.admit(frame)
         if self.check is not None:
             self.check(frame)
             self.check = None
         if self.series is not None:
             self.series.add(frame)
-        t = frame.time
-        if t < self.t_min or (self.t_max is not None and t > self.t_max):
+        t, slack = frame.time, self.slack()
+        if t < self.t_min - slack or (self.t_max is not None and t > self.t_max + slack):
             return
         self._spaced(t)
         hits = self.axis.hits(t)
         if not hits:
             return                              # outside every time's kernel
+        self._reach(frame)
         sums = frame_sums(frame, self.cells, self.rho_p, self.frame_channels, self.branch,
                           self.k_fine)
         for j, w, dw in hits:
@@ -277,6 +282,38 @@ class CellAverage:
                                   self.branch, self.k_fine)
                 for j, w, dw in hits:
                     self._slot(j, name).add(frame.timestep, t, part, w, dw)
+
+    def _reach(self, frame) -> None:
+        """Widen ``extent`` to the frame's particles (centres -+ radii)."""
+        a, r = frame.atoms, np.asarray(frame.atoms["radius"], float)
+        if not len(r):
+            return
+        pos = [np.asarray(a[c], float) for c in "xyz"[:self.cells.dim]]
+        lo = np.array([float(np.min(p - r)) for p in pos])
+        hi = np.array([float(np.max(p + r)) for p in pos])
+        self.extent = _wider(self.extent, (lo, hi))
+
+    def _missed(self, slots: dict) -> None:
+        """Refuse, in one line naming the data's extent, cells that no particle of any
+        frame averaged reaches (every field would be zero)."""
+        if any(np.any(s.acc.mean()) for s in slots.values()):
+            return
+        names, _, edges = self.cells.grid()
+        cells = ", ".join(f"{n} {e[0]:g} to {e[-1]:g}" for n, e in zip(names, edges))
+        data = "no particle" if self.extent is None else "the particles lie within " + \
+            ", ".join(f"{c} {lo:g} to {hi:g}" for c, lo, hi in zip("xyz", *self.extent))
+        extent = sorted(o for o in self.cells.options if o.endswith("range") or o == "edges")
+        where = " or ".join(f"{{{o}}}" for o in extent)
+        raise ParameterError(extent[0] if extent else "cells",
+                             f"no particle reaches the cells ({self.cells.kind}: {cells}) "
+                             f"in the {self.span[2]} frames averaged; {data}: choose cells "
+                             f"over the data{f' ({where})' if where else ''}")
+
+    def slack(self) -> float:
+        """How far a frame's time may lie beyond t_min or t_max and count as on it: a
+        small fraction of the frames' spacing (:data:`~granavg.engine.timing.axes.
+        TIME_TOLERANCE`; none before two frames are seen)."""
+        return TIME_TOLERANCE * (self.gate.spacing or 0.0)
 
     def _spaced(self, t: float) -> None:
         """Track the frames' span; a time kernel weighs frames as evenly spaced: refuse
@@ -298,12 +335,14 @@ class CellAverage:
         self.previous = t
 
     def state(self) -> tuple:
-        """The slots' accumulators and the frames' span: what a worker hands back."""
-        return self.slots, self.span
+        """The slots' accumulators, the frames' span and the particles' extent: what a
+        worker hands back."""
+        return self.slots, self.span, self.extent
 
     def merge(self, state) -> None:
         """Add another averager's :meth:`state` (disjoint frames; exact)."""
-        slots, span = state
+        slots, span, extent = state
+        self.extent = _wider(self.extent, extent)
         for j, slot in slots.items():
             self.slots[j] = self.slots[j].merge(slot) if j in self.slots else slot
         if span is not None:
@@ -318,7 +357,9 @@ class CellAverage:
             upto = f" and t <= {self.t_max:g} ({{t_max}})" if self.t_max is not None else ""
             raise ParameterError("t_min", f"no frame at t >= {self.t_min:g}, the start of "
                                  f"the average ({{param}}){upto}; lower it")
-        whole = self._conclude({j: s for j, s in self.slots.items() if not isinstance(j, tuple)})
+        mixture = {j: s for j, s in self.slots.items() if not isinstance(j, tuple)}
+        self._missed(mixture)
+        whole = self._conclude(mixture)
         if self.classes is None:
             return whole
         # the species' replicates from the same sectors as the whole's: they pair up,
@@ -536,6 +577,13 @@ def warn_if_drifting(judged: dict, t_min: float) -> list:
 CHUNK = 1 << 16
 
 
+def _wider(a, b):
+    """The extent (lo, hi) that holds extents ``a`` and ``b`` (either may be None)."""
+    if a is None or b is None:
+        return b if a is None else a
+    return np.minimum(a[0], b[0]), np.maximum(a[1], b[1])
+
+
 _local = threading.local()
 
 
@@ -613,12 +661,16 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
 
 def _point_forces(sums, layout, block, frame, cells, branch, rows, sectors, n):
     """Add the forces of the contacts a block takes at their contact points
-    (:func:`~granavg.engine.kernels.wall_points`) to the cell of each point (the cell at
-    the edge if the point lies just beyond it), in the basis there."""
+    (:func:`~granavg.engine.kernels.wall_points`) to the cell of each point, in the basis
+    there. A wall's point just beyond the edge cell goes to it (it lies on the wall,
+    beyond the packing's cells); a point between two particles of different species
+    (``inter``) only to the cell holding it: a cell's sum must not depend on which
+    other cells are averaged (``--range``)."""
     a = frame.atoms
     points, forces = wall_points(a, frame.contacts, cells.dim, branch, rows, which=block)
     at = tuple(points.T)
-    where = cells.cell_of(at, slack=float(np.max(a["radius"], initial=0.0)))
+    slack = float(np.max(a["radius"], initial=0.0)) if block == "wall" else 0.0
+    where = cells.cell_of(at, slack=slack)
     E = cells.basis(at)
     inside = where >= 0
     if sectors:

@@ -243,7 +243,7 @@ def _couple_channels(q, layout, atoms, stack, contacts, f, n, overlap, E, want, 
                          for k in names])
     powers = bool(want & {"ppow", "wpow", "lpow"})
     P = q.shape[0]
-    v = stack(["vx", "vy", "vz"][:D]) if powers else np.zeros((P, D))
+    v = stack(["vx", "vy", "vz"][:D]) if want & {"ppow", "wpow"} else np.zeros((P, D))
     spins = ["omegaz"] if D == 2 else ["omegax", "omegay", "omegaz"]
     w = stack(spins) if powers else np.zeros((P, len(spins)))
     off = np.array([layout.first(b) if b in want else -1 for b in COUPLE_BLOCKS],

@@ -23,6 +23,7 @@ How particles are split (:class:`Species`, ``species=`` of
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -88,12 +89,8 @@ class Species:
     def _groups(cls, items) -> "Species":
         groups, seen = [], {}
         for name, types in items:
-            try:
-                ts = tuple(int(float(t)) for t in (types if isinstance(types, (list, tuple))
-                                                   else [types]) if str(t).strip())
-            except ValueError:
-                raise ParameterError("species", f"{{param}}: the group {name} names "
-                                     f"{types!r}; give atom types as integers") from None
+            listed = types if isinstance(types, (list, tuple)) else [types]
+            ts = tuple(_type_id(name, t) for t in listed if str(t).strip())
             if not ts:
                 raise ParameterError("species", f"{{param}}: the group {name} has no type")
             if name == MIXTURE or name in dict(groups):
@@ -143,6 +140,33 @@ class Species:
                                  f"{MAX_CLASSES} distinct radii (polydisperse); give size "
                                  "classes, radius:E1,E2,...")
         return Classes(self, tuple(f"r={r:g}" for r in sizes), sizes=tuple(sizes))
+
+
+def _type_id(name: str, text) -> int:
+    """One atom type of a named group, refused in one line unless it is an integer.
+
+    Parameters
+    ----------
+    name : str
+        The group's name (for the message).
+    text : str or number
+        The type as given: ``2``, ``"2"`` and ``2.0`` are type 2; ``1.5`` or ``"a"`` are
+        refused, never rounded.
+
+    Returns
+    -------
+    int
+        The atom type.
+    """
+    try:
+        value = float(str(text).strip())
+    except ValueError:
+        value = math.nan
+    if not value.is_integer():
+        raise ParameterError("species", f"{{param}}: the group {name} names type "
+                             f"{str(text).strip()!r}, not an integer; give atom types as "
+                             f"integers, e.g. {name}=1,2")
+    return int(value)
 
 
 def _distinct(radius) -> list:

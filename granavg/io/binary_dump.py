@@ -154,7 +154,7 @@ class BinaryScanner:
                             return
                         continue
                     columns, data = self._columns(head, rows)
-                    yield DumpFrame(step, head["time"], columns, data, head["box"], 0,
+                    yield DumpFrame(step, head["time"], columns, data, head["box"], None,
                                     head["boundary"], head["triclinic"], head["tilt"],
                                     self.path)
                     if reader._first_only:
@@ -171,21 +171,36 @@ class BinaryScanner:
                             "damaged); give a dump written by LAMMPS' dump command")
 
     def _rows(self, cur, head):
-        """The frame's rows, shape (n, columns), as a view of the file (chunks joined)."""
+        """The frame's rows, shape (n, columns), as a view of the file (chunks joined);
+        a chunk count or length that does not fit the header's rows is a one-line
+        refusal, a file that ends inside them an EOFError (the last frame cut)."""
         (nchunk,) = cur.take("<i")
         width, parts = len(head["names"]), []
-        for _ in range(nchunk):
-            (n,) = cur.take("<i")
-            if cur.pos + 8 * n > len(cur.buf):
-                raise EOFError
+        left = head["n"] * width                # the values the chunks must still hold
+        for k in range(nchunk):
+            at = cur.pos
+            if left == 0 and cur.pos + 4 > len(cur.buf):
+                n = None                        # a chunk past the rows, at the file's end
+            else:
+                (n,) = cur.take("<i")
+                if cur.pos + 8 * min(max(n, 0), left) > len(cur.buf):
+                    raise EOFError
+            if n is None or not 0 <= n <= left or (n % max(width, 1)):
+                raise UserError(
+                    f"{self.path}: byte {at}: chunk {k + 1} of {nchunk} of the frame at "
+                    f"timestep {head['timestep']} says {n} values, where {left} of the "
+                    f"header's {head['n']} rows x {width} columns are left; the chunk count "
+                    "or a chunk length is damaged: dump again, or cut the file before this "
+                    "frame")
             parts.append(np.frombuffer(cur.buf, "<f8", n, cur.pos))
             cur.pos += 8 * n
+            left -= n
         flat = parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else \
             np.empty(0)
         if flat.size != head["n"] * width:
             raise UserError(f"{self.path}: frame at timestep {head['timestep']} holds "
                             f"{flat.size // max(width, 1)} rows, its header says "
-                            f"{head['n']}; the file is damaged")
+                            f"{head['n']}; the file is damaged (its chunk count too low)")
         return flat.reshape(head["n"], width)
 
     def _columns(self, head, rows):
@@ -194,8 +209,4 @@ class BinaryScanner:
         if self.reader.headers_only or self.reader._first_only:
             return [], np.empty((head["n"], 0))
         want = wanted(self.reader, self.path, names)
-        data = np.ascontiguousarray(rows[:, [names.index(c) for c in want]])
-        if not np.all(np.isfinite(data)):
-            raise UserError(f"{self.path}: NaN or inf at timestep {head['timestep']}; the "
-                            "run blew up or the file is damaged")
-        return want, data
+        return want, np.ascontiguousarray(rows[:, [names.index(c) for c in want]])

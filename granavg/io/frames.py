@@ -16,9 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from granavg.engine import gate
+from granavg.engine.gate import CONSISTENCY, Origin
 from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError, literal
-from granavg.io._checks import contact_rows_checked, not_integers
 from granavg.io.prefetch import Prefetched
 
 log = logging.getLogger(__name__)
@@ -40,6 +41,12 @@ class Frame:
         (i1, i2): each contact's rows among the atoms, i2 = -1 for a wall contact, where
         the reader has looked them up (it checks the ids); else None, and the engine
         looks them up (:func:`granavg.engine.kernels.contact_rows`).
+    box : Box or None
+        The frame's cell (:class:`~granavg.io.box.Box`), where the format gives one: the
+        engine's gate checks it and its periods from frame to frame.
+    origin : dict or None
+        ``{"atoms": Origin, "contacts": Origin}``: where the tables were read
+        (:class:`~granavg.engine.gate.Origin`), for the gate's messages.
     """
 
     timestep: int
@@ -47,106 +54,43 @@ class Frame:
     atoms: dict
     contacts: dict | None
     rows: tuple | None = None
+    box: object | None = None
+    origin: dict | None = None
 
 
-#: Largest relative disagreement accepted between numbers of one row that are equal in
-#: exact arithmetic: |n| and 1 for a stored normal; |(dx, dy)| and dist, and a pair's
-#: centre distance and the sum of its radii where it carries a force (the overlap's
-#: sign). A number printed with p significant digits is off by at most 5 x 10^-p of
-#: itself, so LAMMPS' default ``%g`` (p = 6) leaves at most about 1e-5 (9.4e-6 measured
-#: on a real dump); 1e-4 accepts every format with p >= 5 and refuses real damage.
-CONSISTENCY = 1e-4
+class _Rows:
+    """One table of a dump frame as a frame of the gate (:mod:`granavg.engine.gate`):
+    its messages name the file and line (or row, where ``line`` is None)."""
 
-
-#: Ids at or beyond 2^53 are not read exactly: dump values are read as doubles, whose
-#: integers are exact only below it (two such ids may read as one).
-EXACT_IDS = 2.0 ** 53
-IDS = ("id", "id1", "id2")
+    def __init__(self, path, frame, table: str, cols: dict):
+        self.timestep, self.time = frame.timestep, 0.0
+        self.origin = {table: Origin(str(path), frame.line)}
+        self.atoms = cols if table == "atoms" else {}
+        self.contacts = cols if table == "contacts" else None
 
 
 def check_integers(path, frame, cols, names):
     """Refuse a value that should be an integer (an id, a type, a wall code) and is not,
-    and an id too large to be read exactly (:data:`EXACT_IDS`)."""
-    for name in names:
-        if name in cols:
-            v = np.asarray(cols[name], float)
-            bad, huge = not_integers(v, name in IDS, EXACT_IDS)       # one compiled pass
-            if huge >= 0:
-                raise UserError(
-                    f"{path}:{frame.line + huge}: {name} {v[huge]:.17g} is 2^53 "
-                    f"or more (timestep {frame.timestep}); ids that large are not read "
-                    "exactly (two may read as one): renumber the atoms (LAMMPS: "
-                    "reset_atoms id) and dump again")
-            if bad >= 0:
-                raise UserError(f"{path}:{frame.line + bad}: {name} {v[bad]:g} is not "
-                                f"an integer (timestep {frame.timestep}); the dump is "
-                                "damaged, or the column map names the wrong column")
-
-
-def _has_duplicates(ids) -> bool:
-    """Whether an id appears twice: by counting into a table where the ids are dense
-    enough (O(n)), else by sorting."""
-    if len(ids) == 0:
-        return False
-    lo, hi = ids.min(), ids.max()
-    if lo >= 0 and hi < 8 * len(ids) + 1_000_000:
-        return bool(np.bincount(ids.astype(np.int64)).max() > 1)
-    return len(np.unique(ids)) < len(ids)
+    and an id too large to be read exactly (:func:`granavg.engine.gate.integers`), read
+    at ``frame.line`` of ``path``."""
+    gate.integers(_Rows(path, frame, "contacts", cols), "contacts", cols, names)
 
 
 def check_atoms(path, frame) -> dict:
-    """The frame's atom columns, after refusing ids or types that are not integers,
-    duplicate ids and radii that are not positive (one line naming file, line and
-    timestep). ``frame`` has ``as_dict()``, ``line`` and ``timestep``."""
+    """The frame's atom columns, judged where they are read (the gate's checks of values,
+    :func:`granavg.engine.gate.atom_values`: messages name file and line). ``frame`` has
+    ``as_dict()``, ``line`` (None: rows are not lines) and ``timestep``."""
     cols = frame.as_dict()
-    check_integers(path, frame, cols, ("id", "type"))
-    if "id" in cols and _has_duplicates(cols["id"]):
-        ids = cols["id"]
-        uniq, first, counts = np.unique(ids, return_index=True, return_counts=True)
-        if len(uniq) < len(ids):
-            dup = uniq[counts > 1][0]
-            rows = np.flatnonzero(ids == dup)
-            raise UserError(f"{path}:{frame.line + rows[1]}: atom id {int(dup)} appears twice "
-                            f"in timestep {frame.timestep} (also line {frame.line + rows[0]}); "
-                            "the dump is damaged")
-    for name, why in (("mass", "the dump is damaged, or the column map names the wrong "
-                               "column"), ("radius", "disks need a radius > 0")):
-        bad = np.flatnonzero(~(cols[name] > 0)) if name in cols else ()
-        if len(bad):
-            raise UserError(f"{path}:{frame.line + bad[0]}: {name} {cols[name][bad[0]]:g} is "
-                            f"not positive (timestep {frame.timestep}); {why}")
+    gate.atom_values(_Rows(path, frame, "atoms", cols))
     return cols
 
 
 def check_contacts(path, frame) -> dict:
-    """The frame's contact columns, after refusing rows that make no sense: an id that is
-    not an integer, a disk in contact with itself, an unknown wall code, a normal that is
-    not a unit vector within :data:`CONSISTENCY`. Normals are returned normalised."""
-    cols = frame.as_dict()
-
-    def fail(row, what):
-        raise UserError(f"{path}:{frame.line + row}: {what} (timestep {frame.timestep}); "
-                        "the contact dump is damaged or not in granavg's format")
-    check_integers(path, frame, cols, ("id1", "id2", "wall"))
-    n = len(next(iter(cols.values()))) if cols else 0
-    axes = [a for a in ("nx", "ny", "nz") if a in cols] if "nx" in cols and "ny" in cols \
-        else []
-    column = {k: np.asarray(cols[k], float) if k in cols else None
-              for k in ("id1", "id2", "wall", "nx", "ny", "nz")}
-    if not axes:
-        column["nx"] = column["ny"] = column["nz"] = None
-    code, itself, norm, worst, off = contact_rows_checked(n, *column.values())  # one pass
-    if code >= 0:
-        fail(code, f"wall code {cols['wall'][code]:g} is not 0, 1 or 2")
-    if itself >= 0:
-        fail(itself, f"atom {int(cols['id1'][itself])} is in contact with itself")
-    if axes:
-        if off > CONSISTENCY:
-            shown = ", ".join(f"{cols[a][worst]:g}" for a in axes)
-            fail(worst, f"the contact normal ({shown}) is not a unit vector (|n| - 1 = "
-                 f"{norm[worst] - 1:.2g}, more than printing's rounding)")
-        cols = {**cols, **{a: cols[a] / norm for a in axes}}
-    return cols
+    """The frame's contact columns, judged where they are read (the gate's checks of
+    values, :func:`granavg.engine.gate.contact_values`); normals returned normalised."""
+    rows = _Rows(path, frame, "contacts", frame.as_dict())
+    gate.contact_values(rows, 3 if "nz" in rows.contacts else 2, normalise=True)
+    return rows.contacts
 
 
 class Columns:
@@ -158,6 +102,19 @@ class Columns:
 
     def as_dict(self) -> dict:
         return dict(self.columns)
+
+
+def _line(frame) -> str:
+    """`` (line L)`` of a dump frame read from lines, else nothing."""
+    return "" if frame.line is None else f" (line {frame.line})"
+
+
+def row_at(path, frame, k: int) -> str:
+    """Where row ``k`` of a dump frame is: ``path:line``, or, where its rows are no
+    lines (a binary file, processors' files), ``path (timestep T, row k)``."""
+    if frame.line is None:
+        return f"{path} (timestep {frame.timestep}, row {k + 1})"
+    return f"{path}:{frame.line + k}"
 
 
 def _file(frame, reader):
@@ -218,14 +175,36 @@ class PairedDumps:
                 if fc.timestep != fa.timestep:
                     raise UserError(
                         f"time steps do not match: frame {k + 1} is timestep {fa.timestep} in "
-                        f"{_file(fa, self.atoms)} (line {fa.line}) but {fc.timestep} in "
-                        f"{_file(fc, self.contacts)} (line {fc.line}); use dumps of the same "
-                        "run")
+                        f"{_file(fa, self.atoms)}{_line(fa)} but {fc.timestep} in "
+                        f"{_file(fc, self.contacts)}{_line(fc)}; use dumps of the same run")
             yield self.frame(fa, fc)
+        whole = getattr(self.atoms, "steps", None) is None and \
+            getattr(self.atoms, "from_time", None) is None
+        if c_iter is not None and whole:
+            try:
+                more = next(c_iter, None)
+            except UserError:               # a damaged frame that is not used
+                more = None
+            if more is not None:
+                log.warning("%s ends before timestep %d of %s: that frame and any later "
+                            "are not used", self.atoms.path, more.timestep,
+                            self.contacts.path)
 
     def frame(self, fa, fc) -> Frame:
         """The engine's frame of one atom-dump frame and its contact-dump frame (or None)."""
         raise NotImplementedError
+
+    def origin(self, fa, fc=None, lines: bool = True) -> dict:
+        """Where a frame's tables were read (:class:`~granavg.engine.gate.Origin`): the
+        atom dump frame's file and, where its rows are the file's lines in order
+        (``lines``: none left out; a text file, not a processor's share), its first
+        line; the contact dump's file (its rows converted, some dropped: no line)."""
+        path = _file(fa, self.atoms)
+        out = {"atoms": Origin(str(path), fa.line if lines and "%" not in str(path)
+                               else None)}
+        if fc is not None:
+            out["contacts"] = Origin(str(_file(fc, self.contacts)))
+        return out
 
     def time(self, frame) -> float:
         """The frame's time: ``ITEM: TIME``, else timestep x ``dt``."""
@@ -237,11 +216,14 @@ class PairedDumps:
                                  "({param}, or the run directory whose manifest has it)")
         return frame.timestep * self.dt
 
-    def unknown_ids(self, fc, rows, known):
-        """Refuse contact rows whose atom ids are not among the frame's atoms."""
+    def unknown_ids(self, fc, rows, found1, found2):
+        """Refuse contact rows whose atom ids are not among the frame's atoms (``found1``,
+        ``found2``: whether each row's id1, id2 is; a wall partner counts as found),
+        naming the first id that is not."""
+        known = found1 & found2
         if not known.all():
             k = int(np.argmin(known))
-            raise UserError(f"{_file(fc, self.contacts)}:{fc.line + k}: atom id "
-                            f"{int(rows['id1'][k]) if 'id1' in rows else '?'} (or its partner)"
-                            f" is not in {self.atoms.path} at timestep {fc.timestep}; use the "
-                            "atom and contact dumps of one run")
+            name = "id1" if not found1[k] else "id2"
+            raise UserError(f"{row_at(_file(fc, self.contacts), fc, k)}: atom id "
+                            f"{int(rows[name][k])} is not in {self.atoms.path} at timestep "
+                            f"{fc.timestep}; use the atom and contact dumps of one run")

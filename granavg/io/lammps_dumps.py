@@ -52,9 +52,10 @@ from granavg.io.contacts import contact_columns, contact_couples
 from granavg.io.dumpfile import open_text
 from granavg.io.formats import Format
 from granavg.io.frames import (CONSISTENCY, Columns, Frame, PairedDumps, check_atoms,
-                               check_contacts, check_integers)
+                               _Rows, check_contacts, check_integers, row_at)
 from granavg.io.reader import DumpReader, first_file
 from granavg.io.dump_units import choose_units
+from granavg.engine import gate
 
 log = logging.getLogger(__name__)
 
@@ -160,6 +161,16 @@ def _first_z(path, zcol, rows: int = Z_SAMPLE) -> np.ndarray:
         return np.empty(0)
 
 
+def _one_each(explicit: dict, param: str) -> None:
+    """Refuse a map that names one dump column for two of granavg's columns."""
+    seen = {}
+    for ours, col in explicit.items():
+        if col in seen:
+            raise ParameterError(param, f"{{param}} names {literal(col)} for both "
+                                 f"{seen[col]} and {ours}; each needs a column of its own")
+        seen[col] = ours
+
+
 def resolve_atoms(path, explicit: dict, dim: int) -> dict:
     """Our atom name -> the dump's column, by the explicit map, then by alias."""
     names, _ = dump_header(path)
@@ -168,6 +179,7 @@ def resolve_atoms(path, explicit: dict, dim: int) -> dict:
         raise ParameterError("atom_map", f"{{param}} {literal(unknown[0])}=...: granavg has "
                              f"no atom column {literal(repr(unknown[0]))}; name one of "
                              f"{' '.join(ATOM_ALIASES)}")
+    _one_each(explicit, "atom_map")
     out = {}
     for ours, aliases in ATOM_ALIASES.items():
         if ours in explicit:
@@ -214,6 +226,7 @@ def resolve_contacts(path, explicit: dict, dim: int) -> dict:
             raise UserError(f"{path}: column {col!r} (for {ours}) is not in the dump "
                             f"(columns: {' '.join(names)})")
     _check_couple(path, out, dim)
+    _one_each(explicit, "contact_map")
     missing = [c for c in ("id1", "id2", *(f"d{x}" for x in xyz), "dist") if c not in out]
     if not all(f"fn{x}" in out for x in xyz) and "force" not in out:
         missing.append("force (or " + ", ".join(f"fn{x}" for x in xyz) + ")")
@@ -291,7 +304,7 @@ def dimension(path, explicit_map, dim=None) -> tuple:
         return 2, "given"
     if np.ptp(z) > 0:
         return 3, "z differs"
-    return 2, (f"every atom of the first frame with atoms ({frame.path}:{frame.line}, "
+    return 2, (f"every atom of the first frame with atoms ({row_at(frame.path, frame, 0)}, "
                f"timestep {frame.timestep}) has z = {z[0]:g}")
 
 
@@ -432,13 +445,15 @@ class LammpsDumps(PairedDumps):
         atoms, walls = fa.prepared or self._atoms(fa)     # done on a reader thread, or here
         atoms = self._turned(atoms)
         contacts = self._contacts(fc, atoms, walls) if fc is not None else None
-        return Frame(fa.timestep, self.time(fa), atoms, contacts)
+        return Frame(fa.timestep, self.time(fa), atoms, contacts, box=Box.of(fa),
+                     origin=self.origin(fa, fc, lines=not walls))
 
     def _atoms(self, fa):
         """The atoms' columns (ours, unscaled, wrapped into the box, checked) and the
         walls' ids and radii of one frame: no state, so the reader threads run it."""
         raw = fa.as_dict()
-        col = {ours: raw[theirs] for ours, theirs in self.amap.items()}
+        col = check_atoms(fa.path, Columns({ours: raw[theirs] for ours, theirs in
+                                            self.amap.items()}, fa))    # as in the file
         axes = "xyz"[:self.dim]
         box = Box.of(fa)
         scaled = [self.amap[a] in SCALED for a in axes]
@@ -452,10 +467,10 @@ class LammpsDumps(PairedDumps):
                 if scaled[k]:
                     lo, hi = fa.box[k]
                     col[axis] = lo + col[axis] * (hi - lo)
+        gate.inside(_Rows(fa.path, fa, "atoms", col), box, self.dim)      # before folding
         col.update(zip(axes, box.wrap([col[a] for a in axes], self.dim)))  # periodic axes
         if self.amap["radius"] == "diameter":
             col["radius"] = 0.5 * col["radius"]
-        col = check_atoms(fa.path, Columns(col, fa))
         if not len(self.wall_types):
             return col, {}
         wall = np.isin(col["type"], self.wall_types)
@@ -515,7 +530,7 @@ class LammpsDumps(PairedDumps):
             if far.any():
                 k = int(np.flatnonzero(far)[0])
                 raise UserError(
-                    f"{fc.path}:{fc.line + k}: atoms {int(rows['id1'][k])} and "
+                    f"{row_at(fc.path, fc, k)}: atoms {int(rows['id1'][k])} and "
                     f"{int(rows['id2'][k])} carry a normal force but are {-overlap[k]:.3g} "
                     f"apart by their radii (timestep {fc.timestep}); check the radius or "
                     f"diameter column ({self.amap['radius']}) of the atom dump {self.atoms.path}")
@@ -528,7 +543,7 @@ class LammpsDumps(PairedDumps):
         is_wall = np.concatenate([np.zeros(len(atoms["id"]), int),
                                   np.ones(len(walls.get("id", [])), int)])
         (i1, found1), (i2, found2) = lookup(ids, c["id1"]), lookup(ids, c["id2"])
-        self.unknown_ids(fc, c, found1 & found2)
+        self.unknown_ids(fc, c, found1, found2)
         xyz = "xyz"[:self.dim]
         dist = c["dist"]
         d = np.column_stack([c[f"d{x}"] for x in xyz])
@@ -538,7 +553,7 @@ class LammpsDumps(PairedDumps):
         if off.any():
             k = int(np.flatnonzero(off)[0])
             what = "(dx, dy)" if self.dim == 2 else "(dx, dy, dz)"
-            raise UserError(f"{fc.path}:{fc.line + k}: |{what}| = {length[k]:g} "
+            raise UserError(f"{row_at(fc.path, fc, k)}: |{what}| = {length[k]:g} "
                             f"but dist = {dist[k]:g} (timestep {fc.timestep}), more apart "
                             "than printing's rounding; the dump is damaged or the column map "
                             "names the wrong columns")

@@ -290,6 +290,9 @@ class LiggghtsDumps(LammpsDumps):
         else:
             d = np.column_stack([atoms[x][i1] - atoms[x][i2] for x in _XYZ])
         r1, r2 = atoms["radius"][i1], atoms["radius"][i2]
+        if all(f"fn{x}" in c for x in _XYZ):
+            reach = sum(np.abs(atoms[x][i1]) + np.abs(atoms[x][i2]) for x in _XYZ)
+            self._normal(fc, c, _minimum_image(d, box), reach)
         return self._converted(fc, c, _minimum_image(d, box), c["id1"], c["id2"], r1, r2,
                                np.zeros(len(i1), int))
 
@@ -300,6 +303,26 @@ class LiggghtsDumps(LammpsDumps):
         d = _minimum_image(x - np.column_stack([c[f"cp{a}"] for a in _XYZ]), box)
         return self._converted(fw, c, d, c["id1"], c["mesh"], atoms["radius"][i1],
                                np.zeros(len(i1)), np.ones(len(i1), int))
+
+    def _normal(self, fc, c, d, reach):
+        """Refuse ``force_normal`` columns that are not along the line of centres d: the
+        keywords name other columns (the total force, a torque). Allowed: the printed
+        digits' error, :data:`CONSISTENCY` of the force and of the direction of d, whose
+        centres (of size ``reach``) are rounded as finely."""
+        fn = np.column_stack([c[f"fn{x}"] for x in _XYZ])
+        length = np.sqrt(np.sum(d * d, axis=1))
+        size = np.sqrt(np.sum(fn * fn, axis=1))
+        across = np.cross(fn, d / np.maximum(length, 1e-300)[:, None])
+        off = np.sqrt(np.sum(across * across, axis=1)) > \
+            CONSISTENCY * size * (1 + reach / np.maximum(length, 1e-300))
+        if off.any():
+            k = int(np.flatnonzero(off)[0])
+            raise ParameterError("liggghts", f"{fc.path}:{fc.line + k}: the normal force "
+                                 f"({', '.join(f'{v:g}' for v in fn[k])}) is not along the "
+                                 f"line of the centres (timestep {fc.timestep}); "
+                                 f"{{param}} {literal(' '.join(self.keywords))} names other "
+                                 "columns than the compute line that wrote the dump: give "
+                                 "its keywords")
 
     def _converted(self, fc, c, d, id1, id2, r1, r2, wall2):
         """granavg's contact columns of one dump's rows (d = x_1 - x_2, shape (n, 3))."""

@@ -16,6 +16,8 @@ the file and line (and, for a missing column, what needs it).
 
 from __future__ import annotations
 
+import itertools
+
 import logging
 import mmap
 import re
@@ -53,8 +55,9 @@ class DumpFrame:
         Names of the columns in ``data`` (the requested ones, in the requested order).
     data : ndarray, shape (n_rows, len(columns))
     box : ndarray, shape (3, 2)
-    line : int
-        1-based line number of the frame's first row in its file.
+    line : int or None
+        1-based line number of the frame's first row in its file (None where its rows
+        are no lines of one file: a binary file, the processors' files of one frame).
     boundary : tuple of str
         The box's boundary flags per axis (``pp`` periodic, ``ff``, ``fs``, ...), as
         ``ITEM: BOX BOUNDS`` gives them; ``("", "", "")`` if it gives none.
@@ -72,7 +75,7 @@ class DumpFrame:
     columns: list
     data: np.ndarray
     box: np.ndarray = field(repr=False)
-    line: int = 0
+    line: int | None = 0
     boundary: tuple = ("", "", "")
     triclinic: bool = False
     tilt: tuple = (0.0, 0.0, 0.0)
@@ -277,19 +280,26 @@ class DumpReader:
     def _processor_frames(self, path):
         """The frames of a dump written one file per processor (a ``%`` in its name):
         each frame's rows from every file, in the processors' order."""
-        # a processor that never held a row may leave its file empty (LAMMPS' dump local)
-        parts = [p for _, p in processor_files(path) if p.stat().st_size > 0] or \
-            [processor_files(path)[0][1]]
+        found = processor_files(path)
+        parts = [p for _, p in found]
         for part in parts[1:]:
             with open(part, "rb") as fh:
                 start = fh.read(5)
-            if start != b"ITEM:" and not part.suffix == ".bin":
+            if start and start != b"ITEM:" and not part.suffix == ".bin":
                 raise UserError(f"{part}: rows without frame headers (LAMMPS writes the "
                                 "headers of a dump local split over processors to the first "
                                 "file alone, so the frames of the others cannot be told "
                                 "apart); dump the contacts to one file (no % in its name)")
+        _whole_rank_set(path, found)
         walks = [_scanner(self, p).frames() for p in parts]
-        for pieces in zip(*walks):
+        for pieces in itertools.zip_longest(*walks):
+            if any(f is None for f in pieces):
+                short = parts[pieces.index(None)]
+                held = next(f for f in pieces if f is not None)
+                raise UserError(f"{short}: ends before timestep {held.timestep}, which "
+                                f"{held.path} holds; every processor's file holds its share "
+                                "of every frame: the file is cut, or of another run (copy "
+                                "the whole set again)")
             first = pieces[0]
             other = next((f for f in pieces[1:] if f.timestep != first.timestep), None)
             if other is not None:
@@ -298,7 +308,7 @@ class DumpReader:
                                 "dump's processors must hold the same frames")
             data = first.data if len(pieces) == 1 else np.concatenate([f.data for f in pieces])
             whole = DumpFrame(first.timestep, first.time, first.columns, data, first.box,
-                              first.line, first.boundary, first.triclinic, first.tilt, path)
+                              None, first.boundary, first.triclinic, first.tilt, path)
             yield from self._ready([whole])
 
 
@@ -339,6 +349,25 @@ def processor_files(path) -> list:
         raise UserError(f"{path}: no file matches (the % stands for the processor, as in "
                         "LAMMPS' dump atoms.%.txt); give an existing file or pattern")
     return found
+
+
+def _whole_rank_set(path, found) -> None:
+    """Refuse a set of processor files that is not whole: ranks from 0 without a gap,
+    none empty (LAMMPS writes every processor's headers, also of one without atoms); a
+    missing share would average the others as the whole (density too low)."""
+    ranks = [r for r, _ in found]
+    gap = next((r for r in range(ranks[-1] + 1) if r not in ranks), None)
+    if gap is not None:
+        name = str(path).replace("%", str(gap))
+        raise UserError(f"{name}: missing, while the files of processors "
+                        f"{', '.join(map(str, ranks))} are there; a dump split over "
+                        "processors needs every processor's file, from 0 on (copy the "
+                        "whole set)")
+    empty = next((p for _, p in found if p.stat().st_size == 0), None)
+    if empty is not None:
+        raise UserError(f"{empty}: empty, while {found[0][1].name} holds frames; every "
+                        "processor's file holds its share of every frame (copy the whole "
+                        "set again, or dump to one file: no % in its name)")
 
 
 def first_file(path) -> Path:

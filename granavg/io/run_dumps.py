@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from granavg.engine.kernels import lookup
+from granavg.io.box import Box
 from granavg.io.frames import Frame, PairedDumps, check_atoms, check_contacts
 
 
@@ -17,7 +18,8 @@ class RunDumps(PairedDumps):
     def frame(self, fa, fc) -> Frame:
         atoms = check_atoms(self.atoms.path, fa)
         contacts, rows = self._contacts(fc, atoms) if fc is not None else (None, None)
-        return Frame(fa.timestep, self.time(fa), atoms, contacts, rows)
+        return Frame(fa.timestep, self.time(fa), atoms, contacts, rows, box=Box.of(fa),
+                     origin=self.origin(fa, fc))
 
     def _contacts(self, fc, atoms) -> tuple:
         """The contact columns and, where both ids and the wall codes are there, the
@@ -26,13 +28,14 @@ class RunDumps(PairedDumps):
         cols = check_contacts(self.contacts.path, fc)
         rows = None
         if "id" in atoms and "id1" in cols:
-            i1, known = lookup(atoms["id"], cols["id1"])
+            i1, found1 = lookup(atoms["id"], cols["id1"])
+            found2 = np.ones(len(i1), bool)
             if "id2" in cols and "wall" in cols:
                 i2, found2 = lookup(atoms["id"], cols["id2"])
                 pair = np.asarray(cols["wall"]) == 0
-                known &= found2 | ~pair
+                found2 = found2 | ~pair
                 rows = (i1, np.where(pair, i2, -1))
-            self.unknown_ids(fc, cols, known)
+            self.unknown_ids(fc, cols, found1, found2)
         keep = cols["overlap"] > 0 if "overlap" in cols else None
         if keep is not None and not keep.all():
             self.dropped["contacts_not_touching"] += int(np.sum(~keep))

@@ -19,13 +19,14 @@ from pathlib import Path
 
 import numpy as np
 
+from granavg.engine.gate import Origin
 from granavg.engine.unit_system import SI
 from granavg.errors import ParameterError, UserError, literal
 from granavg.io.dump_units import choose_units
 from granavg.io.formats import Format
 from granavg.io.frames import Columns, Frame, check_atoms
 from granavg.io.reader import numbered_series
-from granavg.io.vtk_read import is_vtk, read_vtk
+from granavg.io.vtk_read import component, is_vtk, read_vtk
 
 log = logging.getLogger(__name__)
 
@@ -86,8 +87,8 @@ class VtkAtoms:
         for ours, names in ALIASES.items():
             for name, comp in names:
                 a = data.point_data.get(name)
-                if a is not None and (comp is None) == (a.ndim == 1):
-                    cols[ours] = np.asarray(a if comp is None else a[:, comp], float)
+                if a is not None and (comp is None) == (a.ndim == 1 or a.shape[1] == 1):
+                    cols[ours] = component(path, data.point_data, name, comp)
                     if name == "diameter":
                         cols[ours] = 0.5 * cols[ours]
                     break
@@ -121,9 +122,10 @@ class VtkAtoms:
             cols = self._frame_data(step, path)
 
             class _Where:                        # what the checks name: file, row
-                line, timestep = 1, step
+                line, timestep = None, step
             checked = check_atoms(path, Columns(cols, _Where))
-            yield Frame(step, step * self.dt, checked, None)
+            yield Frame(step, step * self.dt, checked, None,
+                        origin={"atoms": Origin(str(path))})
 
 
 def _claims(path) -> bool:

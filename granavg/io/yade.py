@@ -29,13 +29,26 @@ from __future__ import annotations
 
 import numpy as np
 
+from granavg.engine.gate import Origin
 from granavg.engine.unit_system import SI
 from granavg.errors import UserError
+from granavg.io.box import Box
 from granavg.io.contacts import contact_columns
 from granavg.io.frames import Frame
 
 
+#: What Cundall's local damping (``NewtonIntegrator.damping`` > 0) means for the fields:
+#: said in the log and the sidecar wherever it may act.
+DAMPED = ("NewtonIntegrator's local damping acts on the moving spheres: a force that is "
+          "not a contact force and not in the fields, so the contact stress does not "
+          "balance the body forces where the spheres accelerate (a pile not yet at rest "
+          "carries less than its weight); set damping=0 for fields that obey the momentum "
+          "balance")
+
 #: The contact columns of a frame, 3D, no couple.
+#: What a refusal of the scene's own data says to do (instead of mending a file).
+SCENE = ("the scene holds it: an unstable run (a time step too large for the stiffness), "
+         "or a body or interaction set by hand; check them before averaging")
 CONTACT_COLUMNS = ("id1", "id2", "wall", "fnx", "fny", "fnz", "ftx", "fty", "ftz", "nx",
                    "ny", "nz", "overlap")
 
@@ -73,6 +86,9 @@ def yade_contacts(id1, id2, normal, depth, fn, fs, r1, r2, wall1, wall2):
     # and dist such that r1 + r2 - dist is Yade's depth
     c = contact_columns(np.asarray(id1), np.asarray(id2), -normal, r1 + r2 - depth, -fn, -fs,
                         np.asarray(wall1), np.asarray(wall2), r1, r2)
+    length = np.sqrt(np.sum(normal * normal, axis=1))
+    for x in "xyz":                 # Yade's normal as given: the gate judges its length
+        c[f"n{x}"] = c[f"n{x}"] * length
     touching = (depth > 0) | np.any(fn != 0, axis=1)
     keep = c["packing"] & touching
     dropped = {"contacts_not_touching": int(np.sum(c["packing"] & ~touching)),
@@ -170,8 +186,12 @@ class YadeScene:
         g = self.gravity()
         if g is not None:
             atoms.update({f"b{x}": atoms["mass"] * gx for x, gx in zip("xyz", g)})
+        box = None if sides is None else Box((0.0, 0.0, 0.0), tuple(map(float, sides)),
+                                             periodic=(True, True, True))
         return Frame(int(self.omega.iter), float(self.omega.time), atoms,
-                     self._contacts(bodies, atoms))
+                     self._contacts(bodies, atoms), box=box,
+                     origin={"atoms": Origin("the Yade scene", scene=SCENE),
+                             "contacts": Origin("the Yade scene", scene=SCENE)})
 
     def _contacts(self, bodies, atoms) -> dict:
         size = max((b.id for b in bodies), default=-1) + 1
@@ -188,6 +208,10 @@ class YadeScene:
                             "and FrictPhys physics (normalForce, shearForce) and their "
                             "kinds") from None
         rows = rows.reshape(-1, 12)
+        if np.isnan(rows[:, 5]).any():
+            raise UserError("the scene's interactions have NaN penetration depths, as a "
+                            "saved scene has right after O.load(): run a step (O.step()) "
+                            "before averaging")
         i1, i2 = rows[:, 0].astype(int), rows[:, 1].astype(int)
         columns, dropped = yade_contacts(i1, i2, rows[:, 2:5], rows[:, 5], rows[:, 6:9],
                                          rows[:, 9:12], radius[i1], radius[i2], wall[i1],
@@ -217,6 +241,11 @@ class YadeScene:
         """Per axis, whether the scene is periodic along it (Yade's cell: all three)."""
         return (bool(self.omega.periodic),) * 3
 
+    def damping(self) -> float:
+        """The ``NewtonIntegrator``'s local damping (0 where none)."""
+        newton = self._newton()
+        return 0.0 if newton is None else float(newton.damping)
+
     def describe(self) -> dict:
         """The scene's settings the frames depend on, for the sidecar."""
         newton = self._newton()
@@ -230,4 +259,5 @@ class YadeScene:
                 "walls": walls, "type": "the material's id (b.material.id)",
                 "body_forces": {"gravity": list(self.gravity() or ())},
                 "damping": None if newton is None else float(newton.damping),
+                **({"non_contact_forces": DAMPED} if self.damping() else {}),
                 "inertia": {"shape": "sphere", "I": "2/5 m a^2", "why": "3D"}}

@@ -24,24 +24,31 @@ and the shear force's absolute components, no sign, no normal and no wall contac
 
 from __future__ import annotations
 
+import logging
 import re
 from pathlib import Path
 
 import numpy as np
 
+from granavg.engine.gate import Origin
 from granavg.engine.kernels import lookup
 from granavg.engine.unit_system import SI
 from granavg.errors import ParameterError, UserError, literal
+from granavg.io.box import Box
 from granavg.io.formats import Format
 from granavg.io.frames import Columns, Frame, check_atoms, check_contacts
 from granavg.io.reader import numbered_series
-from granavg.io.vtk_read import is_vtk, read_vtk
-from granavg.io.yade import yade_contacts
+from granavg.io.vtk_read import component, is_vtk, read_vtk
+from granavg.io.yade import DAMPED, yade_contacts
+
+log = logging.getLogger(__name__)
 
 #: The ``what`` of ``VTKExporter.exportInteractions`` this format reads.
 INTERACTIONS = {"id1": "i.id1", "id2": "i.id2", "normal": "i.geom.normal",
                 "penetrationDepth": "i.geom.penetrationDepth",
                 "normalForce": "i.phys.normalForce", "shearForce": "i.phys.shearForce"}
+#: The scalar arrays among :data:`INTERACTIONS` (the others are vectors).
+SCALARS = ("id1", "id2", "penetrationDepth")
 #: Our atom column -> (VTKRecorder's point array, component).
 ATOM_ARRAYS = {"radius": ("radii", None), "id": ("id", None), "mass": ("mass", None),
                "type": ("materialId", None),
@@ -64,10 +71,31 @@ def _steps(path) -> list:
     return [(int(match.group(1)), Path(path))]
 
 
+def _cells(steps) -> dict:
+    """step -> VTKRecorder's ``pericell`` file beside each ``NAME-spheres.STEP.vtu``
+    (found by its own name); empty where none is (an aperiodic scene). Refuses a series
+    where some steps have one and others not."""
+    cells = {}
+    for step, path in steps:
+        match = re.fullmatch(r"(.*)spheres(\.\d+\.vtu)", path.name)
+        cell = path.with_name(f"{match.group(1)}pericell{match.group(2)}") if match else None
+        if cell is not None and cell.exists():
+            cells[step] = cell
+    missing = [(step, path) for step, path in steps if step not in cells]
+    if cells and missing:
+        step, path = missing[0]
+        has = next(iter(cells.values()))
+        raise UserError(f"{path}: no pericell file beside it (step {step}), where "
+                        f"{has.name} is: the periodic cell is lost for that step; record "
+                        "pericell at every step (VTKRecorder recorders [..., 'pericell']), "
+                        "or give only the steps that have it")
+    return cells
+
+
 class _Where:
     """A frame's step, for the checks' messages (the rows of a VTK file have no line)."""
 
-    line = 1
+    line = None
 
     def __init__(self, timestep):
         self.timestep = timestep
@@ -102,9 +130,11 @@ class YadeVtk:
         self.steps = _steps(atoms)
         self.contact_files = dict(_steps(contacts)) if contacts is not None else None
         self.dropped = {"contacts_not_touching": 0, "contacts_between_walls": 0}
-        cell = Path(str(self.steps[0][1]).replace("spheres", "pericell"))
-        self.cell = read_vtk(cell).points if "spheres" in self.steps[0][1].name and \
-            cell.exists() else None
+        self.walls = None                # the wall bodies' ids seen so far
+        self.cells = _cells(self.steps)
+        self.cell = read_vtk(self.cells[self.steps[0][0]]).points if self.cells else None
+        log.warning("%s: Yade's VTK files do not say whether NewtonIntegrator's local "
+                    "damping was on; if it was: %s", atoms, DAMPED)
 
     def describe(self) -> dict:
         """The options the frames were read with, for the sidecar."""
@@ -137,7 +167,17 @@ class YadeVtk:
                                     f"{self.contacts}; export the interactions at each "
                                     "step the spheres are recorded")
                 contacts = self._contacts(step, self.contact_files[step], atoms)
-            yield Frame(step, step * self.dt, atoms, contacts)
+            yield Frame(step, step * self.dt, atoms, contacts, box=self._box(step),
+                        origin={"atoms": Origin(str(path)), "contacts": Origin(
+                            str(self.contact_files[step])) if contacts is not None else None})
+
+    def _box(self, step):
+        """The step's periodic cell as its frame's box (None for an aperiodic scene)."""
+        if not self.cells:
+            return None
+        cell = read_vtk(self.cells[step]).points
+        return Box(tuple(map(float, cell.min(axis=0))), tuple(map(float, cell.max(axis=0))),
+                   periodic=(True, True, True))
 
     def _atoms(self, step, path) -> dict:
         data = read_vtk(path)
@@ -148,8 +188,7 @@ class YadeVtk:
         cols = dict(zip("xyz", data.points.T))
         for ours, (name, k) in ATOM_ARRAYS.items():
             if name in data.point_data:
-                cols[ours] = data.point_data[name] if k is None else \
-                    data.point_data[name][:, k]
+                cols[ours] = component(path, data.point_data, name, k)
         return check_atoms(path, Columns(cols, _Where(step)))
 
     def _contacts(self, step, path, atoms) -> dict:
@@ -167,6 +206,9 @@ class YadeVtk:
         if "id" not in atoms:
             raise UserError(f"{self.atoms}: contacts need the spheres' ids (VTKRecorder "
                             "recorder 'id')")
+        arrays = {k: component(path, arrays, k, None) if k in SCALARS else
+                  np.column_stack([component(path, arrays, k, j) for j in range(3)])
+                  for k in INTERACTIONS}
         ids = (arrays["id1"], arrays["id2"])
         if any(np.any(i >= EXACT_IDS) for i in ids):
             raise UserError(f"{path}: body ids of 10^6 or more, which VTKExporter's %g "
@@ -180,7 +222,25 @@ class YadeVtk:
                                          *radius, (~in1).astype(int), (~in2).astype(int))
         for k, n in dropped.items():
             self.dropped[k] += n
+        self._walls(path, step, np.concatenate([ids[0][~in1], ids[1][~in2]]))
         return check_contacts(path, Columns(columns, _Where(step)))
+
+    def _walls(self, path, step, ids) -> None:
+        """Say which bodies the interactions name that are not among the spheres (taken
+        as walls): those of the first step in a log line, and a warning for one that
+        first appears later (a wall added during the run, or a damaged file)."""
+        found = set(np.unique(ids).astype(int).tolist())
+        if self.walls is None:
+            self.walls = found
+            log.info("%s: bodies not among the spheres, taken as walls: %s", path,
+                     " ".join(map(str, sorted(found))) or "none")
+        elif found - self.walls:
+            new = sorted(found - self.walls)
+            log.warning("%s: step %d names body %d, not among the spheres and in no "
+                        "interaction before: taken as a wall (walls so far: %s); if no wall "
+                        "was added, the file is damaged", path, step, new[0],
+                        " ".join(map(str, sorted(self.walls))))
+            self.walls |= found
 
 
 def _claims(path) -> bool:

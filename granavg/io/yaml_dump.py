@@ -44,14 +44,23 @@ def _items(text) -> list:
 
 def _documents(path):
     """(first line number, header dict, data lines) of each document; a document cut
-    by the end of the file is yielded with ``complete`` False."""
+    by the end of the file is yielded with ``complete`` False. A document without its
+    ``...`` or ``---`` is a one-line refusal (its frame would be lost or merged)."""
     with open(path, encoding="ascii", errors="replace") as fh:
         head, rows, start, in_data = None, [], 0, False
         for k, line in enumerate(fh, 1):
             if line.startswith("---"):
+                if head is not None:
+                    raise UserError(f"{path}:{k}: a document starts ('---') while the one "
+                                    f"from line {start} has no end ('...'); the file is "
+                                    "damaged: mend or remove that frame")
                 head, rows, start, in_data = {"box": []}, [], k, False
                 continue
             if head is None:
+                if line.strip():
+                    raise UserError(f"{path}:{k}: a line outside every document (its "
+                                    "'---' is missing); the file is damaged: mend or "
+                                    "remove that frame")
                 continue
             if line.startswith("..."):
                 yield start, head, rows, True
@@ -66,6 +75,7 @@ def _documents(path):
             key, _, value = line.partition(":")
             if key == "data":
                 in_data = True
+                head["data"] = k + 1            # the line of its first row
             elif not line.startswith(" ") and key.strip() != "box":
                 head[key.strip()] = value.strip()
         if head is not None:
@@ -112,19 +122,31 @@ class YamlScanner:
             step = int(head["timestep"])
             n = int(head["natoms"])
             names = _items(head["keywords"])
-            flags = _items(head.get("boundary", "[ p, p, p, p, p, p, ]"))
+            flags = _items(head["boundary"])
             box = [[float(v) for v in _items(b)] for b in head["box"]]
             time = float(head["time"]) if "time" in head else None
         except (KeyError, ValueError) as exc:
             raise UserError(f"{self.path}:{line}: a frame whose header LAMMPS did not write "
                             f"({exc}); the file is damaged") from None
+        if len(flags) != 6 or not set(flags) <= set("pfsm"):
+            raise UserError(f"{self.path}:{line}: frame at timestep {step} has boundary "
+                            f"{head['boundary']}, not six flags p, f, s or m; the file is "
+                            "damaged")
+        if len(box) not in (3, 4) or any(len(b) != 2 for b in box[:3]) or \
+                (len(box) == 4 and len(box[3]) != 3):
+            raise UserError(f"{self.path}:{line}: frame at timestep {step} has a box of "
+                            f"{len(box)} lines, not three (lo, hi) lines and, for a tilted "
+                            "box, one of the tilt factors; the file is damaged")
+        if "data" not in head:
+            raise UserError(f"{self.path}:{line}: frame at timestep {step} has no 'data:' "
+                            "line before its rows; the file is damaged")
         if len(rows) != n:
             raise UserError(f"{self.path}:{line}: frame at timestep {step} has {len(rows)} "
                             f"rows, its header says {n}; the file is damaged")
         tilt = tuple(box[3]) if len(box) > 3 else (0.0, 0.0, 0.0)
         self._names = names
         return self.frame_type(step, time, names, np.empty((n, 0)),
-                               np.array(box[:3], float), line,
+                               np.array(box[:3], float), head["data"],
                                tuple(flags[2 * k] + flags[2 * k + 1] for k in range(3)),
                                len(box) > 3, tilt, self.path)
 
@@ -142,9 +164,6 @@ class YamlScanner:
             raise UserError(f"{self.path}:{line}: frame at timestep {frame.timestep} has a "
                             "row that is not numbers, one per keyword; the file is "
                             "damaged") from None
-        if not np.all(np.isfinite(values)):
-            raise UserError(f"{self.path}:{line}: NaN or inf at timestep {frame.timestep}; "
-                            "the run blew up or the file is damaged")
         frame.columns = want
         frame.data = np.ascontiguousarray(values[:, [names.index(c) for c in want]])
         return frame

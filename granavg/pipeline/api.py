@@ -141,7 +141,7 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
                                  "default to")
         return average_frames(source, smooth(cells, kernel, width), progress=progress,
                               rho_p=options.get("density"), quantities=quantities,
-                              t_min=t_min or 0.0, block_time=block_time, branch=branch,
+                              t_min=t_min, block_time=block_time, branch=branch,
                               sectors=sectors, **time)
     runs = [source] if isinstance(source, (str, os.PathLike)) and Path(source).is_dir() \
         else list(source) if isinstance(source, (list, tuple)) else []

@@ -6,9 +6,12 @@ exit code 2, Ctrl-C and SIGTERM)."""
 from __future__ import annotations
 
 import logging
-import sys
+import os
+import re
 
-from granavg.errors import UserError, message, named
+from granavg.errors import UserError, literal, message, named
+
+log = logging.getLogger("granavg")
 
 #: Options of the frames that only plain dumps take (a run directory's manifest says
 #: them); and every cells option that does not declare it builds a run's cells too.
@@ -93,13 +96,88 @@ def averaging(o, **extra) -> dict:
                 wall_contacts=o["wall_contacts"], wall_keywords=o["liggghts_walls"])
 
 
+#: A word of the command line that names a group of atom types, NAME=TYPES.
+_GROUP = re.compile(r"[A-Za-z_][\w.+-]*=[^=/\\]*")
+
+
+def species_group(word: str) -> bool:
+    """Whether a word of the command line looks like a species group (``large=2,3``)
+    rather than a path.
+
+    Parameters
+    ----------
+    word : str
+        The word as given.
+
+    Returns
+    -------
+    bool
+        True for NAME=TYPES where no such file or directory exists.
+    """
+    return bool(_GROUP.fullmatch(word)) and not os.path.exists(word)
+
+
+def misplaced_group(words, read_as: str) -> None:
+    """Refuse in one line a species group (:func:`species_group`) among ``words``, which
+    the command line took for something else.
+
+    Parameters
+    ----------
+    words : iterable of str
+        The words to look at (run directories, unrecognised arguments).
+    read_as : str
+        How the command line read them, for the message: "a run directory".
+
+    Raises
+    ------
+    UserError
+        Where one of ``words`` looks like a species group.
+    """
+    group = next((w for w in words if species_group(w)), None)
+    if group is not None:
+        raise UserError(named(f"{literal(repr(group))} looks like a species group but was "
+                              f"read as {read_as}; give all the groups together right "
+                              "after {species}, e.g. granavg average RUN {species} small=1 "
+                              "large=2,3 {out} p.csv"))
+
+
+def species(o):
+    """The words of ``--species`` as one split, the text
+    :meth:`granavg.engine.species.Species.parse` reads (None: not given); a word among
+    groups that is no group is refused.
+
+    Parameters
+    ----------
+    o : dict
+        The parsed options.
+
+    Returns
+    -------
+    str or None
+        ``type``, ``radius``, ``radius:E1,E2,...`` or the groups, space-separated.
+    """
+    from granavg.errors import ParameterError
+
+    words = o.get("species")
+    if not words:
+        return None
+    stray = [w for w in words if "=" not in w] if len(words) > 1 else []
+    if stray:
+        raise ParameterError("species", f"{{param}} {literal(' '.join(words))!r}: "
+                             f"{literal(stray[0])!r} is no group NAME=TYPES; give type, "
+                             "radius or radius:E1,E2,... alone, or groups only (small=1 "
+                             "large=2,3), and the run directories before {param}")
+    return " ".join(words)
+
+
 def average(o):
     from granavg.pipeline.averaging import average_to_file
 
+    misplaced_group(o["run_dir"], "a run directory")
     return average_to_file(o["run_dir"], o["out"], parquet=o["parquet"], netcdf=o["netcdf"],
                            vtk=o["vtk"], workers=o["workers"], scheduler=o["scheduler"],
                            atoms=o["atoms"], contacts=o["contacts"], progress=_progress(o),
-                           species=o["species"], **averaging(o, width=o["width"]),
+                           species=species(o), **averaging(o, width=o["width"]),
                            **time_options(o))
 
 
@@ -132,34 +210,54 @@ COMMANDS = {"simulate": simulate, "average": average, "scales": scales,
 def run(parse, word) -> int:
     """Run the command ``parse()`` returns the options of (argparse's namespace) as a
     process: its exit code. ``word``: the command's name in the arguments, for the
-    words said after a signal (a run is kept and can be resumed)."""
-    from granavg.pipeline.session import (configure_logging, interrupt_code, no_room,
-                                          outputs_written, signals_as_interrupts,
-                                          use_threads)
+    words said after a signal (a run is kept and can be resumed). Every line it writes
+    to stderr is a log line (:func:`granavg.pipeline.session.log_to_stderr`)."""
+    from granavg.pipeline.session import (configure_logging, interrupt_code, log_to_stderr,
+                                          no_room, signals_as_interrupts, use_threads)
 
     with signals_as_interrupts():
         try:
+            log_to_stderr()
             options = vars(parse())
             configure_logging(options["verbose"])
             use_threads(options.get("threads"))
             done = COMMANDS[options["command"]](options)
             if options["command"] == "simulate":
-                logging.getLogger("granavg").info("run complete: %s", done)
+                log.info("run complete: %s", done)
             return 0
         except UserError as exc:
-            print(f"granavg: error: {message(exc)}", file=sys.stderr)
+            log.error("error: %s", message(exc))
             return exc.exit_code
         except (KeyboardInterrupt, Exception) as raised:
             code = interrupt_code(raised)
             if code is None and (full := no_room(raised)):
-                print(f"granavg: error: {full}", file=sys.stderr)
+                log.error("error: %s", full)
                 return 2
             if code is None:
                 raise
-            done = outputs_written()
-            what = named("stopped (the run is kept; {resume} continues it)") if \
-                word in ("simulate", "demo") else \
-                f"the outputs were complete before it: {done[-1]} (with its companions)" \
-                if done else "nothing written"
-            print(f"granavg: interrupted; {what}", file=sys.stderr)
+            log.warning("interrupted; %s", _after_signal(word))
             return code
+
+
+def _after_signal(word) -> str:
+    """What a signal left: the run kept (simulate, demo), or the outputs complete
+    before it, or nothing.
+
+    Parameters
+    ----------
+    word : str or None
+        The command's name in the arguments.
+
+    Returns
+    -------
+    str
+        The words after "interrupted; ".
+    """
+    from granavg.pipeline.session import outputs_written
+
+    done = outputs_written()
+    if word in ("simulate", "demo"):
+        return named("stopped (the run is kept; {resume} continues it)")
+    if done:
+        return f"the outputs were complete before it: {done[-1]} (with its companions)"
+    return "nothing written"

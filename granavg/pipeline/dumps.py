@@ -111,7 +111,7 @@ def dump_averager(atoms, contacts=None, *, cells=None, fmt=None, density=None,
         log.info(named("%s does not say its units: the outputs are labelled 'unstated'; "
                        "name them with {units} (LAMMPS style: si, lj, ...)"), atoms)
     avg = averager(Prefetched(frames), cells_of_options, rho_p=density, quantities=quantities,
-                   t_min=t_min or 0.0, block_time=block_time, units=frames.units,
+                   t_min=t_min, block_time=block_time, units=frames.units,
                    branch=branch, sectors=sectors, **(time or {}))
     avg.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
                                else None},

@@ -141,6 +141,7 @@ def resolved_time(base, time: dict | None) -> dict | None:
     if axis.kind == "windows":
         out.pop("window_frames", None)
         out["windows"] = axis.length
+        out["window_start"] = axis.start       # the data's first frame, not a chunk's
     if getattr(axis, "interval", None):
         out["interval"] = axis.interval
     return out

@@ -72,7 +72,8 @@ def _mixture(species, scene, summary, folder, drawn, figures) -> None:
         return
     result = segregation(species, scene["R_i"], d_mean, scene["Omega"], s_band)
     summary["mixture"] = {k: v for k, v in result.items() if k != "claim"}
-    summary["claims"].append({**result["claim"], "reproduced": None, "note": ""})
+    summary["claims"].append({**result["claim"], "reproduced": None, "note": "",
+                              "figures": ["mixture"]})
     if figures:
         import matplotlib.pyplot as plt
 

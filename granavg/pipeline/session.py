@@ -8,6 +8,7 @@ import os
 import signal
 import sys
 import threading
+import warnings
 from contextlib import contextmanager
 
 from granavg.errors import literal, named
@@ -66,6 +67,12 @@ def _unraisable(previous):
     return hook
 
 
+#: What each line the command writes to stderr starts with, once.
+PREFIX = "granavg: "
+#: Loggers of dask's own chatter (quiet unless ``verbose``).
+DASK_LOGGERS = ("distributed", "tornado", "bokeh")
+
+
 class _Once(logging.Filter):
     """Lets each distinct line through once per command: a verdict on the same window
     (the demo averages it over 20 and over 60 rings) is said once."""
@@ -82,21 +89,109 @@ class _Once(logging.Filter):
         return True
 
 
+class _OnePrefix(logging.Formatter):
+    """Each line of a message with exactly one :data:`PREFIX` (one it already carries,
+    e.g. a line passed on from another granavg process, is not doubled)."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        return "\n".join(PREFIX + _unprefixed(line)
+                         for line in super().format(record).splitlines() or [""])
+
+
+def _unprefixed(line: str) -> str:
+    """``line`` without the :data:`PREFIX` (or prefixes) it starts with."""
+    while line.startswith(PREFIX):
+        line = line[len(PREFIX):]
+    return line
+
+
+class _Stderr(logging.StreamHandler):
+    """The command's one handler: the stderr of the moment (so a redirected or captured
+    stream gets the lines), one :data:`PREFIX` per line, each distinct line once."""
+
+    def __init__(self):
+        super().__init__()
+        self.addFilter(_Once())
+        self.setFormatter(_OnePrefix("%(message)s"))
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value):
+        """The stream is always the current ``sys.stderr``; setting it does nothing."""
+
+
+def log_to_stderr(verbose: bool = False) -> None:
+    """granavg's log lines, and Python's warnings, on stderr through one handler
+    (:class:`_Stderr`), set up anew by each command (before its options are parsed:
+    a refusal of them is such a line too).
+
+    Parameters
+    ----------
+    verbose : bool
+        Debug lines too (``-v``).
+    """
+    root = logging.getLogger()
+    for old in [h for h in root.handlers if isinstance(h, _Stderr)]:
+        root.removeHandler(old)
+    root.addHandler(_Stderr())
+    root.setLevel(logging.DEBUG if verbose else logging.INFO)
+    warnings.showwarning = _warning_line
+
+
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """A Python warning as one log line (``warnings.showwarning``), not the two
+    unprefixed lines Python writes."""
+    logging.getLogger("py.warnings").warning("%s: %s (%s:%s)", category.__name__,
+                                             str(message).strip(), filename, lineno)
+
+
 def configure_logging(verbose: bool) -> None:
-    """granavg's log lines on stderr; dask's INFO chatter (and its shutdown tracebacks)
-    only with ``verbose``."""
-    handler = logging.StreamHandler()
-    handler.addFilter(_Once())
-    handler.setFormatter(logging.Formatter("granavg: %(message)s"))
-    logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO, handlers=[handler])
+    """The command's logging (:func:`log_to_stderr`): more with ``verbose``; dask's INFO
+    chatter (and its shutdown tracebacks) only with ``verbose``, through the same
+    handler, and with the same prefix in the processes of a local dask cluster
+    (:func:`_dask_workers_log`).
+
+    Parameters
+    ----------
+    verbose : bool
+        Debug lines, granavg's and dask's (``-v``).
+    """
+    log_to_stderr(verbose)
     quiet = "debug" if verbose else "warning"
-    for noisy in ("distributed", "tornado", "bokeh"):     # dask's own chatter
-        logging.getLogger(noisy).setLevel(quiet.upper())
-    # distributed resets its loggers from dask's config when imported: set it there, and
-    # in the environment for a dask imported later (without importing it here)
-    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", quiet)
+    for noisy in DASK_LOGGERS:                     # dask's own chatter
+        logger = logging.getLogger(noisy)
+        logger.setLevel(quiet.upper())
+        for own in [h for h in logger.handlers if not isinstance(h, _Stderr)]:
+            logger.removeHandler(own)              # distributed imported before: its
+        logger.propagate = True                    # handler, without the prefix
+    _dask_workers_log(quiet)
+
+
+def _dask_workers_log(quiet: str) -> None:
+    """The logging of the dask worker processes this command starts, set up from the
+    environment when they import distributed: its messages at ``quiet`` and up, and
+    granavg's warnings, each with one :data:`PREFIX` (their granavg logger's level
+    NOTSET: in a worker, the root's WARNING; in this process it changes nothing).
+
+    distributed resets its loggers from dask's config when imported: set it there, and
+    in the environment for a dask imported later (without importing it here); a user's
+    own settings win.
+
+    Parameters
+    ----------
+    quiet : str
+        The level of distributed's messages: "warning", or "debug" with ``-v``.
+    """
+    settings = {"logging.distributed": quiet, "logging.granavg": "notset",
+                "distributed.admin.log-format": PREFIX + "%(message)s"}
+    for key, value in settings.items():
+        os.environ.setdefault("DASK_" + key.upper().replace(".", "__").replace("-", "_"),
+                              value)
     if "dask" in sys.modules:
-        sys.modules["dask"].config.set({"logging.distributed": quiet})
+        sys.modules["dask"].config.set(settings)
 
 
 def use_threads(n) -> None:

@@ -14,7 +14,7 @@ from granavg.engine.fields import Fields
 from granavg.engine.smoothing import smooth
 from granavg.engine.unit_system import SI
 from granavg.errors import UserError
-from granavg.io.yade import YadeScene
+from granavg.io.yade import DAMPED, YadeScene
 
 log = logging.getLogger(__name__)
 
@@ -77,6 +77,8 @@ class YadeAverage:
             self._start()
 
     def _start(self) -> None:
+        if self.scene.damping():
+            log.warning("damping %g: %s", self.scene.damping(), DAMPED)
         self._avg = averager(self._head, self.cells, units=SI, **self.options)
         self._avg.prepare()
         for frame in self._head:

@@ -74,7 +74,8 @@ def time_grid(times) -> np.ndarray:
 
 def axis(*, t_min: float = 0.0, t_max: float | None = None, windows: float | None = None,
          window_frames: int | None = None, time_kernel: str | None = None,
-         time_width: float | None = None, times=None, interval: float | None = None):
+         time_width: float | None = None, times=None, interval: float | None = None,
+         window_start: float | None = None):
     """The time axis the options ask for (one-line refusals of options that do not go
     together).
 
@@ -90,7 +91,10 @@ def axis(*, t_min: float = 0.0, t_max: float | None = None, windows: float | Non
         Fields at ``times`` (START STOP STEP) smoothed by this time kernel of this width.
     interval : float, optional
         The frames' spacing, where known (the first two frames').
+    window_start : float, optional
+        The first window's start (default t_min).
     """
+    start = t_min if window_start is None else window_start
     if t_max is not None and not t_max >= t_min:
         raise ParameterError("t_max", f"{{param}} {t_max:g}: before {{t_min}} {t_min:g}; "
                              "give t_max >= t_min")
@@ -105,9 +109,9 @@ def axis(*, t_min: float = 0.0, t_max: float | None = None, windows: float | Non
         if interval is None:
             raise ParameterError("window_frames", "{param} needs the frames' interval: "
                                  "give {windows} as a length of time instead")
-        return Windows(t_min, window_frames * interval, t_max, frames=int(window_frames))
+        return Windows(start, window_frames * interval, t_max, frames=int(window_frames))
     if windows is not None:
-        return Windows(t_min, float(windows), t_max)
+        return Windows(start, float(windows), t_max)
     if not smoothed:
         return Whole()
     missing = [n for n, v in (("time_kernel", time_kernel), ("time_width", time_width),

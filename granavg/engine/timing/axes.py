@@ -22,6 +22,12 @@ from granavg.errors import ParameterError
 #: Relative slack of frame times against window edges and time steps (their rounding).
 SLACK = 1e-9
 
+#: Two times closer than this fraction of the frames' spacing are the same time: a frame
+#: at t_min or t_max (or a window's edge) is in, whatever the rounding of its time
+#: (a binary dump's 0.48000000000000004 is a text dump's 0.48). One tolerance for every
+#: format and every comparison of a frame's time with a bound.
+TIME_TOLERANCE = 1e-6
+
 
 class Whole:
     """One average of every frame in [t_min, t_max] (the steady state's)."""
@@ -65,7 +71,8 @@ class Windows:
         self.seen = -1                      # the last window a frame fell in
 
     def index(self, t: float) -> int:
-        j = int(math.floor((t - self.start) / self.length + SLACK))
+        j = max(int(math.floor((t - self.start) / self.length + SLACK)), 0)   # (a frame
+        # on the start within its rounding: the first window's)
         if self.end is not None and j > 0 and abs(t - self.end) <= SLACK * self.length \
                 and abs(self.start + j * self.length - t) <= SLACK * self.length:
             j -= 1                           # t_max on an edge closes the last window
