@@ -205,6 +205,18 @@ def _nan_velocity(points, arrays):
     arrays["linVelVec"][5, 0] = np.nan
 
 
+def _moved(points, arrays):
+    """The spheres as a later step of a flowing pile would have them: each moved by a
+    tenth of its radius."""
+    rng = np.random.default_rng(5)
+    points += 0.1 * arrays["radii"][:, None] * rng.standard_normal(points.shape)
+
+
+def _renumbered(points, arrays):
+    """The spheres of another run of the same size: the same ids, in another order."""
+    arrays["id"] = np.random.default_rng(6).permutation(arrays["id"])
+
+
 def _intrs(vtk, step):
     return vtk / f"pile-intrs-{step:08d}.vtk"
 
@@ -227,6 +239,20 @@ def _nan_force(vtk, step):
     return p, (("NaN", "nan"),)
 
 
+def _id_damaged(new):
+    """The fourth interaction's id2 replaced by ``new(doc, old)``."""
+    def damage(vtk, step):
+        p = _intrs(vtk, step)
+        doc = LegacyVtk(p)
+        ids = doc.values(doc.header("SCALARS id2 "), skip=1)
+        spheres = doc.values(doc.header("SCALARS id1 "), skip=1)
+        doc.set_value(ids[3], new([doc.get_value(w) for w in spheres + ids],
+                                  doc.get_value(ids[3])))
+        doc.write()
+        return p, ("id", "body")
+    return damage
+
+
 def _no_pericell(vtk, step):
     first = _steps(vtk)[0]
     p = vtk / f"pile-pericell.{first}.vtu"
@@ -242,8 +268,14 @@ def _no_pericell(vtk, step):
     _no_pericell,
     _normal_long,
     _nan_force,
+    _spheres_edit(_moved, ("different steps",)),
+    _spheres_edit(_renumbered, ("different steps",)),
+    _id_damaged(lambda ids, old: 99999),
+    _id_damaged(lambda ids, old: next(int(i) for i in ids if i not in (old, 0))),
 ], ids=["spheres-cut-mid-array", "radii-array-short", "nan-position", "nan-velocity",
-        "pericell-missing", "contact-normal-not-unit", "nan-contact-force"])
+        "pericell-missing", "contact-normal-not-unit", "nan-contact-force",
+        "spheres-of-another-step", "spheres-of-another-run", "id-not-among-spheres",
+        "id-of-another-sphere"])
 def test_a_damaged_yade_export_is_refused_naming_the_file(yade_pile, yade_clean, tmp_path,
                                                           damage):
     """The second frame's file damaged (pericell-missing: the first frame's pericell file,

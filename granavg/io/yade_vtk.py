@@ -16,7 +16,9 @@ Contacts (optional): ``VTKExporter("out/pile").exportInteractions(ids=REAL,
 what=INTERACTIONS, numLabel=O.iter)`` files, ``out/pile-intrs-<step>.vtk``, with
 :data:`INTERACTIONS` as ``what`` (Yade's own names; ``REAL`` the real interactions'
 ``(i.id1, i.id2)``): converted as in process (:func:`granavg.io.yade.yade_contacts`); a
-body whose id is not among the spheres is a wall. VTKExporter prints 6 significant
+body whose id is not among the spheres is a wall. Each interaction's bodies, as
+VTKExporter writes them, must lie at their spheres' centres and a wall at none
+(:meth:`YadeVtk._centres`). VTKExporter prints 6 significant
 digits (``%g``): forces and normals to 5e-6 of themselves, ids exactly below 10^6.
 ``VTKRecorder``'s own ``intr`` files are refused: they hold the normal force's magnitude
 and the shear force's absolute components, no sign, no normal and no wall contact.
@@ -29,6 +31,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from granavg.engine.gate import Origin
 from granavg.engine.kernels import lookup
@@ -56,6 +59,9 @@ ATOM_ARRAYS = {"radius": ("radii", None), "id": ("id", None), "mass": ("mass", N
                **{f"omega{x}": ("angVelVec", k) for k, x in enumerate("xyz")}}
 #: Ids VTKExporter's %g prints exactly.
 EXACT_IDS = 1e6
+#: How far an interaction's body may lie from its sphere, relative to the coordinates'
+#: size: VTKExporter's %g (5e-6) and VTKRecorder's single precision (6e-8), with room.
+PRINTED = 2e-5
 
 
 def _steps(path) -> list:
@@ -160,14 +166,14 @@ class YadeVtk:
     def __iter__(self):
         for step, path in self.steps:
             atoms = self._atoms(step, path)
-            contacts = None
+            contacts, box = None, self._box(step)
             if self.contact_files is not None:
                 if step not in self.contact_files:
                     raise UserError(f"{path}: step {step} has no interactions file among "
                                     f"{self.contacts}; export the interactions at each "
                                     "step the spheres are recorded")
-                contacts = self._contacts(step, self.contact_files[step], atoms)
-            yield Frame(step, step * self.dt, atoms, contacts, box=self._box(step),
+                contacts = self._contacts(step, self.contact_files[step], atoms, box, path)
+            yield Frame(step, step * self.dt, atoms, contacts, box=box,
                         origin={"atoms": Origin(str(path)), "contacts": Origin(
                             str(self.contact_files[step])) if contacts is not None else None})
 
@@ -191,8 +197,9 @@ class YadeVtk:
                 cols[ours] = component(path, data.point_data, name, k)
         return check_atoms(path, Columns(cols, _Where(step)))
 
-    def _contacts(self, step, path, atoms) -> dict:
-        arrays = read_vtk(path).cell_data
+    def _contacts(self, step, path, atoms, box, spheres) -> dict:
+        data = read_vtk(path)
+        arrays = data.cell_data
         if "forceN" in arrays or "absForceT" in arrays:
             raise UserError(f"{path}: VTKRecorder's interactions hold the normal force's "
                             "magnitude and the shear force's absolute components (no sign, "
@@ -215,6 +222,9 @@ class YadeVtk:
                             "prints inexactly; give the contacts another way (in process: "
                             "granavg.io.yade)")
         (r1, in1), (r2, in2) = (lookup(atoms["id"], i) for i in ids)
+        if len(data.lines) == len(ids[0]):
+            ends = [data.points[data.lines[:, k]] for k in (0, 1)]
+            self._centres(path, spheres, step, box, atoms, ids, ends, ((r1, in1), (r2, in2)))
         radius = [np.where(found, atoms["radius"][np.where(found, rows, 0)], 0.0)
                   for rows, found in ((r1, in1), (r2, in2))]
         columns, dropped = yade_contacts(*ids, arrays["normal"], arrays["penetrationDepth"],
@@ -224,6 +234,46 @@ class YadeVtk:
             self.dropped[k] += n
         self._walls(path, step, np.concatenate([ids[0][~in1], ids[1][~in2]]))
         return check_contacts(path, Columns(columns, _Where(step)))
+
+    def _centres(self, path, spheres, step, box, atoms, ids, ends, rows) -> None:
+        """Refuse interactions whose bodies are not where the spheres file has them.
+
+        VTKExporter writes each interaction's two bodies' positions (the second shifted
+        by its periodic image); they must be the spheres' centres (to :data:`PRINTED`,
+        up to a period of the cell), and a body taken as a wall (its id not among the
+        spheres) must not sit at a sphere's centre. Else the spheres and interactions
+        are of different steps or runs, or an id is damaged.
+        """
+        centres = np.column_stack([atoms[x] for x in "xyz"])
+        lo = np.zeros(3) if box is None else np.asarray(box.lo)
+        period = None if box is None else np.subtract(box.hi, box.lo)
+        tree = cKDTree(_wrapped(centres - lo, period), boxsize=period)
+        for end, (p, (row, found)) in enumerate(zip(ends, rows)):
+            tol = PRINTED * (np.abs(p).max(axis=1) + np.abs(centres).max())
+            off = p - centres[np.where(found, row, 0)]
+            if period is not None:
+                off -= period * np.round(off / period)
+            off = np.abs(off).max(axis=1)
+            bad = np.flatnonzero(found & (off > tol))
+            if len(bad):
+                k = bad[0]
+                raise UserError(
+                    f"{path}: interaction {k} (step {step}) puts body {int(ids[end][k])} "
+                    f"at ({', '.join(f'{v:g}' for v in p[k])}), {off[k]:.3g} m from its "
+                    f"centre in {spheres}: the spheres and the interactions are of "
+                    "different steps or runs, or the id is damaged; give the files "
+                    "VTKRecorder and VTKExporter wrote at one step of one run")
+            walls = np.flatnonzero(~found)
+            dist, near = tree.query(_wrapped(p[walls] - lo, period), p=np.inf)
+            hit = np.flatnonzero(dist <= tol[walls])
+            if len(hit):
+                k = walls[hit[0]]
+                raise UserError(
+                    f"{path}: interaction {k} (step {step}) names body {int(ids[end][k])}, "
+                    "not among the spheres, at the centre of sphere "
+                    f"{int(atoms['id'][near[hit[0]]])} of {spheres}: the id is damaged "
+                    "(a wall does not sit at a sphere's centre); export the interactions "
+                    "again")
 
     def _walls(self, path, step, ids) -> None:
         """Say which bodies the interactions name that are not among the spheres (taken
@@ -241,6 +291,14 @@ class YadeVtk:
                         "was added, the file is damaged", path, step, new[0],
                         " ".join(map(str, sorted(self.walls))))
             self.walls |= found
+
+
+def _wrapped(x, period):
+    """Coordinates from the cell's corner into [0, period) (unchanged: no period)."""
+    if period is None:
+        return x
+    x = np.mod(x, period)
+    return np.where(x >= period, 0.0, x)
 
 
 def _claims(path) -> bool:
