@@ -3,8 +3,10 @@
 not integers, exactly one ``granavg:`` prefix on every line (from this process, dask's
 workers, Python's warnings), and progress as log lines where stderr is no terminal."""
 
+import json
 import logging
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -178,6 +180,34 @@ def test_dask_workers_say_their_lines_with_the_prefix(tmp_path):
     proc = run_cli("-v", *args, "--out", tmp_path / "b.csv", env=env)
     assert proc.returncode == 0 and "Scheduler" in proc.stderr, proc.stderr
     prefixed_once(proc.stderr)
+
+
+@pytest.mark.slow
+def test_the_rows_dropped_are_counted_over_every_worker(tmp_path):
+    """The count of contact rows left out (not touching) that the log line and the
+    sidecar give is the serial one on a local cluster: the workers' counts summed, not
+    the first frames' only."""
+    pytest.importorskip("distributed")
+    import gzip
+    for name in ("atoms", "contacts"):      # the 3 frames 8 times (24), times from --dt
+        text = gzip.decompress(getattr(pile_3d, name).read_bytes()).decode()
+        frames = re.sub(r"ITEM: (UNITS|TIME)\n\S+\n", "", text).split("ITEM: TIMESTEP\n")[1:]
+        (tmp_path / f"{name}.dump").write_text("".join(
+            f"ITEM: TIMESTEP\n{int(f.split(chr(10), 1)[0]) + 1500 * k}\n"
+            f"{f.split(chr(10), 1)[1]}" for k in range(8) for f in frames))
+    args = ["average", "--atoms", tmp_path / "atoms.dump", "--contacts",
+            tmp_path / "contacts.dump", "--contact-columns", MAP3, "--slabs", "z", "--bins", 6,
+            "--dt", 1e-5, "--units", "si", "--no-progress"]
+    said = {}
+    for how, extra, env in (("serial", [], None), ("workers", ["--workers", 2], dict(
+            os.environ, GRANAVG_COST_MODEL="off"))):
+        out = tmp_path / f"{how}.csv"
+        proc = run_cli(*args, *extra, "--out", out, env=env)
+        assert proc.returncode == 0, proc.stderr
+        line = [ln for ln in proc.stderr.splitlines() if "were dropped" in ln]
+        said[how] = (line, json.loads(Path(f"{out}.json").read_text())["dropped"])
+    assert said["serial"][1]["contacts_not_touching"] > 0
+    assert said["workers"] == said["serial"]
 
 
 # -- 4. progress where stderr is no terminal -----------------------------------------------------

@@ -58,7 +58,7 @@ class Frame:
     origin: dict | None = None
 
 
-class _Rows:
+class Rows:
     """One table of a dump frame as a frame of the gate (:mod:`granavg.engine.gate`):
     its messages name the file and line (or row, where ``line`` is None)."""
 
@@ -73,7 +73,7 @@ def check_integers(path, frame, cols, names):
     """Refuse a value that should be an integer (an id, a type, a wall code) and is not,
     and an id too large to be read exactly (:func:`granavg.engine.gate.integers`), read
     at ``frame.line`` of ``path``."""
-    gate.integers(_Rows(path, frame, "contacts", cols), "contacts", cols, names)
+    gate.integers(Rows(path, frame, "contacts", cols), "contacts", cols, names)
 
 
 def check_atoms(path, frame) -> dict:
@@ -81,14 +81,14 @@ def check_atoms(path, frame) -> dict:
     :func:`granavg.engine.gate.atom_values`: messages name file and line). ``frame`` has
     ``as_dict()``, ``line`` (None: rows are not lines) and ``timestep``."""
     cols = frame.as_dict()
-    gate.atom_values(_Rows(path, frame, "atoms", cols))
+    gate.atom_values(Rows(path, frame, "atoms", cols))
     return cols
 
 
 def check_contacts(path, frame) -> dict:
     """The frame's contact columns, judged where they are read (the gate's checks of
     values, :func:`granavg.engine.gate.contact_values`); normals returned normalised."""
-    rows = _Rows(path, frame, "contacts", frame.as_dict())
+    rows = Rows(path, frame, "contacts", frame.as_dict())
     gate.contact_values(rows, 3 if "nz" in rows.contacts else 2, normalise=True)
     return rows.contacts
 

@@ -52,7 +52,7 @@ from granavg.io.contacts import contact_columns, contact_couples
 from granavg.io.dumpfile import open_text
 from granavg.io.formats import Format
 from granavg.io.frames import (CONSISTENCY, Columns, Frame, PairedDumps, check_atoms,
-                               _Rows, check_contacts, check_integers, row_at)
+                               Rows, check_contacts, check_integers, row_at)
 from granavg.io.reader import DumpReader, first_file
 from granavg.io.dump_units import choose_units
 from granavg.engine import gate
@@ -467,7 +467,7 @@ class LammpsDumps(PairedDumps):
                 if scaled[k]:
                     lo, hi = fa.box[k]
                     col[axis] = lo + col[axis] * (hi - lo)
-        gate.inside(_Rows(fa.path, fa, "atoms", col), box, self.dim)      # before folding
+        gate.inside(Rows(fa.path, fa, "atoms", col), box, self.dim)      # before folding
         col.update(zip(axes, box.wrap([col[a] for a in axes], self.dim)))  # periodic axes
         if self.amap["radius"] == "diameter":
             col["radius"] = 0.5 * col["radius"]

@@ -24,11 +24,7 @@ log = logging.getLogger(__name__)
 def average_dumps(atoms, contacts=None, *, progress=None, **options) -> Fields:
     """Fields of anyone's dumps (no run directory), in their own units
     (:func:`dump_averager`'s options; ``progress``: a progress bar, None on a terminal)."""
-    avg, frames = dump_averager(atoms, contacts, **options)
-    profiles = avg.run(progress)
-    if any(frames.dropped.values()):
-        profiles.meta["dropped"] = dict(frames.dropped)
-    return profiles
+    return dump_averager(atoms, contacts, **options)[0].run(progress)
 
 
 def dump_averager(atoms, contacts=None, *, cells=None, fmt=None, density=None,

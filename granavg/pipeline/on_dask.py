@@ -353,9 +353,8 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
         base.merge(state)
         for k, v in rows.items():
             dropped[k] = dropped.get(k, 0) + v
+    frames.dropped = dropped                  # the workers' counts, not the head's
     profiles = base.conclude()
-    if any(dropped.values()):
-        profiles.meta["dropped"] = dropped
     profiles.meta["dask"] = {"chunks": [list(w) for w in windows], "workers": workers_used,
                              "listed_by": listed_by,
                              "peak_rss_bytes_per_chunk": [int(r) for _, r, _ in results]}
