@@ -57,6 +57,19 @@ class Frame:
     box: object | None = None
     origin: dict | None = None
 
+    def to_pandas(self, table: str = "atoms"):
+        """The ``atoms`` or ``contacts`` columns as a :class:`pandas.DataFrame` (one row
+        per atom or contact)."""
+        import pandas as pd
+
+        if table not in ("atoms", "contacts"):
+            raise ParameterError("table", f"{{param}} {table!r}: give 'atoms' or 'contacts'")
+        cols = getattr(self, table)
+        if cols is None:
+            raise UserError(f"time step {self.timestep}: the frame has no contacts (give "
+                            "the contact dump)")
+        return pd.DataFrame({k: np.asarray(v) for k, v in cols.items()})
+
 
 class Rows:
     """One table of a dump frame as a frame of the gate (:mod:`granavg.engine.gate`):
@@ -205,6 +218,12 @@ class PairedDumps:
         if fc is not None:
             out["contacts"] = Origin(str(_file(fc, self.contacts)))
         return out
+
+    def headers(self) -> list:
+        """(timestep, time) of every frame of the atom dump, its rows not parsed."""
+        from granavg.io.reader import DumpReader
+        return [(h.timestep, self.time(h)) for h in
+                DumpReader(self.atoms.path, [], headers_only=True)]
 
     def time(self, frame) -> float:
         """The frame's time: ``ITEM: TIME``, else timestep x ``dt``."""

@@ -14,7 +14,8 @@ from granavg.engine.combine import combine_runs
 from granavg.engine.fields import Fields
 from granavg.engine.stationarity import ensemble_stationarity
 from granavg.errors import ParameterError, UserError
-from granavg.io import validate
+from granavg.io import formats, validate
+from granavg.io.trajectory import Trajectory
 from granavg.pipeline.on_dask import average_run_dask
 from granavg.pipeline.runs import average_run
 
@@ -36,11 +37,12 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
 
     Parameters
     ----------
-    source : path, list of paths or iterable of frames, optional
+    source : path, list of paths, Trajectory or iterable of frames, optional
         A run directory of ``granavg simulate`` (manifest and dumps); several: the
         realisations of one scene, combined into an ensemble with between-run errors; a
         dump file, ``dump.*`` series or glob (the per-atom dump; ``contacts`` the
-        per-contact one); or frames in memory (objects with ``timestep``, ``time``,
+        per-contact one); frames of files opened by :func:`granavg.open`, or a selection
+        of them (``frames[::10]``, ``frames.between(t0, t1)``); or frames in memory (objects with ``timestep``, ``time``,
         ``atoms`` and ``contacts``: a running LAMMPS, another engine in this process).
         None: give ``atoms``.
     cells : Cells or dict, optional
@@ -130,6 +132,9 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
     if workers is not None and workers < 1:
         raise ParameterError("workers", f"{{param}} {workers}: must be >= 1 (leave it out to "
                              "average in this process)")
+    if isinstance(source, Trajectory):
+        return _average_trajectory(source, workers or scheduler, progress, cells, common,
+                                   options)
     if _frames(source):
         from granavg.engine.api import average as average_frames
         from granavg.engine.cells.base import Cells
@@ -206,6 +211,21 @@ def average_run_dirs(run_dirs, atoms, contacts, workers, scheduler, progress, op
         return average_runs(run_dirs, average_run_dask, workers=workers or 2,
                             scheduler=scheduler, **options)
     return average_runs(run_dirs, average_run, progress=progress, **options)
+
+
+def _average_trajectory(frames, on_dask, progress, cells, common, options) -> Fields:
+    """Fields of a Trajectory's selected frames (:func:`granavg.open`): the format's
+    options are the Trajectory's; the averaging's are given here."""
+    given = [k for k, v in options.items() if v not in (None, (), [])
+             and k in formats.choose(frames.atoms, frames.fmt).options + ("fmt",)]
+    if given:
+        raise ParameterError(given[0], "{param} belongs to the files: give it to "
+                             "granavg.open, which made these frames")
+    if on_dask:
+        raise ParameterError("workers", "{param}: a selection of frames averages in this "
+                             "process; leave out {param}, or give the files")
+    from granavg.pipeline.dumps import average_dumps
+    return average_dumps(frames, None, progress=progress, cells=cells, **common, **options)
 
 
 def _frames(source) -> bool:

@@ -17,6 +17,7 @@ from granavg.errors import ParameterError, named
 from granavg.io import formats, validate
 from granavg.pipeline.description import WithBodyForces
 from granavg.io.prefetch import Prefetched
+from granavg.io.trajectory import Trajectory
 
 log = logging.getLogger(__name__)
 
@@ -37,7 +38,9 @@ def dump_averager(atoms, contacts=None, *, cells=None, fmt=None, density=None,
     Parameters
     ----------
     atoms, contacts : path
-        Per-atom file; per-contact file or None.
+        Per-atom file; per-contact file or None. ``atoms`` may be a
+        :class:`~granavg.io.trajectory.Trajectory` (:func:`granavg.open`): its selected
+        frames, ``contacts`` None.
     cells : Cells or dict
         The cells (:mod:`granavg.cells`), or options of the cells
         (:func:`granavg.engine.cells.from_options`: ``thickness`` in 2D; ``bins``,
@@ -82,7 +85,8 @@ def dump_averager(atoms, contacts=None, *, cells=None, fmt=None, density=None,
     if source_options.get("contact_map") and contacts is None:
         raise ParameterError("contact_map", "{param} maps the columns of a contact dump: "
                              "give it ({contacts}), or leave the map out")
-    frames = formats.open_frames(atoms, contacts, fmt=fmt, **source_options)
+    frames = atoms.source(checked=False) if isinstance(atoms, Trajectory) else \
+        formats.open_frames(atoms, contacts, fmt=fmt, **source_options)
     if scan_early and t_min and hasattr(frames, "skip_before"):
         frames.skip_before(t_min)
     dim = getattr(frames, "dim", 2)
@@ -109,8 +113,8 @@ def dump_averager(atoms, contacts=None, *, cells=None, fmt=None, density=None,
     avg = averager(Prefetched(frames), cells_of_options, rho_p=density, quantities=quantities,
                    t_min=t_min, block_time=block_time, units=frames.units,
                    branch=branch, sectors=sectors, **(time or {}))
-    avg.meta.update({"files": {"atoms": str(atoms), "contacts": str(contacts) if contacts
-                               else None},
+    avg.meta.update({"files": getattr(frames, "files", None) or {
+                         "atoms": str(atoms), "contacts": str(contacts) if contacts else None},
                      "inputs": {"format": frames.format_name,
                                 **({"thickness": getattr(built, "h", None)} if dim == 2
                                    else {}),
