@@ -31,20 +31,26 @@ DESCRIPTION = ("granavg turns discrete-element (DEM) simulations of granular mat
 
 #: The options whose flag is not the library's parameter name with dashes
 #: (:func:`flag`): how the command line names them in messages.
-FLAGS = {"rho_p": "--density", "atom_map": "--atom-columns", "contact_map":
-         "--contact-columns", "fmt": "--format", "wall_keywords": "--liggghts-walls", "overrides": "--set", "run_dirs":
+FLAGS = {"rho_p": "--density", "fmt": "--format", "overrides": "--set", "run_dirs":
          "the run directory", "progress": "--no-progress"}
 
 
 def flag(name: str) -> str:
-    """The command line's name of a library parameter: ``t_min`` -> ``--t-min``."""
-    return FLAGS.get(name, "--" + name.replace("_", "-"))
+    """The command line's name of a library parameter: ``t_min`` -> ``--t-min``; a
+    format's option as the format declares it (``contact_map`` -> ``--contact-columns``)."""
+    if name in FLAGS:
+        return FLAGS[name]
+    from granavg.pipeline.commands import format_options
+
+    spec = format_options().get(name)
+    return spec.cli_flag if spec is not None else "--" + name.replace("_", "-")
 
 
 #: Where the help names the quantities and the kernels: filled in from their registries
 #: when help is shown (they are not imported for anything else the command line does).
-CATALOGUE, KERNELS, WIDTHS, DEFAULT_KERNEL, TIME_KERNELS = (
-    "<quantities>", "<kernels>", "<widths>", "<default kernel>", "<time kernels>")
+CATALOGUE, KERNELS, WIDTHS, DEFAULT_KERNEL, TIME_KERNELS, FORMATS = (
+    "<quantities>", "<kernels>", "<widths>", "<default kernel>", "<time kernels>",
+    "<formats>")
 
 
 class _Formatter(argparse.HelpFormatter):
@@ -243,53 +249,23 @@ def _frames_and_cells(avg):
                      "any LAMMPS dump without a run directory")
     avg.add_argument("--contacts", help="per-contact dump: granavg's, the deck's raw one, "
                      "or a dump local of compute pair/local + property/local")
-    plain = avg.add_argument_group("plain LAMMPS dumps (no run directory; every number in "
-                                   "the dump's own units)")
-    plain.add_argument("--format", help="input format of --atoms/--contacts (lammps, "
-                       "liggghts, vtk, yade-vtk, csv; "
-                       "default: the one the file looks like)")
-    plain.add_argument("--units", metavar="STYLE", help="LAMMPS units style of the dumps "
-                       "(si, lj, real, metal, cgs, electron, micro, nano) when they have no "
-                       "ITEM: UNITS header (dump_modify units yes); only labels the outputs")
-    plain.add_argument("--dim", type=int, choices=[2, 3], help="2 (disks) or 3 "
-                       "(spheres); default from the dump: 3 where the atoms' z differ")
+    plain = avg.add_argument_group("anyone's files: LAMMPS dumps and the formats of "
+                                   "--format (no run directory; every number in the "
+                                   "files' own units)")
+    from granavg.pipeline.commands import cell_options, format_options   # the registries
+
+    plain.add_argument("--format", help="input format of --atoms/--contacts (" + FORMATS +
+                       "; default: the one the file looks like)")
     plain.add_argument("--density", type=_finite, metavar="RHO", help="material density "
                        "(masses rho pi h a^2 for disks, rho 4/3 pi a^3 for spheres); or the "
                        "dump's mass column")
-    plain.add_argument("--dt", type=_finite, help="time step, for dumps without ITEM: TIME")
     plain.add_argument("--gravity", type=_finite, nargs="+", metavar="G",
                        help="gravitational acceleration GX GY (3D: GX GY GZ): a body force "
                        "m g on every particle")
-    plain.add_argument("--wall-types", type=int, nargs="+", metavar="T", default=[],
-                       help="atom types that are walls: left out of the packing, their "
-                       "contacts with disks kept")
-    plain.add_argument("--inertia", choices=["disk", "sphere"], default=None,
-                       help="how 2D particles turn (their moment of inertia for the spin "
-                       "fields): disk, m a^2/2, or sphere, 2/5 m a^2 (LAMMPS' fix "
-                       "nve/sphere without disc); default: spheres where the mass column "
-                       "scales as a^3, else disks; 3D: spheres")
-    plain.add_argument("--atom-columns", metavar="MAP", help="our name=dump column, e.g. "
-                       "omegaz=c_spin[3],radius=c_r (others by name or alias)")
-    plain.add_argument("--contact-columns", metavar="MAP", help="our name=dump column "
-                       "of each contact column, for 2D pair/local + property/local e.g. "
-                       "id1=c_pp[1],id2=c_pp[2],dist=c_pl[1],dx=c_pl[2],dy=c_pl[3],"
-                       "force=c_pl[4],ftx=c_pl[5],fty=c_pl[6] (3D: dz and ftz too). "
-                       "The contact couple as mz (3D: mx my mz) or as pair granular's "
-                       "rolling force frx fry [frz] (p5 p6 p7) and twisting torque twist "
-                       "(p9); without them the couples are taken as zero")
-    plain.add_argument("--liggghts", metavar="KEYWORDS", help="--contacts is LIGGGHTS' "
-                       "dump local of compute pair/gran/local: the keywords of its compute "
-                       "line, any order, e.g. 'pos id force delta' ('default': none given)")
-    plain.add_argument("--wall-contacts", metavar="DUMP", help="LIGGGHTS' dump local of "
-                       "compute wall/gran/local (mesh walls' contacts), at the same steps")
-    plain.add_argument("--liggghts-walls", metavar="KEYWORDS", help="the keywords of the "
-                       "compute wall/gran/local line (default: those of --liggghts)")
-    from granavg.pipeline.commands import cell_options     # the cells' registry
-
-    for spec in cell_options():
+    for spec in [*format_options().values(), *cell_options()]:
         (avg if spec.runs else plain).add_argument(
-            "--" + spec.name.replace("_", "-"), type={"float": _finite, "int": int,
-                                                       "str": str}[spec.kind],
+            spec.cli_flag, dest=spec.name, type={"float": _finite, "int": int, "str": str,
+                                                 "map": str}[spec.kind],
             nargs=spec.nargs, metavar=spec.metavar, choices=spec.choices,
             help=named(spec.help))
     avg.add_argument("--t-min", type=_finite, help="average frames with t >= T s (default: "

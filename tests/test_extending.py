@@ -10,9 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from granavg.engine import cells, quantities, smoothing
+from granavg.engine import cells, quantities, smoothing, timing
 from granavg.engine.smoothing.base import Kernel
 from granavg.engine.unit_system import UnitSystem
+from granavg.io import formats
 
 PAGE = Path(__file__).resolve().parent.parent / "docs" / "extending.md"
 
@@ -28,7 +29,9 @@ def recipe():
     finally:
         quantities.unregister("momentum_density")
         smoothing.KERNELS.unregister("biweight")
+        timing.TIME_KERNELS.unregister("triweight")
         cells.CELLS.unregister("cubes")
+        formats.FORMATS.unregister("csv-scaled")
 
 
 def test_the_recipe_averages_with_a_quantity_a_kernel_and_a_geometry_of_its_own(recipe):
@@ -68,3 +71,14 @@ def test_a_plug_in_that_breaks_its_contract_is_refused():
         quantities.register(quantities.Quantity("y", ("vol",), "scalar", None,
                                                 unit="{furlong}", help="y"))
     assert "cone" not in smoothing.registry() and "x" not in quantities.QUANTITIES
+
+
+def test_the_recipe_s_format_and_time_kernel_are_used(recipe):
+    """The format's option reached it: two disks of radius 5 mm in slabs 50 mm x 10 mm
+    (their extent in y) give nu = pi 25 / 500 each, only with the lengths in mm; the
+    time kernel gave fields in time."""
+    in_mm = recipe["in_mm"]
+    assert np.allclose(in_mm.values["nu"], math.pi * 25.0 / 500.0, rtol=1e-12)
+    assert in_mm.meta["inputs"]["length_unit"] == 1e-3
+    assert recipe["in_time"].dims == ("time", "z")
+    assert recipe["in_time"].meta["time"]["kernel"] == "triweight"

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from granavg.errors import UserError
-from granavg.io.formats import Format
+from granavg.io.formats import UNITS, Format
 from granavg.io.frames import Columns, Frame, check_atoms, check_contacts
 from granavg.io.dump_units import choose_units
 
@@ -124,4 +124,4 @@ class _Where:
 
 FORMAT = Format("csv", "CSV tables: atoms (step, time, x, y, radius, ...) and contacts "
                 "(step and granavg's contact columns)",
-                lambda path: path.name.endswith((".csv", ".csv.gz")), CsvFrames, ("units",))
+                lambda path: path.name.endswith((".csv", ".csv.gz")), CsvFrames, (UNITS,))

@@ -50,7 +50,8 @@ from granavg.io import binary_dump, yaml_dump
 from granavg.io.box import Box
 from granavg.io.contacts import contact_columns, contact_couples
 from granavg.io.dumpfile import open_text
-from granavg.io.formats import Format
+from granavg.io.formats import (ATOM_MAP, CONTACT_MAP, DIM, DT, INERTIA, UNITS,
+                                 WALL_TYPES, Format)
 from granavg.io.frames import (CONSISTENCY, Columns, Frame, PairedDumps, check_atoms,
                                Rows, check_contacts, check_integers, row_at)
 from granavg.io.reader import DumpReader, first_file
@@ -93,14 +94,8 @@ def rolling_columns(dim: int) -> tuple:
 
 
 def parse_map(text) -> dict:
-    """``a=b,c=d`` -> {a: b, c: d}; one-line refusal for a malformed map."""
-    out = {}
-    for part in filter(None, (p.strip() for p in (text or "").split(","))):
-        key, sep, value = part.partition("=")
-        if not sep or not key.strip() or not value.strip():
-            raise UserError(f"column map {part!r}: expected NAME=COLUMN, e.g. id1=c_pp[1]")
-        out[key.strip()] = value.strip()
-    return out
+    """``a=b,c=d`` -> {a: b, c: d} (None: {}); one-line refusal for a malformed map."""
+    return ATOM_MAP.parse(text or "")
 
 
 def dump_header(path):
@@ -622,5 +617,5 @@ def _claims(path) -> bool:
 FORMAT = Format("lammps", "LAMMPS dumps, text, binary or yaml: dump custom (atoms) and dump "
                 "local (contacts: pair/local + property/local, or granavg's own columns)",
                 _claims, LammpsDumps,
-                ("atom_map", "contact_map", "wall_types", "dt", "units", "dim", "steps",
-                 "inertia", "named_steps"))
+                (ATOM_MAP, CONTACT_MAP, WALL_TYPES, DT, UNITS, DIM, INERTIA, "steps",
+                 "named_steps"))

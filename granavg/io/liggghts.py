@@ -41,7 +41,8 @@ from granavg.errors import ParameterError, UserError, literal
 from granavg.engine.kernels import lookup
 from granavg.io.box import Box
 from granavg.io.contacts import contact_columns
-from granavg.io.formats import Format
+from granavg.engine.plugins import Option
+from granavg.io.formats import ATOM_MAP, DIM, DT, INERTIA, UNITS, Format
 from granavg.io.frames import CONSISTENCY, check_integers
 from granavg.io.lammps_dumps import LammpsDumps, dump_header
 from granavg.io.reader import DumpReader
@@ -350,9 +351,19 @@ class LiggghtsDumps(LammpsDumps):
         return contact_columns(id1, id2, d, dist, fn, ft, zeros, wall2, r1, r2)
 
 
+#: LIGGGHTS' own options.
+PAIR_KEYWORDS = Option("liggghts", "{contacts} is LIGGGHTS' dump local of compute "
+                  "pair/gran/local: the keywords of its compute line, any order, e.g. 'pos "
+                  "id force delta' ('default': none given)", "str", metavar="KEYWORDS")
+WALL_CONTACTS = Option("wall_contacts", "LIGGGHTS' dump local of compute wall/gran/local "
+                       "(mesh walls' contacts), at the same steps", "str", metavar="DUMP")
+WALL_KEYWORDS = Option("wall_keywords", "the keywords of the compute wall/gran/local line "
+                       "(default: those of {liggghts})", "str", metavar="KEYWORDS",
+                       cli_name="liggghts-walls")
+
 FORMAT = Format("liggghts", "LIGGGHTS: dump custom (atoms) and dump local of compute "
                 "pair/gran/local (contacts, named by its keywords) and wall/gran/local "
                 "(mesh walls)", lambda path: False, LiggghtsDumps,
-                ("atom_map", "dt", "units", "dim", "steps", "inertia",
-                 "named_steps", "liggghts", "wall_contacts", "wall_keywords"),
+                (ATOM_MAP, DT, UNITS, DIM, INERTIA, PAIR_KEYWORDS, WALL_CONTACTS, WALL_KEYWORDS,
+                 "steps", "named_steps"),
                 ("liggghts", "wall_contacts", "wall_keywords"))

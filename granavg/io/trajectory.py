@@ -194,7 +194,7 @@ class Selected:
         steps = trajectory.timesteps
         self.wanted = set(steps.tolist())
         options = dict(trajectory.options)
-        if len(steps) and "steps" in formats.choose(trajectory.atoms, trajectory.fmt).options:
+        if len(steps) and "steps" in formats.choose(trajectory.atoms, trajectory.fmt).accepts:
             options["steps"] = (int(steps.min()), int(steps.max()))
         self.inner = formats.open_frames(trajectory.atoms, trajectory.contacts,
                                          fmt=trajectory.fmt, **options)

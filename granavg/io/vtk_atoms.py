@@ -23,7 +23,7 @@ from granavg.engine.gate import Origin
 from granavg.engine.unit_system import SI
 from granavg.errors import ParameterError, UserError, literal
 from granavg.io.dump_units import choose_units
-from granavg.io.formats import Format
+from granavg.io.formats import DT, UNITS, Format
 from granavg.io.frames import Columns, Frame, check_atoms
 from granavg.io.reader import numbered_series
 from granavg.io.vtk_read import component, is_vtk, read_vtk
@@ -142,4 +142,4 @@ def _claims(path) -> bool:
 
 FORMAT = Format("vtk", "VTK particle files, one per frame (LIGGGHTS' dump custom/vtk, "
                 "legacy or XML): kinematic fields only", _claims, VtkAtoms,
-                ("dt", "units", "steps", "named_steps"))
+                (DT, UNITS, "steps", "named_steps"))

@@ -31,14 +31,13 @@ import re
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from granavg.engine.gate import Origin
 from granavg.engine.kernels import lookup
 from granavg.engine.unit_system import SI
 from granavg.errors import ParameterError, UserError, literal
 from granavg.io.box import Box
-from granavg.io.formats import Format
+from granavg.io.formats import DT, Format
 from granavg.io.frames import Columns, Frame, check_atoms, check_contacts
 from granavg.io.reader import numbered_series
 from granavg.io.vtk_read import component, is_vtk, read_vtk
@@ -244,6 +243,8 @@ class YadeVtk:
         spheres) must not sit at a sphere's centre. Else the spheres and interactions
         are of different steps or runs, or an id is damaged.
         """
+        from scipy.spatial import cKDTree
+
         centres = np.column_stack([atoms[x] for x in "xyz"])
         lo = np.zeros(3) if box is None else np.asarray(box.lo)
         period = None if box is None else np.subtract(box.hi, box.lo)
@@ -313,4 +314,4 @@ def _claims(path) -> bool:
 
 
 FORMAT = Format("yade-vtk", "Yade's VTK output: VTKRecorder's spheres files (atoms), "
-                "VTKExporter's interactions files (contacts)", _claims, YadeVtk, ("dt",))
+                "VTKExporter's interactions files (contacts)", _claims, YadeVtk, (DT,))

@@ -21,9 +21,15 @@ from granavg.pipeline.runs import average_run
 
 log = logging.getLogger(__name__)
 
-#: Options of anyone's dumps that a run directory's manifest says instead.
-DUMP_OPTIONS = ("density", "gravity", "fmt", "atom_map", "contact_map", "wall_types", "dt",
-                "units", "dim", "inertia", "liggghts", "wall_contacts", "wall_keywords")
+#: Options of anyone's files that are not a format's: a run directory's manifest says
+#: them instead (with the formats' own options, :func:`dump_options`).
+AVERAGING_OF_FILES = ("density", "gravity", "fmt")
+
+
+def dump_options() -> tuple:
+    """The options of anyone's files: :data:`AVERAGING_OF_FILES` and every format's
+    (:func:`granavg.io.formats.options`)."""
+    return AVERAGING_OF_FILES + tuple(formats.options())
 
 
 def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=None,
@@ -89,9 +95,11 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
         Called with the cells before any frame is read (that an output can hold them);
         raises to refuse.
     **options
-        Options of anyone's dumps: ``density`` (material density; or a mass column),
-        ``gravity`` (a body force m g), ``contact_map``, ``atom_map`` (our name -> dump
-        column), ``wall_types``, ``dt``, ``units``, ``dim``, ``inertia``, ``fmt``.
+        Options of anyone's files: ``density`` (material density; or a mass column),
+        ``gravity`` (a body force m g), ``fmt``, and the format's own
+        (:func:`granavg.io.formats.options`: ``contact_map``, ``atom_map`` (our name ->
+        dump column), ``wall_types``, ``dt``, ``units``, ``dim``, ``inertia``,
+        ``liggghts``, ...).
 
     Returns
     -------
@@ -113,7 +121,7 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
     (('z',), 'Pa')
     >>> fields.to_xarray()["sigma_zz"].sel(z=0.011, method="nearest")   # doctest: +SKIP
     """
-    unknown = sorted(set(options) - set(DUMP_OPTIONS))
+    unknown = sorted(set(options) - set(dump_options()))
     if unknown:
         raise ParameterError(unknown[0], "{param}: not an option of granavg.average")
     # the engine's axes beyond the cells: time, and the species of a mixture
@@ -151,7 +159,7 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
     runs = [source] if isinstance(source, (str, os.PathLike)) and Path(source).is_dir() \
         else list(source) if isinstance(source, (list, tuple)) else []
     if runs:
-        given = [k for k in DUMP_OPTIONS if options.get(k) not in (None, (), [])]
+        given = [k for k in dump_options() if options.get(k) not in (None, (), [])]
         if given:
             raise ParameterError(given[0], "{param} is for plain dumps; a run directory's "
                                  "manifest already says it (drop the option or the run "
@@ -217,7 +225,7 @@ def _average_trajectory(frames, on_dask, progress, cells, common, options) -> Fi
     """Fields of a Trajectory's selected frames (:func:`granavg.open`): the format's
     options are the Trajectory's; the averaging's are given here."""
     given = [k for k, v in options.items() if v not in (None, (), [])
-             and k in formats.choose(frames.atoms, frames.fmt).options + ("fmt",)]
+             and k in formats.choose(frames.atoms, frames.fmt).accepts + ("fmt",)]
     if given:
         raise ParameterError(given[0], "{param} belongs to the files: give it to "
                              "granavg.open, which made these frames")

@@ -13,11 +13,17 @@ from granavg.errors import UserError, literal, message, named
 
 log = logging.getLogger("granavg")
 
-#: Options of the frames that only plain dumps take (a run directory's manifest says
-#: them); and every cells option that does not declare it builds a run's cells too.
-PLAIN_ONLY = ("density", "dt", "wall_types", "atom_columns", "contact_columns", "units",
-              "format", "gravity", "dim", "inertia", "liggghts", "wall_contacts",
-              "liggghts_walls")
+#: Options of the frames that only anyone's files take (a run directory's manifest says
+#: them), beside the formats' own (:func:`granavg.io.formats.options`); and every cells
+#: option that does not declare it builds a run's cells too.
+PLAIN_ONLY = ("density", "format", "gravity")
+
+
+def format_options() -> dict:
+    """The formats' options (:func:`granavg.io.formats.options`), by name."""
+    from granavg.io import formats
+
+    return formats.options()
 
 
 def cell_options() -> list:
@@ -30,14 +36,15 @@ def cell_options() -> list:
 
 def catalogues() -> dict:
     """The registries in words, for the command line's help: its placeholders
-    ``<quantities>``, ``<kernels>``, ``<widths>``, ``<default kernel>`` and ``<time
-    kernels>``."""
+    ``<quantities>``, ``<kernels>``, ``<widths>``, ``<default kernel>``, ``<time
+    kernels>`` and ``<formats>``."""
     from granavg.engine import smoothing, timing
     from granavg.engine.quantities import catalogue
+    from granavg.io import formats
 
     return {"<quantities>": catalogue(), "<kernels>": smoothing.catalogue(),
             "<widths>": smoothing.widths(), "<default kernel>": smoothing.DEFAULT,
-            "<time kernels>": timing.catalogue()}
+            "<time kernels>": timing.catalogue(), "<formats>": formats.catalogue()}
 
 
 def time_options(o) -> dict:
@@ -72,11 +79,10 @@ def simulate(o) -> str:
 def averaging(o, **extra) -> dict:
     """The options of the frames, cells and errors (average, scales) for the pipeline,
     with ``extra``; plain dumps' options refused beside a run directory."""
-    from granavg.io.lammps_dumps import parse_map
     from granavg.errors import ParameterError
 
-    specs = cell_options()
-    plain = [*PLAIN_ONLY, *(s.name for s in specs if not s.runs)]
+    specs, of_formats = cell_options(), format_options()
+    plain = [*PLAIN_ONLY, *of_formats, *(s.name for s in specs if not s.runs)]
     given = [k for k in plain if o.get(k) not in (None, [], ())]
     if o["run_dir"] and given:
         raise ParameterError(given[0], "{param} is for plain LAMMPS dumps; a run "
@@ -88,12 +94,9 @@ def averaging(o, **extra) -> dict:
     cells = {s.name: o[s.name] for s in specs if o[s.name] is not None}
     if o["run_dir"]:
         return dict(common, cells=cells)
-    return dict(common, cells=cells, fmt=o["format"], density=o["density"], dt=o["dt"],
-                units=o["units"], wall_types=o["wall_types"], dim=o["dim"],
-                gravity=o["gravity"], inertia=o["inertia"],
-                atom_map=parse_map(o["atom_columns"]),
-                contact_map=parse_map(o["contact_columns"]), liggghts=o["liggghts"],
-                wall_contacts=o["wall_contacts"], wall_keywords=o["liggghts_walls"])
+    return dict(common, cells=cells, fmt=o["format"], density=o["density"],
+                gravity=o["gravity"], **{k: spec.parse(o[k]) for k, spec in
+                                         of_formats.items()})
 
 
 #: A word of the command line that names a group of atom types, NAME=TYPES.

@@ -14,7 +14,7 @@ from granavg.errors import ParameterError, UserError
 
 #: The kinds of cells, by kind.
 CELLS = Registry(__name__, "CELLS", lambda c: isinstance(c, type) and issubclass(c, Cells),
-                 lambda c: c.kind)
+                 lambda c: c.kind, group="granavg.cells")
 
 
 def registry() -> dict:

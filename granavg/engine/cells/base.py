@@ -22,6 +22,7 @@ from typing import Callable, ClassVar
 import numpy as np
 
 from granavg.engine.channels import Layout
+from granavg.engine.plugins import Option
 from granavg.errors import ParameterError, UserError
 
 #: Equal cells when neither a count nor edges are given.
@@ -103,37 +104,6 @@ class Space:
             raise ParameterError(missing[0], f"the box is tilted ({shown}): give {{param}} "
                                  f"for {what} (such cells are cells in space, not of the "
                                  "tilted box, and take no images across its faces)")
-
-
-@dataclass(frozen=True)
-class Option:
-    """An option that builds cells, as :meth:`Cells.from_options`, the Python API and the
-    command line (``--name-with-dashes``) take it.
-
-    Attributes
-    ----------
-    name : str
-    help : str
-        What it sets, in words (lengths in the data's unit); other options named as
-        ``{name}`` fields, which each front end names its way (the command line: its
-        flags).
-    kind : {"float", "int", "str"}
-    nargs : int or str, optional
-        How many values (argparse's: 2, "+"); None for one.
-    metavar : str or tuple, optional
-    choices : tuple, optional
-    runs : bool
-        A run directory's cells take it too (cells in the run's annulus); the others
-        are for anyone's dumps only.
-    """
-
-    name: str
-    help: str
-    kind: str = "float"
-    nargs: int | str | None = None
-    metavar: str | tuple | None = None
-    choices: tuple | None = None
-    runs: bool = False
 
 
 #: Options several kinds of cells take.

@@ -18,7 +18,7 @@ from granavg.errors import ParameterError
 
 #: The kernels, by name.
 KERNELS = Registry(__name__, "KERNEL", lambda k: isinstance(k, Kernel), lambda k: k.name,
-                   contract)
+                   contract, group="granavg.kernels")
 #: The kernel of a scale study when none is named.
 DEFAULT = "lucy"
 #: What the cells' own weights are called where a kernel could be named.

@@ -18,7 +18,7 @@ from granavg.errors import ParameterError
 
 #: The time kernels, by name.
 TIME_KERNELS = Registry(__name__, "TIME_KERNEL", lambda k: isinstance(k, TimeKernel),
-                        lambda k: k.name, contract)
+                        lambda k: k.name, contract, group="granavg.time_kernels")
 
 #: At most this many times or windows in one average (each is an accumulator).
 MAX_SLOTS = 100_000
