@@ -4,7 +4,7 @@ profile that breaks that physics makes it come out "not reproduced" (or "violate
 
 import pytest
 
-from granavg.analysis.claims import analyze
+from granavg.paper.claims import analyze
 
 from .helpers import SCENE, profiles
 

@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from granavg.analysis.claims import analyze
-from granavg.analysis.report import stationarity_table
+from granavg.paper.claims import analyze
+from granavg.paper.report import stationarity_table
 from granavg.pipeline.runs import average_run
 from granavg.engine.combine import combine_runs
 from granavg.engine.stationarity import ensemble_stationarity

@@ -9,11 +9,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from granavg.analysis.claims import analyze
+from granavg.paper.claims import analyze
 from matplotlib.container import ErrorbarContainer
 
 from granavg.analysis.figures import CAPTIONS, FIGURES, fig2, fig4, fig6
-from granavg.analysis.report import units_note, write_report
+from granavg.paper.report import units_note, write_report
 from granavg.analysis.rounding import pm
 from granavg.io.profiles_io import read_profiles
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from granavg.analysis import shear_band as sb
-from granavg.analysis.claims import analyze
+from granavg.paper.claims import analyze
 from granavg.engine.uncertainty.blocking import Replicates
 from granavg.errors import UserError
 from tests.helpers import D_MEAN, SCENE, profiles

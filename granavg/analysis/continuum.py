@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from granavg.engine.quantities import TENSOR
+
 from granavg.errors import UserError
 
 
@@ -139,3 +141,8 @@ def deformation_rate_and_spin_fit(r, band, R_i):
 def eigen_rotation(omega, W):
     """omega* = omega - W_rphi (1/s): the particles' spin beyond the continuum's (Fig. 9)."""
     return np.asarray(omega) - np.asarray(W)
+
+
+def tensor(p, name):
+    """The four components of a tensor profile (``name_rr``, ...), as a tuple of arrays."""
+    return tuple(p.values[f"{name}_{k}"] for k in TENSOR)

@@ -1,7 +1,7 @@
 """Fields of any cells (rings, slabs, grids; 3D slabs, boxes and shells; anyone's
 dumps, no run manifest): the fields plotted against position (slices through 3D grids),
 the balance of forces (:mod:`granavg.analysis.balance`) per cell with its errors, and a
-summary. The paper's ring-specific checks (:mod:`granavg.analysis.claims`) are not made
+summary. The paper's ring-specific checks (:mod:`granavg.paper.claims`) are not made
 here.
 
 Plotting functions take ``ax=None`` (a new figure) and return the axes.

@@ -1,7 +1,7 @@
 """The paper's Figs. 2-9 from two ring profiles and their analysis (SI units; the
 band's fitted s in mm), and :data:`CAPTIONS`, what each figure shows, for the report.
 
-Each ``figN`` takes the 20- and 60-ring profiles, the :func:`granavg.analysis.claims.analyze`
+Each ``figN`` takes the 20- and 60-ring profiles, the :func:`granavg.paper.claims.analyze`
 summary and optionally the axes to draw on (``axes=None`` makes a figure), and returns
 the axes. Closed symbols: coarse rings; open symbols: fine rings; lines: fits.
 Colours are Okabe-Ito (colour-blind safe) and each series also has its own marker.
@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.ticker import FuncFormatter  # noqa: E402
 
-from granavg.analysis.claims import tensor  # noqa: E402
+from granavg.analysis.continuum import tensor  # noqa: E402
 from granavg.engine.quantities import TENSOR  # noqa: E402
 from granavg.analysis.continuum import deviator_norm, trace  # noqa: E402
 

@@ -24,7 +24,7 @@ granavg's estimator (:data:`ESTIMATOR`):
   errors say;
 - **statistical error**: the same fit (same rings, same weights) on every replicate,
   the realisations of an ensemble or the sectors and time blocks of one run
-  (:class:`granavg.analysis.claims.Estimator`);
+  (:class:`granavg.paper.claims.Estimator`);
 - **systematic error**: the largest shift of v0 and s among the estimator's variants
   (:data:`VARIANTS`: the range's end 2 rings shorter or longer, the first layer in,
   equal or error-only weights), each reported. Also reported, not counted: v_phi /

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from granavg.analysis.claims import analyze
+from granavg.paper.claims import analyze
 from granavg.analysis.fields import analyze_fields, write_field_report
 from granavg.analysis.figures import save_all
-from granavg.analysis.report import write_report, write_summary
+from granavg.paper.report import write_report, write_summary
 from granavg.engine.cells.rings import Rings
 from granavg.engine.fields import Fields
 from granavg.errors import ParameterError, UserError, literal

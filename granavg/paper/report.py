@@ -10,7 +10,7 @@ import math
 import re
 from pathlib import Path
 
-from granavg.analysis.claims import PAPER
+from granavg.paper.verdicts import PAPER
 from granavg.analysis.figures import CAPTIONS
 from granavg.analysis.rounding import plain, pm
 from granavg.engine.stationarity import DRIFT_Z
@@ -464,7 +464,7 @@ def write_report(summary: dict, figures: dict, path, title="granavg report") -> 
     Parameters
     ----------
     summary : dict
-        The analysis' summary (:func:`granavg.analysis.claims.analyze`).
+        The analysis' summary (:func:`granavg.paper.claims.analyze`).
     figures : dict of str -> path
         The drawn figures, name -> PNG (empty: a report of numbers alone).
     path : path
