@@ -421,7 +421,7 @@ def test_the_dimension_is_told_from_the_first_rows_where_their_z_differ(tmp_path
     frame is read, and a z that differs further on still makes it 3D."""
     import gzip
 
-    from granavg.io import lammps_dumps, reader
+    from granavg.io import lammps_dumps, text_scan
 
     n = lammps_dumps.Z_SAMPLE + 50
 
@@ -436,8 +436,8 @@ def test_the_dimension_is_told_from_the_first_rows_where_their_z_differ(tmp_path
             path.write_text(text)
         return path
     parsed = []
-    rows = reader._Scanner._rows
-    monkeypatch.setattr(reader._Scanner, "_rows",
+    rows = text_scan.TextScanner._rows
+    monkeypatch.setattr(text_scan.TextScanner, "_rows",
                         lambda self, *a: parsed.append(1) or rows(self, *a))
     varied = np.random.default_rng(0).uniform(0.1, 0.9, n)
     for name in ("varied.dump", "varied.dump.gz"):
