@@ -22,7 +22,7 @@ from granavg.engine.cell_average import CellAverage, frame_sums
 from granavg.engine.cells.rings import Rings
 from granavg.pipeline.runs import average_run
 from granavg.engine.channels import BLOCKS
-from granavg.engine.quantities import groups_for
+from granavg.engine.requirements import groups_for
 from granavg.engine.uncertainty.structure import FINE_SECTORS
 from granavg.sim.couette_state import frame_state
 from granavg.io.frames import Frame

@@ -9,7 +9,7 @@ from granavg.engine.cell_average import CellAverage
 from granavg.engine.cells.rings import Rings
 from granavg.sim.lammps_session import lammps_session, load_lammps
 from granavg.engine.body_forces import base_plate
-from granavg.engine.quantities import groups_for
+from granavg.engine.requirements import groups_for
 from granavg.io.reader import DumpReader
 from granavg.io.run_dumps import RunDumps
 from granavg.sim.scene import PAPER_HOOKE

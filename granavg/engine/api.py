@@ -26,8 +26,8 @@ from granavg.engine import timing
 from granavg.engine.cell_average import CellAverage
 from granavg.engine.fields import Fields
 from granavg.engine.gate import Gate
-from granavg.engine.quantities import (QUANTITIES, groups_for, missing_columns,
-                                       optional_columns)
+from granavg.engine.quantities import QUANTITIES
+from granavg.engine.requirements import groups_for, missing_columns, optional_columns
 from granavg.engine.species import Classes, Species
 from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError

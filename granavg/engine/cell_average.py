@@ -30,7 +30,8 @@ from granavg.engine.fields import Fields
 from granavg.engine.gate import Gate
 from granavg.engine.species import with_species
 from granavg.engine.profiles import flags, standard_errors, values
-from granavg.engine.quantities import MICROPOLAR, MICROPOLAR_CONVENTIONS, QUANTITIES
+from granavg.engine.conventions import MICROPOLAR, MICROPOLAR_CONVENTIONS
+from granavg.engine.quantities import QUANTITIES
 from granavg.engine.stationarity import DRIFT_Z, stationarity
 from granavg.engine.timing import Whole
 from granavg.engine.timing.axes import TIME_TOLERANCE

@@ -18,7 +18,7 @@ from granavg.engine.cell_average import MAX_BLOCKS, CellAverage
 from granavg.engine.body_forces import add_body_forces, base_plate
 from granavg.engine.cells import Space, from_options, legacy_description
 from granavg.engine.cells.base import Cells
-from granavg.engine.quantities import needs_body
+from granavg.engine.requirements import needs_body
 from granavg.engine.smoothing import smooth
 from granavg.engine.unit_system import SI
 from granavg.io.frames import Frame

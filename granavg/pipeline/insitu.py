@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from granavg.analysis.regime import warn_if_inertial
-from granavg.engine.quantities import groups_for, needs_body
+from granavg.engine.requirements import groups_for, needs_body
 from granavg.engine.smoothing import get as get_kernel
 from granavg.io.contacts import COLUMNS
 from granavg.io.frames import Frame

@@ -6,8 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from granavg.engine.fields import Fields
-from granavg.engine.quantities import (QUANTITIES, groups_for, needed_columns, needs_body,
-                                       optional_columns)
+from granavg.engine.quantities import QUANTITIES
+from granavg.engine.requirements import (groups_for, needed_columns, needs_body,
+                                         optional_columns)
 from granavg.engine.smoothing import get as get_kernel
 from granavg.errors import UserError
 from granavg.io import validate

@@ -26,7 +26,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from granavg import __version__
-from granavg.engine.quantities import QUANTITIES, groups_for
+from granavg.engine.quantities import QUANTITIES
+from granavg.engine.requirements import groups_for
 from granavg.errors import LammpsError, ParameterError, UserError, literal
 from granavg.sim.lammps_session import lammps_version, threads_that_fit
 from granavg.sim.run_layout import ATOMS, CONTACTS, CONTACTS_RAW, DECK, SHEARED, cmdargs, dump_ext
