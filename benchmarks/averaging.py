@@ -18,7 +18,8 @@ import tracemalloc
 import warnings
 from pathlib import Path
 
-from granavg.engine.cell_average import CellAverage, frame_sums
+from granavg.engine.cell_average import CellAverage
+from granavg.engine.frame_sums import frame_sums
 from granavg.engine.cells.rings import Rings
 from granavg.pipeline.runs import average_run
 from granavg.engine.channels import BLOCKS

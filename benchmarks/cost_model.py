@@ -63,7 +63,7 @@ def median_time(fn, n):
 def engine(sizes, n):
     from granavg.cells import Boxes
     from granavg.engine import threads
-    from granavg.engine.cell_average import frame_sums
+    from granavg.engine.frame_sums import frame_sums
     from granavg.engine.channels import BLOCKS, DERIVATIVE_BLOCKS
     from granavg.io.frames import Frame
 

@@ -13,7 +13,7 @@ import sys
 import time
 from pathlib import Path
 
-from granavg.engine.cell_average import frame_sums
+from granavg.engine.frame_sums import frame_sums
 from granavg.engine.channels import BLOCKS
 from granavg.engine.cells.rings import Rings
 from granavg.engine.uncertainty.structure import FINE_SECTORS

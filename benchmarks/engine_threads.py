@@ -5,7 +5,7 @@
 
 DUMP: a 3D LAMMPS dump (``benchmarks/big_3d.py make DIR`` writes DIR/big.dump, about a
 million spheres a frame). Its first ``--frames`` frames are read once; then the engine's
-per-frame sums (:func:`granavg.engine.cell_average.frame_sums`, every quantity the dump
+per-frame sums (:func:`granavg.engine.frame_sums.frame_sums`, every quantity the dump
 allows, over a box grid) run over them on each thread count in turn, ``-n`` rounds.
 Prints the median (min - max) seconds per frame of each count and the median of the
 rounds' ratios (1 thread / N threads), with the sums' largest difference between the
@@ -31,7 +31,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     logging.disable(logging.CRITICAL)
     from granavg.engine import threads
-    from granavg.engine.cell_average import frame_sums
+    from granavg.engine.frame_sums import frame_sums
     from granavg.pipeline.dumps import dump_averager
 
     avg, source = dump_averager(args.dump, cells={"grid": list(args.grid)}, dt=1.0)

@@ -119,7 +119,7 @@ def test_shell_sectors_split_each_sphere_by_its_volume_beyond_the_planes():
     """A sphere straddling a sector boundary (a plane through the axis) goes to the two
     sectors by the exact cap volumes (against Monte Carlo), and a frame's sector sums
     add up to its shells' sums."""
-    from granavg.engine.cell_average import frame_sums
+    from granavg.engine.frame_sums import frame_sums
     from granavg.engine.channels import BLOCKS
 
     cells = Shells(np.linspace(0.02, 0.1, 5), np.linspace(-0.02, 0.02, 3))

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.cell_average import frame_sums
+from granavg.engine.frame_sums import frame_sums
 from granavg.engine.cells.base import layout_of
 from granavg.engine.cells.rings import Rings
 from granavg.io.frames import Frame

@@ -159,7 +159,7 @@ def test_the_readers_contact_rows_are_the_engines(small_run, tmp_path):
     rows included, and a frame's sums are the same bits with them or without."""
     from dataclasses import replace
 
-    from granavg.engine.cell_average import frame_sums
+    from granavg.engine.frame_sums import frame_sums
     from granavg.engine.channels import BLOCKS
     from granavg.engine.kernels import lookup
 

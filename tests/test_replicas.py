@@ -11,7 +11,8 @@ import pytest
 from granavg.engine import average
 from granavg.cells import Grid, Rings, Slabs
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.cell_average import CellAverage, frame_sums
+from granavg.engine.cell_average import CellAverage
+from granavg.engine.frame_sums import frame_sums
 from granavg.engine.cells.base import layout_of
 from granavg.engine.channels import BLOCKS, Layout
 from granavg.engine.uncertainty import structure as replicas

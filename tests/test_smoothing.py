@@ -16,7 +16,7 @@ from scipy import integrate, optimize
 
 from granavg.engine import average
 from granavg.cells import Boxes, Grid, PolarGrid, Rings, Shells, Slabs, Slabs3D
-from granavg.engine.cell_average import frame_sums
+from granavg.engine.frame_sums import frame_sums
 from granavg.engine.cells.base import layout_of
 from granavg.engine.smoothing import get, registry, smooth
 from granavg.engine.smoothing.circles import RingTables, moments_at

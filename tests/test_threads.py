@@ -9,14 +9,14 @@ import pytest
 
 from granavg.engine import average, threads
 from granavg.cells import Boxes
-from granavg.engine.cell_average import frame_sums
+from granavg.engine.frame_sums import frame_sums
 from granavg.engine.cells.sectors import about_axis
 from granavg.engine.cells.rings import Rings
 from granavg.errors import ParameterError
 from granavg.io.frames import Frame
 from tests.conftest import run_cli
 
-average_module = importlib.import_module("granavg.engine.cell_average")   # not the function
+average_module = importlib.import_module("granavg.engine.frame_sums")   # not the function
 BLOCKS = ["vol", "mass", "mom", "spin", "ncontact", "fab", "sig", "kin", "def"]
 
 

@@ -225,7 +225,7 @@ class Classes:
 
 @dataclass
 class Share:
-    """A species' share of a frame: what :func:`~granavg.engine.cell_average.frame_sums`
+    """A species' share of a frame: what :func:`~granavg.engine.frame_sums.frame_sums`
     takes."""
 
     timestep: int

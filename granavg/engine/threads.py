@@ -3,7 +3,7 @@ count also sets the reader threads of :mod:`granavg.io.reader`; one: no thread b
 the engine).
 
 The compiled kernels release the GIL, so chunks of a frame's particles
-(:data:`granavg.engine.cell_average.CHUNK` each) run on threads of one pool. Their partial
+(:data:`granavg.engine.frame_sums.CHUNK` each) run on threads of one pool. Their partial
 sums are added in chunk order, and the chunks' bounds do not depend on the thread count,
 so the result is bit-identical for any thread count (tests/test_threads.py).
 

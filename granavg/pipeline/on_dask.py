@@ -19,7 +19,7 @@ import numpy as np
 
 from granavg.engine import threads
 from granavg.engine.accumulate import CellAccumulator
-from granavg.engine.cell_average import CHUNK
+from granavg.engine.frame_sums import CHUNK
 from granavg.engine.fields import Fields
 from granavg.dask_cluster import Cluster, cluster_client, refusal_safe
 from granavg.errors import ParameterError, UserError, literal, named
@@ -198,7 +198,7 @@ def _dump_chunk(atoms, contacts, window, options):
 
 
 #: One process's averaging speed on one core, in text bytes per second, for frames
-#: of fewer than :data:`~granavg.engine.cell_average.CHUNK` particles (where it sums
+#: of fewer than :data:`~granavg.engine.frame_sums.CHUNK` particles (where it sums
 #: a frame on one thread): 240-245 MB/s measured (docs/running-big.md).
 ONE_CORE_RATE = 250e6
 #: A local cluster's fixed cost, s: ``a + b x workers`` for its start, the workers'
@@ -232,7 +232,7 @@ def text_bytes(paths) -> int:
 def one_process_reason(paths, workers: int, frame_particles: int = 0) -> str | None:
     """Why one process averages the dump files ``paths`` at least as fast as a local
     cluster of ``workers`` processes, or None where the cluster pays: frames of
-    :data:`~granavg.engine.cell_average.CHUNK` particles or more (one process reads and
+    :data:`~granavg.engine.frame_sums.CHUNK` particles or more (one process reads and
     sums them on every core), one gzip stream (each worker would inflate it up to its
     chunk; measured 1.4x slower on 2 workers), or too little work to pay back the
     cluster's fixed cost (:data:`ONE_CORE_RATE`, :data:`CLUSTER_COST`)."""

@@ -21,7 +21,7 @@ from granavg.engine.channels import BLOCK, CONTACT_BLOCKS, DERIVATIVE_BLOCKS, Bl
 from granavg.engine.kernels import BRANCHES, frame_rows, particle_channels, wall_points
 from granavg.engine.smoothing.rotation import block_terms, mixed
 
-#: Particles per pass (as :data:`granavg.engine.cell_average.CHUNK`).
+#: Particles per pass (as :data:`granavg.engine.frame_sums.CHUNK`).
 CHUNK = 1 << 16
 _EMPTY_SECTOR, _EMPTY_SHARE = np.zeros((1, 3), np.int64), np.zeros((1, 3))
 
@@ -129,7 +129,7 @@ def branch_segments(atoms, contacts, rows, dim, branch):
 
 
 def smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout):
-    """:func:`granavg.engine.cell_average.frame_sums` with a smoothing kernel: sums at the
+    """:func:`granavg.engine.frame_sums.frame_sums` with a smoothing kernel: sums at the
     nodes, shape (n_nodes, n_channels) or (n_nodes, sectors, n_channels)."""
     a = frame.atoms
     contacts = frame.contacts
