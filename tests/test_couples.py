@@ -28,7 +28,8 @@ from granavg.engine.cells.slabs3d import Slabs3D
 from granavg.engine.channels import Layout
 from granavg.engine.kernels import particle_channels
 from granavg.io.frames import Frame
-from granavg.io.lammps_dumps import LammpsDumps, parse_map
+from granavg.io.dump_columns import parse_map
+from granavg.io.lammps_dumps import LammpsDumps
 from granavg.io.profiles_io import read_profiles
 from granavg.sim.lammps_session import lammps_session
 

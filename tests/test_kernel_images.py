@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from granavg.io.lammps_dumps import parse_map
+from granavg.io.dump_columns import parse_map
 from granavg.pipeline.dumps import average_dumps
 
 from .helpers import MAP3, PILE2D_MAP as MAP2, frames, run_pile3d

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import granavg
-from granavg.io.lammps_dumps import dump_header
+from granavg.io.dump_columns import dump_header
 from granavg.io.reader import DumpReader
 
 from .helpers import MAP3, PILE3D_DECK, run_cli, run_pile3d

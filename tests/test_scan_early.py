@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from granavg.io.lammps_dumps import parse_map
+from granavg.io.dump_columns import parse_map
 from granavg.pipeline.dumps import dump_averager
 from tests.helpers import MAP3 as MAP, run_cli
 

@@ -421,9 +421,9 @@ def test_the_dimension_is_told_from_the_first_rows_where_their_z_differ(tmp_path
     frame is read, and a z that differs further on still makes it 3D."""
     import gzip
 
-    from granavg.io import lammps_dumps, text_scan
+    from granavg.io import dump_columns, text_scan
 
-    n = lammps_dumps.Z_SAMPLE + 50
+    n = dump_columns.Z_SAMPLE + 50
 
     def dump(name, z):
         rows = "".join(f"{k + 1} {k * 0.01:g} 0.5 {z[k]:g} 0.004\n" for k in range(n))
@@ -441,13 +441,13 @@ def test_the_dimension_is_told_from_the_first_rows_where_their_z_differ(tmp_path
                         lambda self, *a: parsed.append(1) or rows(self, *a))
     varied = np.random.default_rng(0).uniform(0.1, 0.9, n)
     for name in ("varied.dump", "varied.dump.gz"):
-        assert lammps_dumps.dimension(dump(name, varied), {}) == (3, "z differs")
+        assert dump_columns.dimension(dump(name, varied), {}) == (3, "z differs")
         assert parsed == [], name
-    late = np.where(np.arange(n) < lammps_dumps.Z_SAMPLE, 0.0, 0.5)
-    assert lammps_dumps.dimension(dump("late.dump", late), {}) == (3, "z differs")
+    late = np.where(np.arange(n) < dump_columns.Z_SAMPLE, 0.0, 0.5)
+    assert dump_columns.dimension(dump("late.dump", late), {}) == (3, "z differs")
     assert parsed
     parsed.clear()
-    dim, why = lammps_dumps.dimension(dump("flat.dump", np.zeros(n)), {})
+    dim, why = dump_columns.dimension(dump("flat.dump", np.zeros(n)), {})
     assert dim == 2 and "has z = 0" in why and parsed
 
 

@@ -105,7 +105,7 @@ def _header(cur: _Cursor) -> dict:
 
 def header(path) -> tuple:
     """The column names of a binary dump's first frame and its units as ``(style,
-    "file")`` (None if it does not say): :func:`granavg.io.lammps_dumps.dump_header`."""
+    "file")`` (None if it does not say): :func:`granavg.io.dump_columns.dump_header`."""
     with open(path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as buf:
         try:
             head = _header(_Cursor(buf, path))

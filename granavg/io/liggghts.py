@@ -44,7 +44,8 @@ from granavg.io.contacts import contact_columns
 from granavg.engine.plugins import Option
 from granavg.io.formats import ATOM_MAP, DIM, DT, INERTIA, UNITS, Format
 from granavg.io.frames import CONSISTENCY, check_integers
-from granavg.io.lammps_dumps import LammpsDumps, dump_header
+from granavg.io.dump_columns import dump_header
+from granavg.io.lammps_dumps import LammpsDumps
 from granavg.io.reader import DumpReader
 
 log = logging.getLogger(__name__)

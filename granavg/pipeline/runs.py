@@ -12,7 +12,7 @@ from granavg.engine.requirements import (groups_for, needed_columns, needs_body,
 from granavg.engine.smoothing import get as get_kernel
 from granavg.errors import UserError
 from granavg.io import validate
-from granavg.io.lammps_dumps import dump_header
+from granavg.io.dump_columns import dump_header
 from granavg.io.reader import DumpReader
 from granavg.io.run_directory import read_manifest
 from granavg.io.run_dumps import RunDumps
