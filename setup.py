@@ -8,7 +8,8 @@ from setuptools import Extension, setup
 
 KERNELS = ["granavg/io/_parse.pyx", "granavg/engine/_checks.pyx", "granavg/engine/_weights.pyx",
            "granavg/engine/_sphere_weights.pyx", "granavg/engine/_sums.pyx",
-           "granavg/engine/cells/_sectors.pyx", "granavg/sim/_contact_state.pyx"]
+           "granavg/engine/cells/_sectors.pyx", "granavg/sim/_contact_state.pyx",
+           "granavg/engine/smoothing/_kernels.pyx"]
 
 setup(ext_modules=cythonize(
     [Extension(path[:-4].replace("/", "."), [path], extra_compile_args=["-O3"])

@@ -14,7 +14,6 @@ echo "## LAMMPS"; sh "$ROOT/workflows/lammps_timing.sh" "$OUT/timing" 10000
 echo "## reader, engine, memory"
 "$BIN/granavg" simulate --preset fast --omp 2 --out "$OUT/demo" --no-progress
 "$BIN/python" "$ROOT/benchmarks/averaging.py" "$OUT/demo"
-"$BIN/python" "$ROOT/benchmarks/lens.py"
 "$BIN/python" "$ROOT/benchmarks/reader_vs_ovito.py" "$OUT/demo" ${OVITO_PYTHON:+--ovito-python "$OVITO_PYTHON"}
 echo "## the whole average against reading (the demo run and a long run made of it)"
 "$BIN/python" "$ROOT/benchmarks/long_run.py" "$OUT/demo" "$OUT/long" 20

@@ -1,7 +1,6 @@
 #!/bin/sh
 # The whole `granavg average` against reading its dumps, zcat, and itself with fewer
-# quantities; a cold numba cache against a warm one (numba is off the path of an average
-# without a smoothing kernel: about 1) (issue: averaging at the speed of reading).
+# quantities.
 #   sh benchmarks/whole_average.sh RUN [LONG]     (from the repo root; .venv from make test)
 # RUN: a paper-cell run directory (granavg simulate --preset paper ...); LONG: a long run
 # made from it (python benchmarks/long_run.py RUN LONG 20: ~1000 frames). Every figure is
@@ -24,8 +23,6 @@ for R in "$RUN" ${2:+"$2"}; do
   bench "$(avg "$R" c "--sectors off")" "$(avg "$R" a)"
   N=3
 done
-echo "### cold numba cache / warm"
-bench "export NUMBA_CACHE_DIR=\$(mktemp -d); rm -f $T/d.csv*; exec $BIN/granavg average $RUN --bins 20 --out $T/d.csv --no-progress" "$(avg "$RUN" a)"
 echo "### start-up: granavg --version / python -c pass"
 bench "$BIN/granavg --version" "$BIN/python -c pass"
 rm -rf "$T"

@@ -2,8 +2,8 @@
 
 A Python signal handler runs in the main thread between two bytecodes, whichever thread
 the signal was delivered to, so blocking the signal in the main thread
-(``pthread_sigmask``) does not keep it out while other threads (a reader, numba, dask's
-event loop) leave it unblocked. :func:`deferred` instead puts a handler in place that
+(``pthread_sigmask``) does not keep it out while other threads (a reader, the engine's,
+dask's event loop) leave it unblocked. :func:`deferred` instead puts a handler in place that
 only records the signal, and after the section hands each recorded signal to the handler
 that was there before: the command's (which raises and reports it), or the default.
 """

@@ -469,8 +469,8 @@ def test_a_signal_stops_averaging_with_one_line_and_no_output(long_run, tmp_path
 
 
 def test_an_error_after_a_signal_counts_as_the_interrupt():
-    # a signal landing inside numba's compiler or a ctypes callback comes out as another
-    # error (SystemError, numba's RuntimeError): that is still Ctrl-C, not a bug to show
+    # a signal landing inside a compiled call or a ctypes callback comes out as another
+    # error (SystemError, a RuntimeError): that is still Ctrl-C, not a bug to show
     # as a traceback; without a signal the same error is a bug and is raised
     import granavg.pipeline.session as session
     try:

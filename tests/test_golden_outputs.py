@@ -3,7 +3,7 @@
 but for the unit labels that were wrong then (:data:`RELABELLED`).
 
 Text files are kept whole; binary ones (NetCDF, replicates, VTK) as SHA-256 of their
-bytes. Fields of the smoothing kernels (numba compiles for the machine's CPU, which may
+bytes. Fields of the smoothing kernels (compiled by the machine's C compiler, which may
 fuse a multiply-add) are held to their printed digits instead of their last bits."""
 
 import hashlib

@@ -19,8 +19,8 @@ from granavg.cells import Boxes, Grid, PolarGrid, Rings, Shells, Slabs, Slabs3D
 from granavg.engine.frame_sums import frame_sums
 from granavg.engine.cells.base import layout_of
 from granavg.engine.smoothing import get, registry, smooth
-from granavg.engine.smoothing.circles import RingTables, moments_at
-from granavg.engine.smoothing.points import point_pairs
+from granavg.engine.smoothing._kernels import moments_at, point_pairs
+from granavg.engine.smoothing.circles import RingTables
 from granavg.engine.smoothing.smoothed import Smoothed
 from granavg.io.profiles_io import read_profiles
 

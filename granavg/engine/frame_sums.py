@@ -55,7 +55,7 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
     """
     layout = layout_of(cells.axes, blocks)
     if getattr(cells, "spreads_branches", False):     # a smoothing kernel's nodes
-        from granavg.engine.smoothing.sums import smoothed_frame_sums   # numba: on demand
+        from granavg.engine.smoothing.sums import smoothed_frame_sums   # (on demand)
         return smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout)
     a = frame.atoms
     contacts = frame.contacts

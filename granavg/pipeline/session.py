@@ -47,8 +47,8 @@ def _on_signal(signum, frame):
 def interrupt_code(raised: BaseException) -> int | None:
     """Exit code when ``raised`` is (the aftermath of) Ctrl-C or SIGTERM, else None.
 
-    A signal can land inside a compiled (numba) call or a ctypes callback; there the
-    interrupt is swallowed or turned into another error (``SystemError``, numba's
+    A signal can land inside a compiled call or a ctypes callback (LAMMPS); there the
+    interrupt is swallowed or turned into another error (``SystemError``, a
     ``RuntimeError``), so any error raised after a signal arrived counts as the signal's.
     """
     if isinstance(raised, Terminated) or signal.SIGTERM in _signalled:

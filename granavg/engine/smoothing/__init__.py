@@ -66,7 +66,7 @@ def smooth(cells, kernel: str | None, width: float | None):
     if width is None:
         raise ParameterError("width", f"{{kernel}} {kernel} needs {{param}} W, the kernel's "
                              "width in the dumps' length unit (e.g. a particle diameter)")
-    from granavg.engine.smoothing.smoothed import Smoothed    # numba's kernels: on demand
+    from granavg.engine.smoothing.smoothed import Smoothed    # (on demand)
     return Smoothed(cells, get(kernel), float(width))
 
 

@@ -12,7 +12,7 @@ around the circles of rings and shells. The width w is in the frames' length uni
 
 The profile is declared as data - polynomial pieces in q plus, optionally, a Gaussian
 exp(-b q^2) - so that one set of compiled kernels (:func:`profile`, taking the packed
-array :attr:`Kernel.packed`) serves every kernel, and compiles once into numba's cache.
+array :attr:`Kernel.packed`) serves every kernel, compiled ahead of time.
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ class Kernel:
 
     def g(self, q: float) -> float:
         """The profile at q (numpy-free, for tests and checks)."""
-        from granavg.engine.smoothing.points import profile    # numba's: on demand
+        from granavg.engine.smoothing._kernels import profile
         return profile(self.packed, min(q, 1.0))[0] if q < 1.0 else 0.0
 
     def value(self, r, width: float, dim: int):

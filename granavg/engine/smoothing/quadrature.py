@@ -4,7 +4,8 @@ that make a piece's singular ends harmless.
 A piece of a line integral ends where the integrand stops being smooth: where a node's
 support begins or ends along the segment (there the weight goes like a half-integer
 power of the distance), or where the segment crosses a ring's circle (a term
-e^4 log e). :func:`piece_point` maps x in [0, 1] to the piece so that the step shrinks
+e^4 log e). The compiled loops (:mod:`granavg.engine.smoothing._kernels`,
+``_quadrature``) map x in [0, 1] to the piece so that the step shrinks
 quadratically towards each singular end: a half-integer power becomes a polynomial in
 x, e^4 log e becomes x^8 log x, and Gauss-Legendre converges again
 (tests/test_smoothing.py holds the results to adaptive quadrature at 1e-10).
@@ -13,7 +14,6 @@ x, e^4 log e becomes x^8 log x, and Gauss-Legendre converges again
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 
 def gauss_legendre(n: int):
@@ -28,18 +28,3 @@ SX, SW = gauss_legendre(12)
 LX, LW = gauss_legendre(16)
 #: Around a circle, away from the particle.
 AX, AW = gauss_legendre(16)
-
-
-@njit(cache=True, nogil=True, inline="always")
-def piece_point(lo, hi, x, left, right):
-    """(s, ds/dx) at x in [0, 1] on the piece [lo, hi]: quadratic towards a singular
-    end (``left``, ``right``), linear otherwise."""
-    span = hi - lo
-    if left and right:
-        return lo + span * x * x * (3.0 - 2.0 * x), span * 6.0 * x * (1.0 - x)
-    if left:
-        return lo + span * x * x, span * 2.0 * x
-    if right:
-        y = 1.0 - x
-        return hi - span * y * y, span * 2.0 * y
-    return lo + span * x, span

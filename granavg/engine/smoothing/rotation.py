@@ -13,18 +13,17 @@ vector v'_i = sum_a R_ai v_a, a tensor T'_ij = sum_ab R_ai R_bj T_ab, an axial v
 in 3D as a vector (a proper rotation), in 2D (omega_z) as a scalar.
 
 :func:`terms` lists, for a layout's blocks, the (out channel, in channel, moment,
-coefficient) of these sums; :func:`mixed` applies them.
+coefficient) of these sums; :func:`granavg.engine.smoothing._kernels.mixed` applies them.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
-
 from granavg.engine.channels import BLOCK, Layout
 
-#: Weights of a pair where the basis turns: W0 ... W4.
+#: Weights of a pair where the basis turns: W0 ... W4 (the compiled loops' arrays of 5).
 MOMENTS = 5
+
 _C, _S = "c", "s"
 #: A product of c and s -> its moments.
 _AVERAGE = {"": ((0, 1.0),), "c": ((1, 1.0),), "s": ((2, 1.0),),
@@ -94,18 +93,3 @@ def terms(layout: Layout, blocks):
         return (np.zeros(0, np.int64),) * 3 + (np.zeros(0),)
     o, i, m, f = zip(*rows)
     return np.array(o), np.array(i), np.array(m), np.array(f)
-
-
-@njit(cache=True, nogil=True)
-def mixed(item, node, W, q, t_out, t_in, t_m, t_f, sector, share, k, out):
-    """out[row, t_out] += t_f W[t, t_m] q[item[t], t_in] for each pair t and term, row
-    the node (k = 0) or node * k + sector with the sectors' shares."""
-    for t in range(item.shape[0]):
-        p = item[t]
-        for j3 in range(3 if k > 0 else 1):
-            f = share[p, j3] if k > 0 else 1.0
-            if f == 0.0:
-                continue
-            row = node[t] * k + sector[p, j3] if k > 0 else node[t]
-            for u in range(t_out.shape[0]):
-                out[row, t_out[u]] += f * t_f[u] * W[t, t_m[u]] * q[p, t_in[u]]

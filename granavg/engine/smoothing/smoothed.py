@@ -32,7 +32,7 @@ from functools import cached_property
 import numpy as np
 
 from granavg.engine.cells.base import Cells, with_images
-from granavg.engine.smoothing import circles, lookup, points
+from granavg.engine.smoothing import _kernels, circles, lookup
 from granavg.engine.smoothing.base import Kernel
 from granavg.engine.smoothing.rotation import MOMENTS
 from granavg.errors import ParameterError
@@ -199,10 +199,10 @@ class Smoothed(Cells):
         x = np.ascontiguousarray(x, float)
         grid = np.ascontiguousarray(grid, float)
         if branch is None:
-            points.point_pairs(x, grid, np.ascontiguousarray(basis, float), item, node,
+            _kernels.point_pairs(x, grid, np.ascontiguousarray(basis, float), item, node,
                                k.packed, scale, c, deriv, w, dw)
         else:
-            points.point_segment_pairs(x, np.ascontiguousarray(branch, float), grid, item,
+            _kernels.point_segment_pairs(x, np.ascontiguousarray(branch, float), grid, item,
                                        node, k.packed, scale, c, w)
         return w, dw
 
@@ -277,18 +277,18 @@ class Smoothed(Cells):
         if D == 2:
             tables = self._ring_tables
             if branch is None:
-                circles.ring_pairs(x, y, cx, cy, *tables, item, node, deriv, W, dW)
+                _kernels.ring_pairs(x, y, cx, cy, *tables, item, node, deriv, W, dW)
             else:
-                circles.ring_segment_pairs(x, y, np.ascontiguousarray(branch[:, 0]),
+                _kernels.ring_segment_pairs(x, y, np.ascontiguousarray(branch[:, 0]),
                                            np.ascontiguousarray(branch[:, 1]), cx, cy,
                                            *tables, self._margin, item, node, W)
             return item, node, W, dW
         args = (cx, cy, np.asarray(radii, float), np.asarray(heights, float), len(heights),
                 item, node, k.packed, k.norms[3] / c ** 3, c)
         if branch is None:
-            circles.shell_pairs(x, y, pos[2], *args, deriv, W, dW)
+            _kernels.shell_pairs(x, y, pos[2], *args, deriv, W, dW)
         else:
-            circles.shell_segment_pairs(x, y, pos[2], *(np.ascontiguousarray(branch[:, j])
+            _kernels.shell_segment_pairs(x, y, pos[2], *(np.ascontiguousarray(branch[:, j])
                                                         for j in range(3)), *args,
                                         self._margin, W)
         return item, node, W, dW

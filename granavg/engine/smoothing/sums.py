@@ -19,7 +19,8 @@ import numpy as np
 
 from granavg.engine.channels import BLOCK, CONTACT_BLOCKS, DERIVATIVE_BLOCKS, Block
 from granavg.engine.kernels import BRANCHES, frame_rows, particle_channels, wall_points
-from granavg.engine.smoothing.rotation import block_terms, mixed
+from granavg.engine.smoothing._kernels import mixed
+from granavg.engine.smoothing.rotation import block_terms
 
 #: Particles per pass (as :data:`granavg.engine.frame_sums.CHUNK`).
 CHUNK = 1 << 16

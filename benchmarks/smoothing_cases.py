@@ -1,0 +1,65 @@
+"""One smoothing-kernel average of a shipped example, by node kind, for timing the
+compiled loops as a whole process (the kernel's share dominates):
+
+    python benchmarks/smoothing_cases.py CASE [--save FILE] [--repeat N]
+
+CASE: ``grid`` (3D pile, Lucy, 4 x 4 x 6 points), ``planes`` (3D pile, Gauss, 12 slab
+planes), ``shells`` (3D pile, Lucy, 4 x 3 circles), ``rings`` (2D Couette cell, Lucy, 8
+circles), ``polar`` (2D Couette cell, Lucy, a 4 x 8 polar lattice); every quantity, the
+branch segments' line integrals included. ``--save``: the fields' values as .npz, to
+compare two builds (e.g. ``PYTHONPATH=OTHER python benchmarks/smoothing_cases.py ...``,
+OTHER a worktree of another version). ``--repeat N``: the average N more times in the
+same process, and the median of their seconds printed (the loops warm: what the kernels
+take, without the start-up).
+"""
+
+import argparse
+import logging
+import statistics
+import time
+
+import numpy as np
+
+import granavg
+
+PILE = dict(contacts=granavg.examples.pile_3d.contacts,
+            contact_map=granavg.examples.pile_3d.contact_map, gravity=(0, 0, -9.81))
+CASES = {
+    "grid": (granavg.examples.pile_3d.atoms, dict(
+        PILE, cells={"grid": (4, 4, 6), "z_range": (0, 0.024)}, kernel="lucy", width=0.004)),
+    "planes": (granavg.examples.pile_3d.atoms, dict(
+        PILE, cells={"slabs": "z", "range": (0, 0.024), "bins": 12}, kernel="gauss",
+        width=0.003)),
+    "shells": (granavg.examples.pile_3d.atoms, dict(
+        PILE, cells={"r_range": (0.001, 0.007), "bins": 4, "center": (0.008, 0.008),
+                     "layers": 3, "z_range": (0, 0.012)}, kernel="lucy", width=0.003)),
+    "rings": (granavg.examples.couette_2d.run, dict(cells={"bins": 8}, t_min=1.0,
+                                                    kernel="lucy", width=0.008)),
+    "polar": (granavg.examples.couette_2d.run, dict(cells={"polar_grid": (4, 8)}, t_min=1.0,
+                                                    kernel="lucy", width=0.008)),
+}
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("case", choices=sorted(CASES))
+    ap.add_argument("--save")
+    ap.add_argument("--repeat", type=int, default=0)
+    args = ap.parse_args(argv)
+    logging.disable(logging.WARNING)
+    source, options = CASES[args.case]
+    fields = granavg.average(source, **options)
+    took = []
+    for _ in range(args.repeat):
+        t0 = time.perf_counter()
+        granavg.average(source, **options)
+        took.append(time.perf_counter() - t0)
+    if took:
+        print(f"{args.case}: {statistics.median(took):.4f} s per average (median of "
+              f"{len(took)}, warm)")
+    if args.save:
+        np.savez(args.save, **{k: np.asarray(v, float) for k, v in fields.values.items()})
+
+
+if __name__ == "__main__":
+    main()
