@@ -101,12 +101,14 @@ PLAN = {
     # -- api.md, extending.md: run in one namespace by their own modules ---------------
     **{("api.md", k): Plan("covered", s, why="tests/test_api_docs.py") for k, s in enumerate((
         "import granavg", "from granavg.cells import Rings", "pile = granavg.examples",
-        "ds = fields.to_xarray()", "boxes = granavg.average", "smooth = granavg.average",
+        "frames = granavg.open(", "ds = fields.to_xarray()", "boxes = granavg.average", "smooth = granavg.average",
         "windows = granavg.average", "mixture = granavg.average", "import numpy as np",
         "import subprocess, sys"))},
     **{("extending.md", k): Plan("covered", s, why="tests/test_extending.py")
        for k, s in enumerate(("from granavg.engine.quantities import", "import math",
-                              "from dataclasses import dataclass", "import granavg"))},
+                              "import numpy as np\n\nfrom granavg.engine import timing",
+                              "from dataclasses import dataclass", "import granavg",
+                              "import tempfile"))},
     # -- benchmarks.md -----------------------------------------------------------------
     ("benchmarks.md", 0): Plan("parsed", "python benchmarks/ovito_job.py RUN",
                                why=_BENCH + "; needs OVITO in an environment of its own"),

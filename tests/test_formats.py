@@ -90,7 +90,7 @@ def test_csv_frames_average_like_the_run_dumps(small_run, tables, tmp_path):
 def test_csv_options_and_damage_are_refused_with_one_line(tables, tmp_path):
     proc = run_cli("average", "--atoms", tables / "atoms.csv", "--thickness", 0.006,
                    "--edges", 0.04, 0.08, "--wall-types", 3, "--out", tmp_path / "x.csv")
-    assert proc.returncode == 2 and "csv format takes no wall_types" in proc.stderr
+    assert proc.returncode == 2 and "csv format takes no --wall-types option" in proc.stderr
     proc = run_cli("average", "--atoms", tables / "atoms.csv", "--thickness", 0.006,
                    "--edges", 0.04, 0.08, "--workers", 2, "--out", tmp_path / "x.csv")
     assert proc.returncode == 2 and "--workers averages LAMMPS dumps" in proc.stderr

@@ -125,7 +125,7 @@ def test_the_buffer_join_is_the_rest_and_the_chunk_in_order():
 
 def test_a_gzip_dump_reads_the_same_with_its_chunks_decompressed_ahead(many, tmp_path,
                                                                       monkeypatch):
-    import granavg.io.reader as reader_module
+    import granavg.io.text_scan as reader_module
 
     plain = b"".join(p.read_bytes() for _, p in numbered_series(many / "atoms.*.txt"))
     gz = tmp_path / "atoms.dump.gz"

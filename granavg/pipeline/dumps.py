@@ -113,7 +113,7 @@ def dump_averager(atoms, contacts=None, *, cells=None, fmt=None, density=None,
     avg = averager(Prefetched(frames), cells_of_options, rho_p=density, quantities=quantities,
                    t_min=t_min, block_time=block_time, units=frames.units,
                    branch=branch, sectors=sectors, **(time or {}))
-    avg.meta.update({"files": getattr(frames, "files", None) or {
+    avg.meta.update({"files": frames.files if isinstance(atoms, Trajectory) else {
                          "atoms": str(atoms), "contacts": str(contacts) if contacts else None},
                      "inputs": {"format": frames.format_name,
                                 **({"thickness": getattr(built, "h", None)} if dim == 2

@@ -17,7 +17,8 @@ derivatives with respect to R and h: scalars take mu_0, vectors mu_1, a tensor's
 isotropic part mu_0 and its deviator mu_2 (:mod:`granavg.engine.smoothing.rotation`).
 Near the particle (delta < pi/2) the integral runs in sigma = 2 sqrt(rho R)
 sin(delta/2) = e sinh u, where the integrand is smooth however close the particle is to
-the circle; beyond, in delta (:func:`moments`).
+the circle; beyond, in delta (the compiled ``moments_at`` of
+:mod:`granavg.engine.smoothing._kernels`).
 
 In 2D the moments depend on rho alone: each ring tabulates them once
 (:class:`RingTables`, Chebyshev pieces between the points where they are not smooth,

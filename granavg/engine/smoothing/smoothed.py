@@ -32,7 +32,10 @@ from functools import cached_property
 import numpy as np
 
 from granavg.engine.cells.base import Cells, with_images
-from granavg.engine.smoothing import _kernels, circles, lookup
+from granavg.engine.smoothing import circles, lookup
+from granavg.engine.smoothing._kernels import (point_pairs, point_segment_pairs, ring_pairs,
+                                              ring_segment_pairs, shell_pairs,
+                                              shell_segment_pairs)
 from granavg.engine.smoothing.base import Kernel
 from granavg.engine.smoothing.rotation import MOMENTS
 from granavg.errors import ParameterError
@@ -199,11 +202,11 @@ class Smoothed(Cells):
         x = np.ascontiguousarray(x, float)
         grid = np.ascontiguousarray(grid, float)
         if branch is None:
-            _kernels.point_pairs(x, grid, np.ascontiguousarray(basis, float), item, node,
-                               k.packed, scale, c, deriv, w, dw)
+            point_pairs(x, grid, np.ascontiguousarray(basis, float), item, node, k.packed,
+                        scale, c, deriv, w, dw)
         else:
-            _kernels.point_segment_pairs(x, np.ascontiguousarray(branch, float), grid, item,
-                                       node, k.packed, scale, c, w)
+            point_segment_pairs(x, np.ascontiguousarray(branch, float), grid, item, node,
+                                k.packed, scale, c, w)
         return w, dw
 
     def _lattice(self, spec, pos, mid, reach, branch, deriv):
@@ -277,20 +280,19 @@ class Smoothed(Cells):
         if D == 2:
             tables = self._ring_tables
             if branch is None:
-                _kernels.ring_pairs(x, y, cx, cy, *tables, item, node, deriv, W, dW)
+                ring_pairs(x, y, cx, cy, *tables, item, node, deriv, W, dW)
             else:
-                _kernels.ring_segment_pairs(x, y, np.ascontiguousarray(branch[:, 0]),
-                                           np.ascontiguousarray(branch[:, 1]), cx, cy,
-                                           *tables, self._margin, item, node, W)
+                ring_segment_pairs(x, y, np.ascontiguousarray(branch[:, 0]),
+                                   np.ascontiguousarray(branch[:, 1]), cx, cy, *tables,
+                                   self._margin, item, node, W)
             return item, node, W, dW
         args = (cx, cy, np.asarray(radii, float), np.asarray(heights, float), len(heights),
                 item, node, k.packed, k.norms[3] / c ** 3, c)
         if branch is None:
-            _kernels.shell_pairs(x, y, pos[2], *args, deriv, W, dW)
+            shell_pairs(x, y, pos[2], *args, deriv, W, dW)
         else:
-            _kernels.shell_segment_pairs(x, y, pos[2], *(np.ascontiguousarray(branch[:, j])
-                                                        for j in range(3)), *args,
-                                        self._margin, W)
+            shell_segment_pairs(x, y, pos[2], *(np.ascontiguousarray(branch[:, j])
+                                                for j in range(3)), *args, self._margin, W)
         return item, node, W, dW
 
     def inverse_radius(self):

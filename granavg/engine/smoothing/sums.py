@@ -7,7 +7,7 @@ from the particles' net contact forces and the walls' forces) - the same channel
 sums as the exact weights give cells, so that accumulators, errors, sectors and dask
 merges are the engine's own.
 
-Every scatter is one compiled loop (:func:`granavg.engine.smoothing.rotation.mixed`)
+Every scatter is one compiled loop (:func:`granavg.engine.smoothing._kernels.mixed`)
 over (pair, term): where the nodes' basis is the particles' (lattices, planes) a term
 per channel with the one weight; where it turns about the axis (circles, the polar
 grid) the rotation's terms with the pair's five moments.
