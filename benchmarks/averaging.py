@@ -19,6 +19,7 @@ import warnings
 from pathlib import Path
 
 from granavg.engine.cell_average import CellAverage
+from granavg.engine.spec import Averaging
 from granavg.engine.frame_sums import frame_sums
 from granavg.engine.cells.rings import Rings
 from granavg.pipeline.runs import average_run
@@ -84,9 +85,9 @@ def engine_rows(run: Path, m):
         for label, channels in (("all quantities", every),
                                 ("nu and v", ("vol", "mom"))):
             for sectors in (FINE_SECTORS, 0):
-                frame_sums(frames[0], rings, scene["rho_p"], channels, sectors=sectors)
+                frame_sums(frames[0], rings, scene["rho_p"], channels, n_sectors=sectors)
                 rate = engine_rate(lambda: [frame_sums(f, rings, scene["rho_p"], channels,
-                                                       sectors=sectors) for f in frames],
+                                                       n_sectors=sectors) for f in frames],
                                    len(frames))
                 rows.append((f"{n} rings, {label}, " + (f"{sectors} sectors (default)"
                                                         if sectors else "--sectors off"),
@@ -109,7 +110,7 @@ def memory_rows(frames, m):
         tracemalloc.start()
         t0 = time.perf_counter()
         CellAverage(stream, rings, [g for g in groups_for(None, True) if g != "body"],
-                    scene["rho_p"], 0.0, 250.0).run(False)
+                    scene["rho_p"], Averaging.of(t_min=0.0, block_time=250.0)).run(False)
         elapsed = time.perf_counter() - t0
         peak = tracemalloc.get_traced_memory()[1] / 1e6
         tracemalloc.stop()

@@ -36,7 +36,7 @@ def main(run):
         for sectors in best:
             t0 = time.process_time()
             for f in frames:
-                frame_sums(f, rings, s["rho_p"], every, sectors=sectors)
+                frame_sums(f, rings, s["rho_p"], every, n_sectors=sectors)
             best[sectors] = min(best[sectors], time.process_time() - t0)
     for sectors, t in best.items():
         print(f"{sectors or 'no'} sectors: {len(frames) / t:.0f} frames per CPU second")

@@ -33,8 +33,9 @@ def main(argv=None):
     from granavg.engine import threads
     from granavg.engine.frame_sums import frame_sums
     from granavg.pipeline.dumps import dump_averager
+    from granavg.pipeline.spec import Spec
 
-    avg, source = dump_averager(args.dump, cells={"grid": list(args.grid)}, dt=1.0)
+    avg, source = dump_averager(Spec.of(args.dump, cells={"grid": list(args.grid)}, dt=1.0))
     frames = []
     for frame in source:
         frames.append(frame)
@@ -45,7 +46,7 @@ def main(argv=None):
     def one_pass(k):
         threads.set_count(k)
         t0 = time.perf_counter()
-        sums = [frame_sums(f, avg.cells, avg.rho_p, avg.channels, avg.branch, avg.k_fine)
+        sums = [frame_sums(f, avg.cells, avg.rho_p, avg.channels, avg.averaging.reach, avg.k_fine)
                 for f in frames]
         return (time.perf_counter() - t0) / len(frames), sums
 

@@ -41,7 +41,7 @@ def main(run, long, n=300):
     def engine(k):
         for j in range(k):
             f = frames[j % len(frames)]
-            frame_sums(f, rings, s["rho_p"], every, sectors=FINE_SECTORS)
+            frame_sums(f, rings, s["rho_p"], every, n_sectors=FINE_SECTORS)
             frame_state(f.atoms, f.contacts, s["R_i"], s["R_o"], s["h"], s["rho_p"], s["d_s"])
 
     def read(k):

@@ -22,6 +22,7 @@ from pathlib import Path
 from granavg.io.reader import DumpReader
 from granavg.io.run_directory import read_manifest
 from granavg.pipeline.dumps import dump_averager
+from granavg.pipeline.spec import Spec
 
 
 def main(argv=None):
@@ -51,8 +52,9 @@ def main(argv=None):
         for label, files in (("plain", plain), ("gzip", packed)):
             def once(t, scan):
                 t0 = time.perf_counter()
-                avg, _ = dump_averager(files["atoms"], files["contacts"], cells=cells,
-                                       density=s["rho_p"], dt=dt, t_min=t, scan_early=scan)
+                avg, _ = dump_averager(Spec.of(files["atoms"], contacts=files["contacts"],
+                                               cells=cells, density=s["rho_p"], dt=dt,
+                                               t_min=t), scan_early=scan)
                 avg.run(False)
                 return time.perf_counter() - t0
             once(t_min, True)                                          # warm

@@ -5,8 +5,10 @@ compiled loops as a whole process (the kernel's share dominates):
 
 CASE: ``grid`` (3D pile, Lucy, 4 x 4 x 6 points), ``planes`` (3D pile, Gauss, 12 slab
 planes), ``shells`` (3D pile, Lucy, 4 x 3 circles), ``rings`` (2D Couette cell, Lucy, 8
-circles), ``polar`` (2D Couette cell, Lucy, a 4 x 8 polar lattice); every quantity, the
-branch segments' line integrals included. ``--save``: the fields' values as .npz, to
+circles), ``polar`` (2D Couette cell, Lucy, a 4 x 8 polar lattice), ``species`` (the
+rings, each disk type's partial fields: the contacts between species at their points);
+every quantity, the branch segments' line integrals included. ``--save``: the fields'
+values and errors as .npz, to
 compare two builds (e.g. ``PYTHONPATH=OTHER python benchmarks/smoothing_cases.py ...``,
 OTHER a worktree of another version). ``--repeat N``: the average N more times in the
 same process, and the median of their seconds printed (the loops warm: what the kernels
@@ -37,6 +39,9 @@ CASES = {
                                                     kernel="lucy", width=0.008)),
     "polar": (granavg.examples.couette_2d.run, dict(cells={"polar_grid": (4, 8)}, t_min=1.0,
                                                     kernel="lucy", width=0.008)),
+    "species": (granavg.examples.couette_2d.run, dict(cells={"bins": 8}, t_min=1.0,
+                                                      kernel="lucy", width=0.008,
+                                                      species="type")),
 }
 
 
@@ -58,7 +63,8 @@ def main(argv=None) -> None:
         print(f"{args.case}: {statistics.median(took):.4f} s per average (median of "
               f"{len(took)}, warm)")
     if args.save:
-        np.savez(args.save, **{k: np.asarray(v, float) for k, v in fields.values.items()})
+        np.savez(args.save, **{k: np.asarray(v, float) for k, v in fields.values.items()},
+                 **{f"sem_{k}": np.asarray(v, float) for k, v in fields.sem.items()})
 
 
 if __name__ == "__main__":

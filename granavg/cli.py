@@ -31,7 +31,7 @@ DESCRIPTION = ("granavg turns discrete-element (DEM) simulations of granular mat
 
 #: The options whose flag is not the library's parameter name with dashes
 #: (:func:`flag`): how the command line names them in messages.
-FLAGS = {"rho_p": "--density", "fmt": "--format", "overrides": "--set", "run_dirs":
+FLAGS = {"fmt": "--format", "overrides": "--set", "run_dirs":
          "the run directory", "progress": "--no-progress"}
 
 
@@ -163,6 +163,9 @@ def _parser() -> argparse.ArgumentParser:
                      "directories go before it); with the force density between species "
                      "(f_inter), the concentration c and the segregation flux seg "
                      "(docs/species.md)")
+    avg.add_argument("--spec", metavar="FILE", help="average as the sidecar FILE (an "
+                     "<out>.json 'granavg average' wrote) says, with no other option of the "
+                     "frames, cells or time: the same fields, bit for bit, into --out")
     avg.add_argument("--out", required=True, help="profiles table (.csv; .parquet with "
                      "--parquet); a JSON sidecar <out>.json is written beside it")
     avg.add_argument("--parquet", action="store_true", help="write Parquet instead of CSV")

@@ -27,8 +27,8 @@ POLL = 0.05
 CLOSE_TIMEOUT = 5
 
 
-def local_cluster(workers: int, threads_each: int | None = None):
-    """A local dask cluster of ``workers`` single-threaded processes. glibc's default
+def local_cluster(n_workers: int, threads_each: int | None = None):
+    """A local dask cluster of ``n_workers`` single-threaded processes. glibc's default
     malloc trim threshold is kept (dask lowers it to 64 kB, which made a worker's frames
     1.2x slower here: the reader's 8 MB buffers went back to the OS every time). The
     workers log only dask's errors (a job cancelled by a signal is not one).
@@ -42,7 +42,7 @@ def local_cluster(workers: int, threads_each: int | None = None):
     if threads_each is not None:
         environ["GRANAVG_THREADS"] = str(int(threads_each))
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+        return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                             dashboard_address=None)
 
 
@@ -128,9 +128,9 @@ class Cluster:
 
 
 @contextmanager
-def cluster_client(workers: int = 2, scheduler: str | None = None,
+def cluster_client(n_workers: int = 2, address: str | None = None,
                    threads_each: int | None = None):
-    """A :class:`Cluster` on ``scheduler``, or on a new local cluster of ``workers``
+    """A :class:`Cluster` on ``address``, or on a new local cluster of ``n_workers``
     processes (:func:`local_cluster`) closed after the block; SIGINT and SIGTERM deferred
     within it (module docstring)."""
     from dask.distributed import Client
@@ -139,8 +139,8 @@ def cluster_client(workers: int = 2, scheduler: str | None = None,
         cluster = client = None
         failed = False
         try:
-            cluster = None if scheduler else local_cluster(workers, threads_each)
-            client = _connect(Client, scheduler, cluster)
+            cluster = None if address else local_cluster(n_workers, threads_each)
+            client = _connect(Client, address, cluster)
             if cluster is not None:
                 client.run(_quiet_worker)
                 client.forward_logging("granavg", level=logging.INFO)
@@ -159,16 +159,16 @@ def cluster_client(workers: int = 2, scheduler: str | None = None,
 CONNECT_TIMEOUT = 10
 
 
-def _connect(Client, scheduler, cluster):
-    """A client of the local cluster, or of ``scheduler`` (one-line refusal if it cannot
-    be reached within :data:`CONNECT_TIMEOUT`)."""
-    if scheduler is None:
+def _connect(Client, address, cluster):
+    """A client of the local cluster, or of the scheduler at ``address`` (one-line
+    refusal if it cannot be reached within :data:`CONNECT_TIMEOUT`)."""
+    if address is None:
         return Client(cluster)
     try:
-        return Client(scheduler, timeout=CONNECT_TIMEOUT)
+        return Client(address, timeout=CONNECT_TIMEOUT)
     except (OSError, TimeoutError, ValueError, TypeError) as exc:
         text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ParameterError("scheduler", f"{{param}} {literal(scheduler)}: cannot reach it "
+        raise ParameterError("scheduler", f"{{param}} {literal(address)}: cannot reach it "
                              f"({literal(text)}); give the address of a running dask "
                              "scheduler (tcp://host:8786), or leave {param} out") from None
 

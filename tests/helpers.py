@@ -14,6 +14,7 @@ import numpy as np
 
 from granavg.analysis.continuum import deformation_rate_and_spin
 from granavg.engine.cell_average import CellAverage
+from granavg.engine.spec import Averaging
 from granavg.engine.cells.rings import Rings
 from granavg.engine.fields import Fields
 from granavg.engine.quantities import QUANTITIES
@@ -285,8 +286,9 @@ def hex_crystal(a=0.004, delta=1e-4, k=10.0, extent=0.12):
 
 
 def ring_average(frames, rings, groups=NO_BODY, block_time=1.0, branch="contact"):
-    return CellAverage(frames, rings, groups, HEX_RHO_P, t_min=0.0, block_time=block_time,
-                       branch=branch).run(progress=False)
+    return CellAverage(frames, rings, groups, HEX_RHO_P,
+                       Averaging.of(t_min=0.0, block_time=block_time, branch=branch)
+                       ).run(progress=False)
 
 
 # -- synthetic Couette profiles with the paper's physics (the claims' checks) ------------

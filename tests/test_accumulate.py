@@ -78,7 +78,7 @@ def test_a_coarsened_tree_differs_from_sequential_addition_the_test_can_fail():
     size = one.block_time * 2 ** one.level
     plain = {}
     for _, t, s, w in fr:
-        j = int(np.floor((t - one.t_min) / size + 1e-9))
+        j = int(np.floor((t - one.start) / size + 1e-9))
         plain[j] = plain.get(j, 0) + w * s
     seq = np.stack([plain[j] for j in sorted(plain)])
     assert np.allclose(seq, sums, rtol=1e-12, atol=1e-9)

@@ -23,6 +23,7 @@ import pytest
 
 from granavg.analysis.spin_balance import spin_balance
 from granavg.engine.cell_average import CellAverage
+from granavg.engine.spec import Averaging
 from granavg.engine.cells.slabs import Slabs
 from granavg.engine.cells.slabs3d import Slabs3D
 from granavg.engine.channels import Layout
@@ -52,6 +53,8 @@ SLABS = {2: ["--thickness", 1, "--slabs", "y", "--range", 0, 14, "--bins", 7,
 #: The cells' balance holds to the printed dumps' rounding (6 digits): measured at most
 #: 1.5e-7 (2D) and 7e-7 (3D) of the stress scale.
 ROUNDING = 1e-5
+
+ONE = Averaging.of(t_min=0.0, block_time=1.0)
 
 
 def run_pile(dim, out):
@@ -212,7 +215,7 @@ def test_the_couple_stress_sum_rule(pile, tmp_path):
     up = a["y"] if dim == 2 else a["z"]
     edges = np.linspace(up.min() - 2 * a["radius"].max(), up.max() + 2 * a["radius"].max(), 6)
     cells = Slabs(edges, 1.0, "y", 20.0) if dim == 2 else Slabs3D(edges, "z", 0.012 ** 2)
-    prof = CellAverage([frame], cells, ["mu", "couple_density"], 1.0, 0.0, 1.0).run(False)
+    prof = CellAverage([frame], cells, ["mu", "couple_density"], 1.0, ONE).run(False)
     axes = cells.axes
     row = {int(i): k for k, i in enumerate(a["id"])}
     mcols = ["mz"] if dim == 2 else ["mx", "my", "mz"]
@@ -249,7 +252,7 @@ def test_granular_temperatures_of_known_fluctuations():
     rho = 1000.0
     p = CellAverage([Frame(0, 0.0, atoms, None)], cells,
                     ["temperature", "temperature_rot", "ekin", "erot", "spin_density"],
-                    rho, 0.0, 1.0).run(False)
+                    rho, ONE).run(False)
     m = rho * np.pi * h * a * a
     inertia = 0.5 * m * a * a
     assert p.values["temperature"][0] == pytest.approx(u * u / 2, rel=1e-12)

@@ -103,7 +103,7 @@ PLAN = {
         "import granavg", "from granavg.cells import Rings", "pile = granavg.examples",
         "frames = granavg.open(", "ds = fields.to_xarray()", "boxes = granavg.average", "smooth = granavg.average",
         "windows = granavg.average", "mixture = granavg.average", "import numpy as np",
-        "import subprocess, sys"))},
+        "import subprocess, sys", "from granavg.pipeline.api import run"))},
     **{("extending.md", k): Plan("covered", s, why="tests/test_extending.py")
        for k, s in enumerate(("from granavg.engine.quantities import", "import math",
                               "import numpy as np\n\nfrom granavg.engine import timing",

@@ -18,7 +18,7 @@ def test_a_compressed_cubic_crystal_gives_fabric_stress_and_strain_exactly():
     frame = cubic_crystal(a, delta, k)
     inner = np.linspace(-0.008, 0.008, 5)                   # away from the crystal's faces
     p = average([frame, Frame(1, 1.0, frame.atoms, frame.contacts)],
-                Boxes(inner, inner, inner), rho_p=RHO_P, sectors=None)
+                Boxes(inner, inner, inner), density=RHO_P, sectors=None)
     nu = p.values["nu"]
     assert np.all(nu > 0.5)
     length = a - delta / 2                                # to the contact point
@@ -47,7 +47,7 @@ def test_the_summed_stress_is_the_sum_of_the_contacts_force_times_branch():
         c[comp] = c[comp] + rng.normal(0, 1e-3, len(c[comp]))
     lo, hi = -0.03, 0.03
     cells = Boxes(np.linspace(lo, hi, 4), np.linspace(lo, hi, 5), np.linspace(lo, hi, 3))
-    p = average([frame, Frame(1, 1.0, frame.atoms, c)], cells, rho_p=RHO_P, sectors=None)
+    p = average([frame, Frame(1, 1.0, frame.atoms, c)], cells, density=RHO_P, sectors=None)
     pos = np.column_stack([frame.atoms[x] for x in "xyz"])
     row = {int(i): k for k, i in enumerate(frame.atoms["id"])}
     i1 = np.array([row[int(i)] for i in c["id1"]])
@@ -79,7 +79,7 @@ def test_rigid_rotation_in_shells():
              "omegay": np.zeros(n), "omegaz": np.full(n, Om)}
     cells = Shells(np.linspace(0.025, 0.095, 8), np.linspace(-0.015, 0.015, 4))
     frames = [Frame(k, float(k), atoms, None) for k in range(3)]
-    p = average(frames, cells, rho_p=RHO_P, sectors=None)
+    p = average(frames, cells, density=RHO_P, sectors=None)
     assert np.allclose(p.values["v_r"], 0, atol=1e-15)
     assert np.allclose(p.values["v_z"], 0, atol=1e-15)
     assert np.allclose(p.values["omega_z"], Om, rtol=1e-13)
@@ -141,7 +141,7 @@ def test_shell_sectors_split_each_sphere_by_its_volume_beyond_the_planes():
     frame = cubic_crystal(a=0.002, n=30)
     blocks = [b for b in BLOCKS if b not in ("wall", "body", "bpow")]
     whole = frame_sums(frame, cells, RHO_P, blocks)
-    split = frame_sums(frame, cells, RHO_P, blocks, sectors=24)
+    split = frame_sums(frame, cells, RHO_P, blocks, n_sectors=24)
     assert np.allclose(split.sum(axis=1), whole, rtol=1e-12, atol=1e-15)
 
 
@@ -156,7 +156,7 @@ def test_shells_get_errors_from_time_and_structure():
         atoms["vx"] = rng.normal(0, 1e-3, len(atoms["x"]))
         frames.append(Frame(t, float(t), atoms, base.contacts))
     cells = Shells(np.linspace(0.0, 0.05, 4), np.linspace(-0.02, 0.02, 3))
-    p = average(frames, cells, rho_p=RHO_P)
+    p = average(frames, cells, density=RHO_P)
     err = p.meta["errors"]
     assert err["kind"] == "time+structure" and err["sectors"]["axis"] == "phi"
     assert "sigma_rz" in err["sectors"]["time_only"] and "sigma_zz" not in \

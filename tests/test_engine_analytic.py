@@ -89,7 +89,7 @@ def test_chunks_merge_into_the_one_pass_result():
     channels = ["vol", "mom", "spin", "kin"]
 
     def accumulate(chunk):
-        acc = CellAccumulator((rings.n, layout_of(rings.axes, channels).n), t_min=0.0,
+        acc = CellAccumulator((rings.n, layout_of(rings.axes, channels).n), start=0.0,
                               block_time=2.0)
         for f in chunk:
             acc.add(f.timestep, f.time, frame_sums(f, rings, RHO_P, channels))

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from granavg.engine.cell_average import CellAverage
+from granavg.engine.spec import Averaging
 from granavg.engine.cells.rings import Rings
 from granavg.sim.lammps_session import lammps_session, load_lammps
 from granavg.engine.body_forces import base_plate
@@ -62,8 +63,8 @@ def test_sum_rule_over_rings_is_exact(small_run):
     m, frames = frames_of(small_run)
     h, frame = m["scene"]["h"], frames[len(frames) // 2]
     rings = covering_rings(frame, h)
-    p = CellAverage([frame], rings, groups_for(None, True), m["scene"]["rho_p"], 0.0,
-                    1.0).run(False)
+    p = CellAverage([frame], rings, groups_for(None, True), m["scene"]["rho_p"],
+                    Averaging.of(t_min=0.0, block_time=1.0)).run(False)
     V = rings.volume
     sig, fab = direct_sums(frame, h)
     for k, comp in enumerate(("rr", "rphi", "phir", "phiphi")):
@@ -102,7 +103,8 @@ def test_stress_trace_equals_lammps_virial(tmp_path, branch):
     geometric differences they agree to round-off."""
     scene, derived, frame, lmp_trace, _, _ = live_frame_and_virial(tmp_path / f"live_{branch}")
     rings = covering_rings(frame, scene.h)
-    p = CellAverage([frame], rings, ["sigma"], scene.rho_p, 0.0, 1.0, branch=branch).run(False)
+    p = CellAverage([frame], rings, ["sigma"], scene.rho_p,
+                    Averaging.of(t_min=0.0, block_time=1.0, branch=branch)).run(False)
     ours = np.sum(rings.volume * (p.values["sigma_rr"] + p.values["sigma_phiphi"]))
     c, a = frame.contacts, frame.atoms
     radius = dict(zip(a["id"].astype(int), a["radius"]))

@@ -23,7 +23,7 @@ def boxes():
     frames = [Frame(k, float(k), atoms, frame.contacts) for k in range(3)]
     cells = Boxes(np.linspace(-0.012, 0.012, 4), np.linspace(-0.012, 0.012, 3),
                   np.linspace(-0.012, 0.012, 5))
-    return average(frames, cells, rho_p=RHO_P, sectors=None)
+    return average(frames, cells, density=RHO_P, sectors=None)
 
 
 def test_boxes_round_trip_through_netcdf(boxes, tmp_path):
@@ -65,7 +65,7 @@ def test_a_2d_grid_is_quadrilaterals_and_slabs_have_no_vtk(tmp_path):
              "radius": np.full(400, 0.01), "vx": np.ones(400), "vy": np.zeros(400)}
     frames = [Frame(k, float(k), atoms, None) for k in range(2)]
     grid = average(frames, Grid(np.linspace(0, 1, 5), np.linspace(0, 1, 4), 0.01),
-                   rho_p=1000.0, quantities=["nu", "v"])
+                   density=1000.0, quantities=["nu", "v"])
     write_vtk(grid, tmp_path / "g.vtu")
     mesh = meshio.read(tmp_path / "g.vtu")
     quads = mesh.cells_dict["quad"]

@@ -65,7 +65,7 @@ def test_csv_frames_average_like_the_run_dumps(small_run, tables, tmp_path):
     ref = read_profiles(tmp_path / "run.csv")
     # the public API on the CSV frame source
     api = average(CsvFrames(tables / "atoms.csv", tables / "contacts.csv"),
-                  Rings(edges, scene["h"]), rho_p=scene["rho_p"], t_min=t_min,
+                  Rings(edges, scene["h"]), density=scene["rho_p"], t_min=t_min,
                   block_time=block)
     # the CLI, the format found from the file name
     proc = run_cli("average", "--atoms", tables / "atoms.csv", "--contacts",

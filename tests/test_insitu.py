@@ -56,7 +56,7 @@ def test_in_situ_windows_equal_the_windows_of_the_dumps(runs):
     same options (to the dumps' rounding)."""
     insitu = read_profiles(runs["windows"] / "profiles_8.csv")
     dumps = average_run(runs["windows"], bins=8, t_min=1.5, block_time=0.35,
-                        time={"windows": 1.0, "t_max": 4.5}, progress=False)
+                        windows=1.0, t_max=4.5, progress=False)
     assert insitu.dims == ("time", "r") and list(insitu.times) == [2.0, 3.0, 4.0]
     # the frames in [1.5, 2.5), [2.5, 3.5) and [3.5, 4.5] by their times (time step x dt)
     t = np.array(dumps.timeseries.t_s)
@@ -89,7 +89,7 @@ def test_a_run_for_density_and_velocity_takes_no_contacts_and_gets_the_same_answ
     full run's values: the trajectory does not depend on what is taken from it."""
     m = json.loads((runs["nu_v"] / "manifest.json").read_text())
     assert m["scene"]["contacts"] is False and "overlap" not in m
-    assert m["average"]["quantities"] == ["nu", "v"]
+    assert m["average"]["spec"]["quantities"] == ["nu", "v"]
     slim = read_profiles(runs["nu_v"] / "profiles_8.csv")
     full = read_profiles(runs["serial"] / "profiles_8.csv")
     assert set(slim.values) == {"nu", "v_r", "v_phi"}

@@ -13,7 +13,7 @@ import pytest
 from scipy import integrate
 
 from granavg.io.dump_columns import parse_map
-from granavg.pipeline.dumps import average_dumps
+from granavg.pipeline.api import average
 
 from .helpers import MAP3, PILE2D_MAP as MAP2, frames, run_pile3d
 
@@ -171,11 +171,11 @@ def test_nodes_near_periodic_faces_see_the_particles_across_them(dim, pile3d, pi
     opts = dict(kernel="lucy", width=width, quantities=["nu", "rho", "sigma"],
                 t_min=last_time(d / "atoms.dump"), sectors=None,
                 contact_map=parse_map(cmap), progress=False)
-    p = average_dumps(d / "atoms.dump", d / "contacts.dump",
-                      cells={"grid": shape, **ranges, **extra}, **opts)
+    p = average(d / "atoms.dump", contacts=d / "contacts.dump",
+                cells={"grid": shape, **ranges, **extra}, **opts)
     own = {k: v for k, v in ranges.items() if not periodic["xyz".index(k[0])]}
-    whole = average_dumps(d / "atoms.dump", d / "contacts.dump",
-                          cells={"grid": shape, **own, **extra}, **opts)
+    whole = average(d / "atoms.dump", contacts=d / "contacts.dump",
+                    cells={"grid": shape, **own, **extra}, **opts)
     assert p.n_frames == 1                          # the last frame alone
     nodes = node_grid(p)
     xyz = "xyz"[:dim]
@@ -247,8 +247,8 @@ def test_the_mean_velocity_and_spin_are_mass_weighted(heavy, pile3d, heavy3d):
     spin = np.column_stack([atoms[f"omega{c}"] for c in "xyz"])
     vol = np.pi / 6 * atoms["diameter"] ** 3
     # the kernel's nodes
-    p = average_dumps(d / "atoms.dump", cells={"grid": (8, 8, 11), "z_range": (0.0, 0.022)},
-                      kernel="lucy", width=0.002, **opts)
+    p = average(d / "atoms.dump", cells={"grid": (8, 8, 11), "z_range": (0.0, 0.022)},
+                kernel="lucy", width=0.002, **opts)
     images = shifts(box, (True, True, False))
     nodes = node_grid(p)
     M = particle_sum(nodes, x, masses, 0.002, 3, images)
@@ -260,7 +260,7 @@ def test_the_mean_velocity_and_spin_are_mass_weighted(heavy, pile3d, heavy3d):
         particle_sum(nodes, x, vol, 0.002, 3, images)[:, None]
     # the exact weights over slabs across z
     edges = np.linspace(0.0, 0.022, 12)
-    q = average_dumps(d / "atoms.dump", cells={"slabs": "z", "edges": list(edges)}, **opts)
+    q = average(d / "atoms.dump", cells={"slabs": "z", "edges": list(edges)}, **opts)
     share = np.diff(below(edges[:, None], atoms["z"][None, :], 0.5 * atoms["diameter"]),
                     axis=0)                                             # (slabs, spheres)
     cases = [(p, M, P, S, K, byvol, np.ones(p.cells.n)),       # sums of phi: densities

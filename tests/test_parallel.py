@@ -11,6 +11,7 @@ from granavg.pipeline.runs import average_run
 from granavg.pipeline.on_dask import average_run_dask, chunk_windows
 from granavg.io.reader import DumpReader
 from granavg.io.run_directory import read_manifest
+from granavg.engine.spec import TimeAxis
 
 from .conftest import run_cli
 
@@ -20,7 +21,7 @@ def test_chunk_windows_cover_every_frame_once_and_cut_at_blocks(small_run):
     steps = [f.timestep for f in DumpReader(small_run / "atoms.dump.gz", ["id"])]
     dt = m["derived"]["dt_s"]
     for t_min, block, n in ((1.0, 0.5, 3), (1.0, 0.25, 4), (2.0, 1.0, 8)):
-        windows = chunk_windows(m, t_min, block, n)
+        windows = chunk_windows(m, TimeAxis(t_min=t_min, block_time=block), n)
         assert 1 <= len(windows) <= n
         covered = [s for s in steps if any(a <= s <= b for a, b in windows)]
         assert covered == [s for s in steps if s * dt >= t_min]
@@ -37,7 +38,7 @@ def test_chunk_windows_hold_frames_off_the_manifests_dump_grid():
                      "dt_s": 1e-3}}
     off = [50, 1050, 3333, 5001, 9999, 12_345]
     for t_min, n in ((0.0, 4), (0.04, 7), (1.0, 3)):
-        windows = chunk_windows(m, t_min, 0.5, n)
+        windows = chunk_windows(m, TimeAxis(t_min=t_min, block_time=0.5), n)
         assert len(windows) == n
         for s in [*range(0, 10_001, 100), *off]:
             inside = sum(a <= s <= b for a, b in windows)

@@ -12,6 +12,9 @@ from granavg.engine import average
 from granavg.cells import Grid, Rings, Slabs
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.cell_average import CellAverage
+from granavg.engine.spec import Averaging
+
+HALF = Averaging.of(t_min=0.0, block_time=0.5)
 from granavg.engine.frame_sums import frame_sums
 from granavg.engine.cells.base import layout_of
 from granavg.engine.channels import BLOCKS, Layout
@@ -87,7 +90,7 @@ def test_sector_sums_add_up_to_the_cells_sums(geometry):
     frame = random_frame()
     blocks = [b for b in BLOCKS if b not in ("wall", "body", "bpow")]
     cells = frame_sums(frame, geometry, 1060.0, blocks)
-    sectors = frame_sums(frame, geometry, 1060.0, blocks, sectors=24)
+    sectors = frame_sums(frame, geometry, 1060.0, blocks, n_sectors=24)
     assert sectors.shape == (geometry.n, 24, layout_of(geometry.axes, blocks).n)
     assert np.allclose(sectors.sum(axis=1), cells, rtol=1e-12, atol=1e-15)
     vol = sectors[:, :, INDEX["vol"]]                  # every sector holds disks
@@ -100,7 +103,7 @@ def synthetic_average(rng, frozen, common, local, k=24, n_cells=3, frames=512, t
     e local to each (sds ``common``, ``local``), both AR(1) with correlation time tau.
     Returns the profiles with errors from time and structure, and from time alone."""
     rings = Rings.count(n_cells, 0.1, 0.25, 0.006)
-    avg = CellAverage([], rings, ["nu"], 1060.0, 0.0, 1.0, sectors="auto")
+    avg = CellAverage([], rings, ["nu"], 1060.0, Averaging.of(t_min=0.0, block_time=1.0))
     avg.prepare()
     slot = avg._slot(0)                          # the whole average's accumulators
     rho = math.exp(-1.0 / tau)
@@ -225,15 +228,15 @@ def test_grids_and_slabs_without_a_span_keep_time_errors():
         f.timestep, f.time = t, float(t)
         fr.append(f)
     g = average(fr, Grid(np.linspace(-0.25, 0.25, 3), np.linspace(-0.25, 0.25, 3), 0.006),
-                rho_p=1060.0)
+                density=1060.0)
     assert g.meta["errors"]["kind"] == "time" and g.replicates.kind == "jackknife"
-    s = average(fr, Slabs(np.linspace(-0.25, 0.25, 3), 0.006, "x", 0.5), rho_p=1060.0)
+    s = average(fr, Slabs(np.linspace(-0.25, 0.25, 3), 0.006, "x", 0.5), density=1060.0)
     assert s.meta["errors"]["kind"] == "time"
     s = average(fr, Slabs(np.linspace(-0.25, 0.25, 3), 0.006, "x", 0.5, (-0.25, 0.25)),
-                rho_p=1060.0)
+                density=1060.0)
     assert s.meta["errors"]["kind"] == "time+structure"
     assert s.meta["errors"]["sectors"]["axis"] == "y"
-    r = average(fr, Rings.count(3, 0.1, 0.25, 0.006), rho_p=1060.0, sectors=8)
+    r = average(fr, Rings.count(3, 0.1, 0.25, 0.006), density=1060.0, sectors=8)
     assert r.replicates.parts["sectors"] == 8 and r.meta["errors"]["sectors"]["chosen"] == "pinned"
 
 
@@ -247,10 +250,10 @@ def test_replica_accumulators_merge_exactly_across_chunks(cuts):
         f = random_frame(seed=100 + t)
         f.timestep, f.time = t, 0.5 * t
         frames.append(f)
-    whole = CellAverage(frames, rings, ["nu", "v", "sigma"], 1060.0, 0.0, 0.5)
+    whole = CellAverage(frames, rings, ["nu", "v", "sigma"], 1060.0, HALF)
     one = whole.run(False)
     bounds = (0, *cuts, 80)
-    parts = [CellAverage(frames[a:b], rings, ["nu", "v", "sigma"], 1060.0, 0.0, 0.5)
+    parts = [CellAverage(frames[a:b], rings, ["nu", "v", "sigma"], 1060.0, HALF)
              for a, b in zip(bounds[:-1], bounds[1:])]
     for p in parts:
         p.run(False)
@@ -299,11 +302,13 @@ def test_the_sectors_option_is_checked(sectors, ok):
     from granavg.errors import ParameterError
     rings = Rings.count(3, 0.1, 0.25, 0.006)
     if ok:
-        avg = CellAverage([], rings, ["nu"], 1060.0, 0.0, 1.0, sectors=sectors)
+        avg = CellAverage([], rings, ["nu"], 1060.0,
+                          Averaging.of(t_min=0.0, block_time=1.0, sectors=sectors))
         assert avg.k_fine == (0 if sectors == "off" else 8)
     else:
         with pytest.raises(ParameterError, match="sectors"):
-            CellAverage([], rings, ["nu"], 1060.0, 0.0, 1.0, sectors=sectors)
+            CellAverage([], rings, ["nu"], 1060.0,
+                        Averaging.of(t_min=0.0, block_time=1.0, sectors=sectors))
 
 
 @pytest.mark.slow

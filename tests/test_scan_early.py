@@ -11,6 +11,7 @@ import pytest
 
 from granavg.io.dump_columns import parse_map
 from granavg.pipeline.dumps import dump_averager
+from granavg.pipeline.spec import Spec
 from tests.helpers import MAP3 as MAP, run_cli
 
 CELLS = dict(slabs="z", range=(0.0, 0.024), bins=6)
@@ -24,8 +25,9 @@ def pile(pile3d_one, pile3d_series):
 
 
 def profiles(atoms, contacts, scan_early, **options):
-    avg, frames = dump_averager(atoms, contacts, cells=CELLS, contact_map=parse_map(MAP),
-                                scan_early=scan_early, **options)
+    avg, frames = dump_averager(Spec.of(atoms, contacts=contacts, cells=CELLS,
+                                        contact_map=parse_map(MAP), **options),
+                                scan_early=scan_early)
     return avg.run(False), frames
 
 

@@ -13,6 +13,7 @@ from granavg.errors import UserError
 from granavg.io.prefetch import ReadAhead
 from granavg.io.reader import DumpReader, numbered_series
 from granavg.pipeline.on_dask import series_windows
+from granavg.engine.spec import TimeAxis
 from tests.helpers import average_pile3d as average
 
 ARGS = ("--slabs", "z", "--range", 0, 0.024, "--bins", 6)
@@ -29,7 +30,7 @@ def test_the_windows_split_the_files_whole_from_their_first_headers(many):
     files = numbered_series(many / "atoms.*.txt")
     reader = DumpReader(many / "atoms.*.txt", [])
     windows = series_windows(many / "atoms.*.txt", many / "contacts.*.txt",
-                             lambda f: f.time, 0.0, 1e-9, 4)
+                             lambda f: f.time, TimeAxis(t_min=0.0, block_time=1e-9), 4)
     assert windows and len(windows) > 1
     for k, (number, path) in enumerate(files):                  # every file in one window
         step = reader.first_header(path).timestep
@@ -55,7 +56,7 @@ def test_names_that_are_not_time_steps_are_listed_by_a_scan_with_the_same_profil
         for k, (_, path) in enumerate(numbered_series(many / f"{kind}.*.txt")):
             shutil.copy(path, renamed / f"{kind}.{k + 1}.txt")        # 1, 2, ...: not steps
     assert series_windows(renamed / "atoms.*.txt", renamed / "contacts.*.txt",
-                          lambda f: f.time, 0.0, 1e-9, 4) is None
+                          lambda f: f.time, TimeAxis(t_min=0.0, block_time=1e-9), 4) is None
     files = dict(atoms="atoms.*.txt", contacts="contacts.*.txt")
     serial = average(many, tmp_path / "s.csv", *ARGS, **files)
     by_names = average(many, tmp_path / "n.csv", *ARGS, "--workers", 2, **files)

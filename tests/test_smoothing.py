@@ -296,7 +296,7 @@ def test_a_ring_node_is_the_circle_mean_of_the_polar_components():
     rings = Rings(np.linspace(0.2, 0.5, 7), 0.01)
     s = Smoothed(rings, get("lucy"), 0.05)
     blocks = ["vol", "mass", "mom", "kin", "sig", "wall"]
-    S = frame_sums(frame, s, 1.0, blocks, sectors=0)
+    S = frame_sums(frame, s, 1.0, blocks, n_sectors=0)
     layout = layout_of(("r", "phi"), blocks)
     k = get("lucy")
     c = s.cutoff
@@ -309,10 +309,10 @@ def test_a_ring_node_is_the_circle_mean_of_the_polar_components():
     from granavg.engine.kernels import contact_rows, wall_points
     from granavg.engine.smoothing.sums import branch_halves, branch_segments
     rows = contact_rows(at, frame.contacts)
-    owner, l, f = branch_halves(at, frame.contacts, rows, 2, "contact")
+    owner, l, f = branch_halves(at, frame.contacts, rows, 2, 0.5)
     # the sums took the touching contacts as one segment each, the reference two halves
-    assert len(branch_segments(at, frame.contacts, rows, 2, "contact")[0]) == len(owner) - 10
-    wp, wf = wall_points(at, frame.contacts, 2, "contact", rows)
+    assert len(branch_segments(at, frame.contacts, rows, 2, 0.5)[0]) == len(owner) - 10
+    wp, wf = wall_points(at, frame.contacts, 2, 0.5, rows)
     alpha = np.linspace(0, 2 * np.pi, ALPHA, endpoint=False)
     for j, R in enumerate(rings.centre):
         P = R * np.column_stack([np.cos(alpha), np.sin(alpha)])
@@ -397,7 +397,7 @@ def rigid_rotation(cells, step, omega, width=0.03):
              "vy": omega * X, "omegaz": np.full(X.size, omega)}
     frames = [type("F", (), {"timestep": k, "time": 0.1 * k, "atoms": atoms,
                              "contacts": None})() for k in range(3)]
-    return average(frames, Smoothed(cells, get("lucy"), width), rho_p=1.0,
+    return average(frames, Smoothed(cells, get("lucy"), width), density=1.0,
                    quantities=["nu", "v", "gradv", "D", "W"], sectors=None)
 
 
@@ -611,3 +611,23 @@ def test_smooth_wraps_only_with_a_kernel():
     s = smooth(rings, "gauss", 0.01)
     assert isinstance(s, Smoothed) and s.describe()["kernel"] == "gauss" and s.n == 4
     assert Slabs3D(np.linspace(0, 1, 3), "z", 1.0).nodes()[0] == "planes"
+
+
+def test_the_kernel_sums_spread_each_block_as_the_registry_declares_it():
+    """Every block says how a kernel spreads it (granavg.engine.channels.SPREADS), those
+    spread from another block name it, and the kernel's sums name no block: what they do
+    with one follows from its declaration alone."""
+    import ast
+    from pathlib import Path
+
+    from granavg.engine.channels import BLOCK, SPREADS
+    from granavg.engine.smoothing import sums
+
+    for name, block in BLOCK.items():
+        assert block.spread in SPREADS, name
+        derived = block.spread in ("gradient", "divergence", "force_divergence",
+                                   "inverse_radius")
+        assert (block.of in BLOCK) if derived else block.of == "", name
+    literals = {n.value for n in ast.walk(ast.parse(Path(sums.__file__).read_text()))
+                if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    assert not literals & set(BLOCK), literals & set(BLOCK)

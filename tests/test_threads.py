@@ -121,7 +121,7 @@ def test_sectors_sums_of_rings_are_bit_identical_across_thread_counts(monkeypatc
     got = []
     for k in (1, 2):
         threads.set_count(k)
-        got.append(frame_sums(frame, cells, 1060.0, ["vol", "mass", "mom", "spin"], sectors=8))
+        got.append(frame_sums(frame, cells, 1060.0, ["vol", "mass", "mom", "spin"], n_sectors=8))
     assert np.array_equal(got[0], got[1])
     sector, share = about_axis((atoms["x"], atoms["y"]), atoms["radius"], (0.0, 0.0), 8, 2)
     assert np.allclose(share.sum(axis=1), 1.0, rtol=0, atol=1e-14)
@@ -134,7 +134,7 @@ def test_a_whole_average_is_the_same_on_one_and_two_threads(restore_threads):
     out = []
     for k in (1, 2):
         threads.set_count(k)
-        out.append(average(frames, cells, rho_p=2500.0, sectors=None))
+        out.append(average(frames, cells, density=2500.0, sectors=None))
     for name, v in out[0].values.items():
         assert np.array_equal(v, out[1].values[name], equal_nan=True), name
 

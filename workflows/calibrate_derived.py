@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from granavg.pipeline.reporting import report_run
+from granavg.pipeline.spec import Spec
 
 METHODS = {"time": None, "time+structure": "auto"}
 
@@ -41,7 +42,7 @@ def flat(d, prefix=""):
 
 
 def numbers(run, out, sectors) -> dict:
-    report_run(run, out, sectors=sectors, progress=False)
+    report_run(run, out, Spec.of(run, sectors=sectors))
     return flat(json.loads((out / "summary.json").read_text())["numbers"])
 
 

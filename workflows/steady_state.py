@@ -53,17 +53,21 @@ def slug(name: str) -> str:
 
 def run_candidate(out: Path, overrides, seeds: int, t_end: float) -> list:
     from granavg.sim.realisations import simulate_ensemble
+    from granavg.pipeline.spec import Execution
     from granavg.sim.scene import preset
 
     scene = preset("paper-hooke").with_overrides([*overrides, f"t_end={t_end}", "dump_dt=5",
                                             f"restart_dt={t_end}"])
-    return simulate_ensemble(scene, out, seeds, workers=min(seeds, 2), preset="paper-hooke")
+    return simulate_ensemble(scene, out, seeds, Execution(workers=min(seeds, 2)),
+                             preset="paper-hooke")
 
 
 def score(runs, t_min=None) -> dict:
     """The targets measured on the runs (window: t_min, default the scene's discarded
     rotations, to the end)."""
-    from granavg.analysis.claims import analyze, bulk, dynamic_over_static
+    from granavg.analysis.regime import dynamic_over_static
+    from granavg.paper.claims import analyze
+    from granavg.paper.verdicts import bulk
     from granavg.pipeline.runs import average_run
     from granavg.engine.combine import combine_runs
 
@@ -159,7 +163,7 @@ def meets(row) -> dict:
 
 def _within(row, key, target, tol) -> bool:
     """The value within ``tol`` of ``target`` (relative) by 2 combined errors (statistical
-    and the band estimator's systematic; granavg.analysis.claims' comparison), or, for
+    and the band estimator's systematic; granavg.paper.claims' comparison), or, for
     rows scored before the estimator had a systematic error, its central value."""
     sys = row.get(f"{key}_sys")
     if sys is None or not np.isfinite(sys):

@@ -93,7 +93,7 @@ STIFF = ("base", "k_n=100", "k_n=1000")           # the k_n ladder at n = 50
 FINE = ("n_per_tc=25", "base", "n_per_tc=100")   # 2 dt, dt, dt/2 at k_n = 10 N/m
 HEADLINES = ["v0", "s", "nu_bulk", "trF_bulk", "p_over_kn_bulk", "stiffness_slope",
              "eom_residual"]
-#: the paper's regime must be kept too (granavg.analysis.claims.QUASI_STATIC_LIMIT)
+#: the paper's regime must be kept too (granavg.paper.claims.QUASI_STATIC_LIMIT)
 QUASI_STATIC_LIMIT = 0.1
 COST_COLUMNS = ["sim_cpu_s", "sim_wall_s", "lammps_s", "frames_s", "avg_cpu_s", "avg_wall_s"]
 log = logging.getLogger("sweep")

@@ -60,11 +60,19 @@ ARMS = {"contact": 0.5, "surface": 0.0}
 FORMS = ("cells", "field")
 
 
-def moment_density(values, geometry, arm="contact", branch="contact") -> list:
+def branch_reach(profiles) -> float:
+    """The overlap fraction s_branch the fields' branch vectors gave up: of the branch
+    their sidecar names (:data:`~granavg.engine.kernels.BRANCHES`; ``contact`` where it
+    names none)."""
+    return BRANCHES[(profiles.meta or {}).get("branch", "contact")]
+
+
+def moment_density(values, geometry, arm="contact", reach=0.5) -> list:
     """tau + lever per axis of the couple (one array in 2D, three in 3D): the contact
     forces' moment density about the particles' centres with the law's own lever arm.
     ``lever`` (the moment (delta/2) n x f, :mod:`granavg.engine.quantities`) is added
-    times (s_branch - s_arm) / (1/2), so that it turns granavg's branch into the arm."""
+    times (s_branch - s_arm) / (1/2), s_branch the fields' ``reach``
+    (:func:`branch_reach`), so that it turns granavg's branch into the arm."""
     axes, n = geometry.axes, geometry.n
 
     def s(i, j):
@@ -75,7 +83,7 @@ def moment_density(values, geometry, arm="contact", branch="contact") -> list:
     else:
         x, y, z = axes
         tau = [s(z, y) - s(y, z), s(x, z) - s(z, x), s(y, x) - s(x, y)]
-    factor = (BRANCHES[branch] - ARMS[arm]) / 0.5
+    factor = (reach - ARMS[arm]) / 0.5
     if factor:
         names = ["lever"] if len(axes) == 2 else [f"lever_{i}" for i in axes]
         tau = [t + factor * _component(values, k, n) for t, k in zip(tau, names)]
@@ -96,7 +104,7 @@ def couple_flux(values, geometry, dynamic=True, field=True) -> dict:
     return {i + j: total(j + i) for i in axes for j in axes}
 
 
-def spin_residuals(values, geometry, arm="contact", branch="contact", dynamic=True,
+def spin_residuals(values, geometry, arm="contact", reach=0.5, dynamic=True,
                    closed=False, form="cells") -> tuple:
     """div(mu - dmu) + tau + lever per cell, per component of the couple (one in 2D,
     three in 3D), div mu the net couple passed (``form="cells"``) or the field's
@@ -106,7 +114,7 @@ def spin_residuals(values, geometry, arm="contact", branch="contact", dynamic=Tr
     axes, n = geometry.axes, geometry.n
     if form not in FORMS:
         raise ValueError(f"form {form!r}: choose from {', '.join(FORMS)}")
-    tau = moment_density(values, geometry, arm, branch)
+    tau = moment_density(values, geometry, arm, reach)
     source = "couple_density" if form == "cells" else "boundary_couple"
     names = [source] if len(axes) == 2 else [f"{source}_{i}" for i in axes]
     tau = [t + _component(values, k, n) for t, k in zip(tau, names)]
@@ -128,11 +136,11 @@ def has_couples(values, geometry) -> bool:
         any(k.startswith("mu_") for k in values)
 
 
-def spin_balance(profiles, arm="contact", branch=None, dynamic=True,
-                 closed=False, form="cells") -> dict:
+def spin_balance(profiles, arm="contact", dynamic=True, closed=False,
+                 form="cells") -> dict:
     """The spins' balance residual of a profile, relative to its stress scale, per cell
-    and component of the couple, with errors from the time replicates; ``branch``: the
-    one the profile's stress was averaged with (default: its sidecar's).
+    and component of the couple, with errors from the time replicates, the branch the
+    profile's stress was averaged with its sidecar's (:func:`branch_reach`).
 
     Returns
     -------
@@ -144,12 +152,12 @@ def spin_balance(profiles, arm="contact", branch=None, dynamic=True,
         couples passed, as the residual without tau).
     """
     geo = profiles.cells
-    branch = branch or (profiles.meta or {}).get("branch", "contact")
+    reach = branch_reach(profiles)
     dynamic = dynamic and any(k.startswith("dmu_") for k in profiles.values)
     scale = stress_scale(profiles.values, geo)
 
     def relative(values):
-        return np.array(spin_residuals(values, geo, arm, branch, dynamic, closed,
+        return np.array(spin_residuals(values, geo, arm, reach, dynamic, closed,
                                        form)) / scale
     res = relative(profiles.values)
     err = np.full(res.shape, np.nan)
@@ -159,7 +167,7 @@ def spin_balance(profiles, arm="contact", branch=None, dynamic=True,
                          for i in range(reps.n)])
         err = np.array([[reps.error(each[:, c, k]) for k in range(geo.n)]
                         for c in range(res.shape[0])])
-    tau = np.array(moment_density(profiles.values, geo, arm, branch)) / scale
+    tau = np.array(moment_density(profiles.values, geo, arm, reach)) / scale
     return {"scale": scale, "residual": res, "residual_err": err, "arm": arm, "form": form,
             "dynamic": bool(dynamic), "closed": bool(closed),
             "terms": {"tau": float(np.nanmax(np.abs(tau))),

@@ -1,7 +1,7 @@
 """Time accumulation of per-frame cell sums, in blocks that merge exactly.
 
-Frames at times t >= t_min fall in base blocks of length ``block_time``:
-b = floor((t - t_min) / block_time). A base block keeps the sum of its frames' weights
+Frames at times t >= start fall in base blocks of length ``block_time``:
+b = floor((t - start) / block_time). A base block keeps the sum of its frames' weights
 and of their (weighted) sums, added in time order. With ``max_blocks``, blocks are
 coarsened by pairs (level L: blocks of 2**L base blocks), and a coarse block's sum is
 defined as a binary tree over its base blocks: T(l, i) = T(l-1, 2i) + T(l-1, 2i+1),
@@ -34,7 +34,7 @@ class CellAccumulator:
     ----------
     shape : tuple
         Shape of one frame's sums, (n_cells, n_channels) (or with sectors).
-    t_min : float
+    start : float
         Frames before this time (s) are rejected by :meth:`add`.
     block_time : float
         Base block length (s) for the standard errors.
@@ -43,10 +43,10 @@ class CellAccumulator:
         raised (pairs of blocks added) when a frame falls beyond them.
     """
 
-    def __init__(self, shape, t_min: float, block_time: float, max_blocks: int | None = None):
+    def __init__(self, shape, start: float, block_time: float, max_blocks: int | None = None):
         if not block_time > 0:
             raise ValueError("block_time must be > 0")
-        self.shape, self.t_min, self.block_time = tuple(shape), float(t_min), float(block_time)
+        self.shape, self.start, self.block_time = tuple(shape), float(start), float(block_time)
         self.max_blocks, self.level = max_blocks, 0
         self.origin = None                  # the first frame's base block
         #: finished blocks of the current level: index -> [weight, sums]
@@ -62,13 +62,13 @@ class CellAccumulator:
 
     def block_of(self, time: float) -> int:
         """Index of the (base) block holding time ``time`` (s)."""
-        return max(0, int(math.floor((time - self.t_min) / self.block_time + 1e-9)))
+        return max(0, int(math.floor((time - self.start) / self.block_time + 1e-9)))
 
     def add(self, timestep: int, time: float, sums: np.ndarray, weight: float = 1.0) -> None:
         """Add one frame's sums, shape ``shape``, with a weight (a time kernel's; a
         block's count is the sum of its frames' weights). Frames come in time order."""
-        if time < self.t_min - TIME_TOLERANCE * self.block_time:      # (its rounding)
-            raise ValueError(f"frame at t={time} s is before t_min={self.t_min} s")
+        if time < self.start - TIME_TOLERANCE * self.block_time:      # (its rounding)
+            raise ValueError(f"frame at t={time} s is before the start {self.start} s")
         base = self.block_of(time)
         if self._open is not None and base != self._open[0]:
             if base < self._open[0]:
@@ -159,7 +159,7 @@ class CellAccumulator:
 
     def _fit(self, base) -> None:
         """Coarsen until the blocks from the first frame's to ``base``'s are at most
-        ``max_blocks`` (blocks stay on the grid of t_min, so accumulators merge)."""
+        ``max_blocks`` (blocks stay on the grid of the start, so accumulators merge)."""
         while self.max_blocks and (base >> self.level) - (self.origin >> self.level) \
                 >= self.max_blocks:
             self.coarsen()
@@ -173,12 +173,12 @@ class CellAccumulator:
         self._settle()
 
     def merge(self, other: "CellAccumulator") -> "CellAccumulator":
-        """A new accumulator holding the frames of both (same cells, t_min, blocks;
+        """A new accumulator holding the frames of both (same cells, start, blocks;
         disjoint spans of whole base blocks for bit-exact sums)."""
-        if (other.shape, other.t_min, other.block_time, other.max_blocks) != (
-                self.shape, self.t_min, self.block_time, self.max_blocks):
+        if (other.shape, other.start, other.block_time, other.max_blocks) != (
+                self.shape, self.start, self.block_time, self.max_blocks):
             raise ValueError("can only merge accumulators of the same rings and blocks")
-        out = CellAccumulator(self.shape, self.t_min, self.block_time, self.max_blocks)
+        out = CellAccumulator(self.shape, self.start, self.block_time, self.max_blocks)
         out.level = max(self.level, other.level)
         nodes = []
         for src in (self, other):

@@ -4,7 +4,7 @@
 
     from granavg.cells import Rings
     from granavg.engine import average
-    fields = average(frames, Rings.count(20, 0.10, 0.25, h=0.006), rho_p=1060.0)
+    fields = average(frames, Rings.count(20, 0.10, 0.25, h=0.006), density=1060.0)
 
 ``frames`` is any iterable of objects with ``timestep``, ``time`` (s), ``atoms`` (dict of
 arrays: ``x y radius`` and, as the quantities need, ``vx vy omegaz id mass``) and
@@ -28,6 +28,7 @@ from granavg.engine.fields import Fields
 from granavg.engine.gate import Gate
 from granavg.engine.quantities import QUANTITIES
 from granavg.engine.requirements import groups_for, missing_columns, optional_columns
+from granavg.engine.spec import Averaging
 from granavg.engine.species import Classes, Species
 from granavg.engine.unit_system import SI, UnitSystem
 from granavg.errors import ParameterError, UserError
@@ -40,11 +41,15 @@ UNWEIGHED = ("no masses in the data (no mass column, no material density): veloc
              "material density")
 
 
-def average(frames, cells, *, progress: bool | None = False, **options) -> Fields:
+def average(frames, cells, *, progress: bool | None = False, density: float | None = None,
+            units: UnitSystem = SI, **averaging) -> Fields:
     """Time-averaged profiles of ``frames`` over ``cells`` (Eqs. 1-7):
     :func:`averager`'s, run over every frame (``progress``: a progress bar; None: on
-    a terminal)."""
-    return averager(frames, cells, **options).run(progress)
+    a terminal). ``averaging``: the options of an average as keywords
+    (:meth:`~granavg.engine.spec.Averaging.of`: ``quantities``, ``t_min``, ``t_max``,
+    ``block_time``, ``windows``, ``species``, ``branch``, ``sectors``, ...)."""
+    return averager(frames, cells, Averaging.of(**averaging), density=density,
+                    units=units).run(progress)
 
 
 def _with_columns(groups, requested: bool, frame, dim: int) -> tuple:
@@ -107,14 +112,9 @@ def resolvable(cells, radius, warn: bool = True) -> None:
                     "exceed 1), not continuum fields", cells.width, mean)
 
 
-def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
-             t_min: float | None = None, block_time: float | None = None, units: UnitSystem = SI,
-             branch: str = "contact", sectors="auto", series=None,
-             t_max: float | None = None, windows: float | None = None,
-             window_frames: int | None = None, time_kernel: str | None = None,
-             time_width: float | None = None, times=None,
-             interval: float | None = None, species=None,
-             window_start: float | None = None) -> CellAverage:
+def averager(frames, cells, averaging: Averaging = Averaging(), *,
+             density: float | None = None, units: UnitSystem = SI,
+             series=None) -> CellAverage:
     """The averager of ``frames`` over ``cells`` (Eqs. 1-7): the one way every route
     (anyone's dumps, run directories, in situ, dask, ensembles, the scale study) builds
     its average, with every check and the same metadata. ``run()`` it, or
@@ -134,56 +134,25 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
     cells : Cells
         The cells (:mod:`granavg.cells`: disks of height h in 2D, spheres in 3D), or the
         nodes of a smoothing kernel (:func:`granavg.engine.smoothing.smooth`).
-    rho_p : float, optional
-        Material density (kg/m^3): masses rho_p V^p (pi h a^2, or 4/3 pi a^3). Not needed
+    averaging : Averaging
+        The engine's part of the spec (:class:`~granavg.engine.spec.Averaging`): the
+        quantities (default all the frames allow), the frames averaged and the time axis
+        (:class:`~granavg.engine.spec.TimeAxis`: t_min <= t <= t_max, each bound within
+        :data:`~granavg.engine.timing.axes.TIME_TOLERANCE` of the frames' spacing; the
+        blocking analysis' base block, default the first two frames' spacing; windows,
+        or fields smoothed in time with their time derivatives and, with a smoothing
+        kernel in space, the residuals of the continuity and momentum balance), the
+        species of a mixture (partial fields on a ``species`` axis), where the branch
+        vectors end, and the sectors of the errors' spatial replicas (rings: phi; slabs
+        with a ``span``: their length; None for errors from time alone).
+    density : float, optional
+        Material density rho_p (kg/m^3): masses rho_p V^p (pi h a^2, or 4/3 pi a^3). Not needed
         when the atoms carry a ``mass`` column (kg), nor for quantities without mass (nu,
         v, omega, F, sigma, eps, coordination).
-    quantities : sequence of str, optional
-        Keys of :data:`granavg.engine.quantities.QUANTITIES`; default all the frames allow.
-    t_min, t_max : float, optional
-        The frames averaged: t_min <= t <= t_max (s; None: from the first, to the last),
-        each bound within :data:`~granavg.engine.timing.axes.TIME_TOLERANCE` of the
-        frames' spacing (the rounding of a frame's time).
-    windows : float, optional
-        A field per window of this length (s), from ``window_start``: fields in time
-        (:class:`~granavg.engine.timing.axes.Windows`).
-    window_start : float, optional
-        The first window's start: default t_min where given, else the first frame's
-        time (what a dask client hands its workers, so that their windows agree).
-    window_frames : int, optional
-        A field per this many frames.
-    time_kernel, time_width, times : optional
-        Fields at ``times`` (START STOP STEP, s) smoothed by a time kernel
-        (:mod:`granavg.engine.timing`: ``gauss`` of standard deviation ``time_width``,
-        ``lucy`` of half-length ``time_width``), with their time derivatives
-        (``drho_dt``, ``dmomentum_dt``) and, with a smoothing kernel in space, the
-        residuals of the continuity and momentum balance (``continuity``,
-        ``momentum_balance``). The frames must be evenly spaced.
-    interval : float, optional
-        The frames' spacing (s); default the first two frames'.
-    species : str, dict or Species, optional
-        Split a mixture into species (:mod:`granavg.engine.species`: ``"type"``,
-        ``"radius"``, ``"radius:E1,E2"``, ``"small=1,2 large=3"`` or
-        ``{"small": [1, 2], "large": [3]}``): partial fields of each species beside the
-        whole's, on a ``species`` axis, with the force density between species
-        (``f_inter``), the concentration ``c`` and the segregation flux ``seg_*``.
-    block_time : float, optional
-        Base block length (s) of the blocking analysis; default the spacing of the first
-        two frames (one frame per block).
     units : UnitSystem
         The units the frames are in (:mod:`granavg.engine.unit_system`); only named in the
         sidecar (``meta["units"]``, ``meta["unit_system"]``), nothing is converted. The
         parameters above are in the same units (the SI names are those of SI frames).
-    branch : {"contact", "paper"}
-        Where the branch vectors of Eqs. 5 and 7 end: at the middle of the overlap (the
-        stress balances the contact forces) or, as printed in the paper, at the disk's
-        surface (:data:`granavg.engine.kernels.BRANCHES`).
-    sectors : "auto", int or None
-        Spatial replicas for errors that count the frozen structure
-        (:mod:`granavg.engine.uncertainty.structure`): each cell split into K sectors along the
-        cells' symmetry direction (rings: phi; slabs with a ``span``: their length),
-        K chosen from the sectors' correlation (``auto``) or given; None for errors from
-        time alone (grids always).
     series : FrameObserver, optional
         Records the state of every frame (the Couette cell's, :mod:`granavg.sim`).
 
@@ -194,8 +163,9 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         standard errors, flags and jackknife replicates per cell, in ``units``.
     """
     source, gate = frames, Gate(cells.dim)
+    quantities, time, species = averaging.quantities, averaging.time, averaging.species
     if frames is None:
-        if quantities is None or block_time is None:
+        if quantities is None or time.block_time is None:
             raise ValueError("an averager fed later needs its quantities and block time")
         if species is not None and not isinstance(species, Classes):
             raise ParameterError("species", "{param}: the species are found in the first "
@@ -203,46 +173,39 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
                                  "workers of a run directory) does not see; average the "
                                  "dumps, or in one process")
         head, groups, lacking, has_mass = [], list(quantities), {}, True
-        axis = timing.axis(t_min=t_min or 0.0, t_max=t_max, windows=windows,
-                           window_frames=window_frames, time_kernel=time_kernel,
-                           time_width=time_width, times=times, interval=interval,
-                           window_start=window_start)
+        axis = time.axis()
         groups_for(groups, True, True, smooth=True, in_time=axis.derivative)
     else:
         it = iter(frames)
         head = list(itertools.islice(it, 2))
-        if not head and t_min:          # a source may have scanned past the frames before
-            raise ParameterError("t_min", f"no frame at t >= {t_min:g}, the start of the "
-                                 "average ({param}); give an earlier one")
+        if not head and time.t_min:     # a source may have scanned past the frames before
+            raise ParameterError("t_min", f"no frame at t >= {time.t_min:g}, the start of "
+                                 "the average ({param}); give an earlier one")
         if not head:
             raise UserError("no frame to average")
         gate.ahead(head)                # every check of the first two frames, now
         has_mass = "mass" in head[0].atoms
         spacing = gate.spacing
-        interval = interval if interval is not None else spacing
-        if window_start is None:        # windows from t_min, else from the first frame
-            window_start = t_min if t_min is not None else head[0].time
-        axis = timing.axis(t_min=t_min or 0.0, t_max=t_max, windows=windows,
-                           window_frames=window_frames, time_kernel=time_kernel,
-                           time_width=time_width, times=times, interval=interval,
-                           window_start=window_start)
+        # windows from t_min, else from the first frame
+        axis = time.axis(spacing, time.t_min if time.t_min is not None else head[0].time)
         kernel = getattr(cells, "kernel", None)
         groups = groups_for(quantities, head[0].contacts is not None, "bx" in head[0].atoms,
                             smooth=bool(kernel and kernel.smooth_edge),
                             in_time=axis.derivative, species=species is not None,
                             have_forces="fx" in head[0].atoms)
         groups, lacking = _with_columns(groups, quantities is not None, head[0], cells.dim)
-        if block_time is None:
-            block_time = spacing if spacing is not None else 1.0
+        if time.block_time is None:
+            averaging = averaging.with_time(block_time=spacing if spacing is not None
+                                            else 1.0)
         frames = itertools.chain(head, it)
-    if rho_p is not None and head and has_mass:
+    if density is not None and head and has_mass:
         log.info("the masses come from the atoms' mass column; the material density "
                  "given is not used")
     massive = [g for g in groups if QUANTITIES[g].needs_mass]
-    unweighed = rho_p is None and not has_mass
+    unweighed = density is None and not has_mass
     if unweighed:
         if quantities is not None and massive:
-            raise ParameterError("rho_p", f"{massive[0]} needs masses: give the material "
+            raise ParameterError("density", f"{massive[0]} needs masses: give the material "
                                  "density ({param}) or a mass column")
         groups = [g for g in groups if g not in massive]
     # without masses the mass-weighted means (velocity, spin) weigh by volume: one
@@ -251,11 +214,13 @@ def averager(frames, cells, *, rho_p: float | None = None, quantities=None,
         check_frame(head[0], cells, groups)
     classes = species if isinstance(species, Classes) or species is None else \
         Species.parse(species).classes(head[0].atoms)
-    t_min = t_min or 0.0
-    avg = CellAverage(frames, cells, groups, rho_p if rho_p is not None else 1.0, t_min,
-                      block_time, series, branch=branch, sectors=sectors,
+    averaging = averaging.with_time(t_min=time.t_min or 0.0)
+    avg = CellAverage(frames, cells, groups, density if density is not None else 1.0,
+                      averaging, series,
                       check=None if head else (lambda frame: check_frame(frame, cells, groups)),
-                      source=source, t_max=t_max, axis=axis, classes=classes, gate=gate)
+                      source=source, axis=axis, classes=classes, gate=gate)
+    t_min, t_max, block_time = (averaging.time.t_min, averaging.time.t_max,
+                                averaging.time.block_time)
     window = {"t_min_s": t_min, **({"t_max_s": t_max} if t_max is not None else {}),
               "block_time_s": block_time}
     avg.meta = {"units": units.label, "unit_system": units.describe(), "quantities": groups,

@@ -24,7 +24,7 @@ def masses(atoms, volume, rho_p: float | None) -> np.ndarray:
     if "mass" in atoms:
         return atoms["mass"]
     if rho_p is None:
-        raise ParameterError("rho_p", "body forces need masses: give the material density "
+        raise ParameterError("density", "body forces need masses: give the material density "
                              "({param}) or a mass column")
     return rho_p * volume(atoms["radius"])
 

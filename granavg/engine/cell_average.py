@@ -14,7 +14,6 @@ own per-frame state, whose steadiness over the window is judged
 from __future__ import annotations
 
 import logging
-import numbers
 from typing import Protocol
 
 import numpy as np
@@ -22,10 +21,10 @@ import numpy as np
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.cells.base import Cells, layout_of
 from granavg.engine.channels import TIME_BLOCKS
-from granavg.engine.kernels import BRANCHES
 from granavg.engine.fields import Fields
 from granavg.engine.frame_sums import frame_sums
 from granavg.engine.gate import Gate
+from granavg.engine.spec import Averaging
 from granavg.engine.species import with_species
 from granavg.engine.profiles import flags, standard_errors, values
 from granavg.engine.conventions import MICROPOLAR, MICROPOLAR_CONVENTIONS
@@ -130,29 +129,22 @@ class CellAverage:
         Keys of :data:`granavg.engine.quantities.QUANTITIES`.
     rho_p : float
         Material density.
-    t_min : float
-        Frames before t_min are not averaged.
-    block_time : float
-        Length of the base time blocks of the blocking analysis.
+    averaging : Averaging
+        The engine's part of the spec (:class:`~granavg.engine.spec.Averaging`), its
+        time axis resolved: frames before ``t_min`` are not averaged, nor those after
+        ``t_max`` (nor read further, frames being in time order); ``block_time`` the
+        base time blocks of the blocking analysis; ``branch`` where the branch vectors
+        of Eqs. 5 and 7 end; ``sectors`` the spatial replicas along the cells' symmetry
+        direction (:mod:`granavg.engine.uncertainty.structure`: K chosen from the data,
+        K pinned, or none; cells without a symmetry direction have none).
     series : FrameObserver, optional
         Records the state of every frame (also those before t_min).
-    branch : {"contact", "paper"}
-        Where the branch vectors of Eqs. 5 and 7 end
-        (:data:`granavg.engine.kernels.BRANCHES`).
-    sectors : "auto", int or None
-        Spatial replicas along the cells' symmetry direction
-        (:mod:`granavg.engine.uncertainty.structure`): K chosen from the data (``auto``),
-        K pinned, or none (errors from time alone). Cells without a symmetry direction
-        have none.
     check : callable, optional
         Called with the first frame added (the checks that need one; raises to
         refuse).
     source : optional
         The frame source ``frames`` come from (its ``dropped`` counts the rows it left
         out); default ``frames``.
-    t_max : float, optional
-        Frames after t_max are not averaged (nor read further, frames being in time
-        order).
     axis : optional
         The time axis (:mod:`granavg.engine.timing`): one average (default), windows,
         or fields smoothed in time.
@@ -164,36 +156,25 @@ class CellAverage:
     Build it with :func:`granavg.engine.api.averager`, which makes every check.
     """
 
-    def __init__(self, frames, cells: Cells, groups, rho_p: float, t_min: float,
-                 block_time: float, series: FrameObserver | None = None,
-                 branch: str = "contact", sectors="auto", check=None, source=None,
-                 t_max: float | None = None, axis=None, classes=None, gate=None):
+    def __init__(self, frames, cells: Cells, groups, rho_p: float, averaging: Averaging,
+                 series: FrameObserver | None = None, check=None, source=None, axis=None,
+                 classes=None, gate=None):
         self.frames, self.cells, self.groups = frames, cells, list(groups)
         #: every frame's checks (:mod:`granavg.engine.gate`)
         self.gate = gate if gate is not None else Gate(cells.dim)
-        self.classes = classes
-        self.t_max, self.axis = t_max, axis if axis is not None else Whole()
+        self.classes, self.averaging = classes, averaging
+        self.t_max, self.axis = averaging.time.t_max, axis if axis is not None else Whole()
         self.check, self.source = check, frames if source is None else source
-        if branch not in BRANCHES:
-            raise ParameterError("branch", f"{{param}} {branch!r}: choose from "
-                                 f"{', '.join(BRANCHES)}")
-        sectors = None if sectors in ("off", 0) else sectors
-        if sectors not in ("auto", None) and not (
-                isinstance(sectors, numbers.Integral) and
-                structure.MIN_REPLICAS <= sectors <= structure.MAX_SECTORS):
-            raise ParameterError("sectors", f"{{param}} {sectors!r}: give auto, off or a "
-                                 f"number of sectors from {structure.MIN_REPLICAS} to "
-                                 f"{structure.MAX_SECTORS}")
-        sectors = int(sectors) if isinstance(sectors, numbers.Integral) else sectors
-        if isinstance(sectors, int) and not cells.symmetry:
-            raise ParameterError("sectors", f"{{param}} {sectors}: {cells.kind} have no "
-                                 "direction to split into sectors (their errors come from "
-                                 "time alone); leave it out")
-        self.branch = branch
-        self.sectors = sectors if cells.symmetry else None
+        if isinstance(averaging.sectors, int) and not cells.symmetry:
+            raise ParameterError("sectors", f"{{param}} {averaging.sectors}: {cells.kind} "
+                                 "have no direction to split into sectors (their errors "
+                                 "come from time alone); leave it out")
+        self.branch = averaging.branch
+        self.sectors = averaging.sectors if cells.symmetry else None
         self.k_fine = (structure.FINE_SECTORS if self.sectors == "auto"
                        else self.sectors or 0)
-        self.rho_p, self.t_min, self.block_time = rho_p, t_min, block_time
+        self.rho_p = rho_p
+        self.t_min, self.block_time = averaging.time.t_min, averaging.time.block_time
         self.channels = sorted({b for g in self.groups for b in QUANTITIES[g].blocks})
         #: the channels of the values: only the blocks the quantities need
         self.layout = layout_of(cells.axes, self.channels)
@@ -271,14 +252,14 @@ class CellAverage:
         if not hits:
             return                              # outside every time's kernel
         self._reach(frame)
-        sums = frame_sums(frame, self.cells, self.rho_p, self.frame_channels, self.branch,
-                          self.k_fine)
+        sums = frame_sums(frame, self.cells, self.rho_p, self.frame_channels,
+                          self.averaging.reach, self.k_fine)
         for j, w, dw in hits:
             self._slot(j).add(frame.timestep, t, sums, w, dw)
         if self.classes is not None:
             for name, share in zip(self.classes.names, self.classes.shares(frame)):
                 part = frame_sums(share, self.cells, self.rho_p, self.frame_channels,
-                                  self.branch, self.k_fine)
+                                  self.averaging.reach, self.k_fine)
                 for j, w, dw in hits:
                     self._slot(j, name).add(frame.timestep, t, part, w, dw)
 
@@ -372,15 +353,15 @@ class CellAverage:
         self.results = with_species(whole, parts, self.classes)
         return self.results
 
-    def _conclude(self, slots: dict, whole: bool = True, sectors=None) -> Fields:
+    def _conclude(self, slots: dict, whole: bool = True, replicas=None) -> Fields:
         """The fields of one set of slots (the mixture's, or a species': not ``whole``,
-        which keeps the frames' time series to the mixture's fields; ``sectors``: the
+        which keeps the frames' time series to the mixture's fields; ``replicas``: the
         replicates' number of sectors, default chosen from the data)."""
         if self.axis.kind == "whole":
-            return self._fields(slots[0], whole=whole, sectors=sectors)
+            return self._fields(slots[0], whole=whole, replicas=replicas)
         order = self._ordered(slots)
         said: dict = {}
-        fields = [self._fields(slots[j], said, whole, sectors) for j in order]
+        fields = [self._fields(slots[j], said, whole, replicas) for j in order]
         for message in said.values():
             log.warning(message)
         if self.axis.kind == "windows":
@@ -417,7 +398,7 @@ class CellAverage:
         return list(range(len(self.axis.times)))
 
     def _fields(self, slot: Slot, said: dict | None = None, whole: bool = True,
-                sectors=None) -> Fields:
+                replicas=None) -> Fields:
         """The fields of one slot's frames (``said``: collects the warnings of many slots
         under one key each, logged once by the caller; None: logged here; ``whole``: the
         mixture's, with the frames' time series and its steadiness)."""
@@ -467,14 +448,14 @@ class CellAverage:
             "jackknife_blocks": replicates.n if replicates else 0}
         reps = slot.replicas
         if len(counts) >= 2 and reps is not None and reps.n_blocks < 2:
-            warn("one_sector_block", "the frames span a single block of the sectors' "
+            warn("one_sector_block", "the frames span a single block of the replicas' "
                  "accumulator: errors from time alone")
         elif len(counts) >= 2 and reps is not None:
             r_counts, r_sums = reps.block_sums()
             sem, replicates, info, time_part = structure.structure_errors(
                 r_counts, self._full(r_sums), V, self.rho_p, self.groups, layout, sem,
                 replicates, sectors=self.sectors, periodic=self.cells.sectors_close,
-                replicas=sectors,
+                replicas=replicas,
                 across=self.cells.across)
             lower = {n: lb & time_part[n] for n, lb in lower.items()}
             meta["errors"].update(kind="time+structure", sectors={
@@ -538,11 +519,11 @@ class CellAverage:
         return out
 
 
-def warn_if_drifting(judged: dict, t_min: float) -> list:
+def warn_if_drifting(judged: dict, start: float) -> list:
     """Log a warning naming each quantity that drifts over the window (of one run, or of
     an ensemble judged by :func:`~granavg.engine.stationarity.ensemble_stationarity`), and
     an info line naming those one run cannot judge (``undetermined``); returns the
-    drifting ones."""
+    drifting ones (``start``: the window's, t_min)."""
     drifting = [q for q, r in judged.items() if r["drifts"]]
     unsure = [q for q, r in judged.items() if r.get("undetermined")]
     runs = {r["n_runs"] for r in judged.values() if "n_runs" in r}
@@ -555,19 +536,19 @@ def warn_if_drifting(judged: dict, t_min: float) -> list:
         log.info(named("%s t >= %g s: %s change by more than %g errors, but the errors are "
                        "only lower bounds (fluctuations as slow as the window), which "
                        "cannot tell a drift; several realisations ({seeds}) judge it"),
-                 whose, t_min,
+                 whose, start,
                  ", ".join(unsure), DRIFT_Z)
     if drifting:
         starts = [judged[q]["steady_from_s"] for q in drifting]
         where = ("averaging each run from a later t_min or more realisations may tell"
                  if runs else "it would be steady from t = %.0f (t_min)" % max(starts)
                  if None not in starts else "no later start gives a steady stretch")
-        log.warning("%s t >= %g s is not steady: %s; %s", whose, t_min, ", ".join(
+        log.warning("%s t >= %g s is not steady: %s; %s", whose, start, ", ".join(
             f"{q} {judged[q]['first_half']:.3g} -> {judged[q]['second_half']:.3g} "
             f"({judged[q]['z']:.1f} errors)" for q in drifting), where)
     elif runs and judged:
         log.info("%s t >= %g s is steady in %s (changes within %g between-run errors)",
-                 whose, t_min, ", ".join(judged), DRIFT_Z)
+                 whose, start, ", ".join(judged), DRIFT_Z)
     return drifting
 
 

@@ -91,6 +91,11 @@ class Block:
     optional : tuple of str
         Contact columns it may lack: taken as zero, and said so (the contact couple of
         a law without rolling resistance, or of dumps that do not hold it).
+    spread : str
+        How a smoothing kernel spreads it over its nodes (:data:`SPREADS`;
+        :mod:`granavg.engine.smoothing.sums`).
+    of : str
+        The block it is spread from (a derivative's, the inverse radius'), or "".
     """
 
     name: str
@@ -98,6 +103,8 @@ class Block:
     atoms: tuple = ()
     contacts: tuple = ()
     optional: tuple = ()
+    spread: str = "particle"
+    of: str = ""
 
     def size(self, dim: int) -> int:
         """Channels of the block in ``dim`` dimensions."""
@@ -140,22 +147,23 @@ BLOCK = {b.name: b for b in (
     Block("spin", "axial", ("{w}",)),
     Block("ncontact", "scalar", ("id",), _PAIRS),
     Block("fab", "tensor", ("id",), (*_PAIRS, "{n}")),
-    Block("sig", "tensor", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
+    Block("sig", "tensor", ("id",), (*_PAIRS, "{f}", "{n}", "overlap"), spread="segment"),
     Block("kin", "tensor", ("{v}",)),
     Block("def", "tensor", ("id",), (*_PAIRS, "{n}", "overlap")),
-    Block("wall", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
+    Block("wall", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap"), spread="point"),
     Block("body", "vector", ("{b}",)),
     # the derivatives a smoothing kernel gives (granavg.engine.smoothing): d_j of the
     # mass and momentum sums, and the divergences d_j T_ij of the static and kinetic
     # stress sums, along the cells' basis (partial derivatives: the curvature terms of a
     # polar basis are added with the values)
-    Block("dmass", "vector"),
-    Block("dmom", "tensor", ("{v}",)),
-    Block("dsig", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
-    Block("dkin", "vector", ("{v}",)),
+    Block("dmass", "vector", spread="gradient", of="mass"),
+    Block("dmom", "tensor", ("{v}",), spread="gradient", of="mom"),
+    Block("dsig", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap"),
+          spread="force_divergence", of="sig"),
+    Block("dkin", "vector", ("{v}",), spread="divergence", of="kin"),
     # 1/r of the node, weighted as the volume (1/r = rinv / vol): the curvature terms of
     # a polar basis, from the sums alone
-    Block("rinv", "scalar"),
+    Block("rinv", "scalar", spread="inverse_radius", of="vol"),
     # micropolar and energy fields (I = k m a^2 from the masses and radii)
     Block("ispin", "axial", ("{w}",)),
     Block("inertia", "scalar"),
@@ -176,7 +184,7 @@ BLOCK = {b.name: b for b in (
     Block("bpow", "scalar", ("{v}", "{b}")),
     # a species' share of a mixture (granavg.engine.species): the forces of the other
     # species' particles on its particles, at the contact points (as the walls')
-    Block("inter", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap")),
+    Block("inter", "vector", ("id",), (*_PAIRS, "{f}", "{n}", "overlap"), spread="point"),
     # ... and the share of its coordination and fabric that those contacts make
     Block("ninter", "scalar", ("id",), _PAIRS),
     Block("fabinter", "tensor", ("id",), (*_PAIRS, "{n}")),
@@ -188,8 +196,19 @@ BLOCK = {b.name: b for b in (
     Block("dtmass", "scalar"),
     Block("dtmom", "vector"),
 )}
+#: How a smoothing kernel spreads a block over its nodes (:attr:`Block.spread`), each
+#: with its weight: ``particle``, the particle's channel at its centre (W); ``segment``,
+#: each contact's f (x) l along its branch segments (W's line integral); ``point``, each
+#: contact's force at its contact point (W there); ``gradient``, d_j of the block ``of``
+#: (dW); ``divergence``, d_j T_ij of the tensor ``of`` (dW); ``force_divergence``, d_j
+#: of the segments' block ``of``: each particle's net contact force at its centre less
+#: the points' forces (W), the partial derivatives; ``inverse_radius``, the block ``of``
+#: times 1/r of the node (W).
+SPREADS = ("particle", "segment", "point", "gradient", "divergence", "force_divergence",
+           "inverse_radius")
 #: Blocks only a smoothing kernel fills.
-DERIVATIVE_BLOCKS = ("dmass", "dmom", "dsig", "dkin", "rinv")
+DERIVATIVE_BLOCKS = tuple(b.name for b in BLOCK.values()
+                          if b.spread not in ("particle", "segment", "point"))
 #: The blocks in channel order.
 BLOCKS = tuple(BLOCK)
 #: Blocks the time axis fills from its kernel's derivative (the last in channel order:

@@ -41,28 +41,29 @@ def _chunk_contacts(contacts, rows, lo: int, hi: int):
     return {k: np.asarray(v)[sel] for k, v in contacts.items()}, (i1[sel], i2[sel])
 
 
-def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
-               sectors: int = 0) -> np.ndarray:
+def frame_sums(frame, cells, rho_p: float, blocks, reach: float = 0.5,
+               n_sectors: int = 0) -> np.ndarray:
     """Cell sums of one frame for any cells (:mod:`granavg.engine.cells`), the particles
     taken :data:`CHUNK` at a time, the chunks on the engine's threads
     (:mod:`granavg.engine.threads`; the result does not depend on their number).
 
     Returns
     -------
-    ndarray, shape (n_cells, n_channels), or (n_cells, sectors, n_channels) with
-    ``sectors`` > 0: the sums of each cell's sectors (the cells' ``sector_shares``),
-    which add up to the cell's.
+    ndarray, shape (n_cells, n_channels), or (n_cells, n_sectors, n_channels) with
+    ``n_sectors`` > 0: the sums of each cell's sectors (the cells' ``sector_shares``),
+    which add up to the cell's. ``reach``: the overlap fraction the branch vectors give
+    up (:data:`~granavg.engine.kernels.BRANCHES`).
     """
     layout = layout_of(cells.axes, blocks)
     if getattr(cells, "spreads_branches", False):     # a smoothing kernel's nodes
         from granavg.engine.smoothing.sums import smoothed_frame_sums   # (on demand)
-        return smoothed_frame_sums(frame, cells, rho_p, blocks, branch, sectors, layout)
+        return smoothed_frame_sums(frame, cells, rho_p, blocks, reach, n_sectors, layout)
     a = frame.atoms
     contacts = frame.contacts
     radius = a["radius"]
     rows = frame_rows(frame) if contacts is not None and (
         {*CONTACT_BLOCKS, "wall", "inter", "ninter", "fabinter"} & set(blocks)) else None
-    n = cells.n * max(sectors, 1)
+    n = cells.n * max(n_sectors, 1)
     rows_needed = min(CHUNK, len(radius))
 
     starts = range(0, len(radius), CHUNK)
@@ -77,12 +78,12 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
             mine, mine_rows = _chunk_contacts(contacts, rows, lo, lo + CHUNK)
         q = particle_channels(chunk, mine, layout, cells.particle_volume(r),
                               cells.def_factor(r), rho_p, blocks, basis=cells.basis(pos),
-                              branch=branch, rows=mine_rows, first=lo,
+                              reach=reach, rows=mine_rows, first=lo,
                               out=_buffer(rows_needed, layout.n))
         particle, cell, w = cells.weights(pos, r)
-        if sectors:
-            sector, share = cells.sector_shares(pos, r, sectors)
-            return sector_sums(particle, cell, w, sector, share, sectors, q, cells.n)
+        if n_sectors:
+            sector, share = cells.sector_shares(pos, r, n_sectors)
+            return sector_sums(particle, cell, w, sector, share, n_sectors, q, cells.n)
         return cell_sums(particle, cell, w, q, n)
 
     # the chunks' sums added in chunk order: the same result on any number of threads
@@ -91,11 +92,11 @@ def frame_sums(frame, cells, rho_p: float, blocks, branch: str = "contact",
         sums += part
     for block in ("wall", "inter"):
         if block in blocks and frame.contacts is not None:
-            _point_forces(sums, layout, block, frame, cells, branch, rows, sectors, n)
-    return sums.reshape(cells.n, sectors, -1) if sectors else sums
+            _point_forces(sums, layout, block, frame, cells, reach, rows, n_sectors, n)
+    return sums.reshape(cells.n, n_sectors, -1) if n_sectors else sums
 
 
-def _point_forces(sums, layout, block, frame, cells, branch, rows, sectors, n):
+def _point_forces(sums, layout, block, frame, cells, reach, rows, n_sectors, n):
     """Add the forces of the contacts a block takes at their contact points
     (:func:`~granavg.engine.kernels.wall_points`) to the cell of each point, in the basis
     there. A wall's point just beyond the edge cell goes to it (it lies on the wall,
@@ -103,15 +104,15 @@ def _point_forces(sums, layout, block, frame, cells, branch, rows, sectors, n):
     (``inter``) only to the cell holding it: a cell's sum must not depend on which
     other cells are averaged (``--range``)."""
     a = frame.atoms
-    points, forces = wall_points(a, frame.contacts, cells.dim, branch, rows, which=block)
+    points, forces = wall_points(a, frame.contacts, cells.dim, reach, rows, which=block)
     at = tuple(points.T)
     slack = float(np.max(a["radius"], initial=0.0)) if block == "wall" else 0.0
     where = cells.cell_of(at, slack=slack)
     E = cells.basis(at)
     inside = where >= 0
-    if sectors:
-        where = where * sectors + cells.sector_shares(      # radius 0: its centre's
-            at, np.zeros(len(points)), sectors)[0][:, 0]
+    if n_sectors:
+        where = where * n_sectors + cells.sector_shares(      # radius 0: its centre's
+            at, np.zeros(len(points)), n_sectors)[0][:, 0]
     first = layout.first(block)
     for i in range(cells.dim):
         along = np.einsum("pj,pj->p", forces, E[:, i, :]) if cells.dim == 3 else \

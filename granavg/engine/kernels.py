@@ -89,7 +89,7 @@ def _unknown(atom_id):
 
 
 def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks, basis,
-                      branch="contact", rows=None, first=0, out=None):
+                      reach: float = 0.5, rows=None, first=0, out=None):
     """Per-particle channel values Q_p of one frame.
 
     Parameters
@@ -113,8 +113,9 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
         filled by the caller); the others stay zero.
     basis : ndarray, shape (P, D, D)
         Unit vectors e_i (rows) at each particle: the basis of vectors and tensors.
-    branch : {"contact", "paper"}
-        Where the branch vectors of Eqs. 5 and 7 end (:data:`BRANCHES`).
+    reach : float
+        The overlap fraction s the branch vectors of Eqs. 5 and 7 give up: l_p = (a_p -
+        s delta) n (:data:`BRANCHES`; 1/2 the contact point, 0 the surface).
     rows : (ndarray, ndarray), optional
         :func:`contact_rows` of the frame, if already known.
     first : int
@@ -153,8 +154,6 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
         k = layout.first("ma")
         q[:, k:k + D] = np.einsum("pij,pj->pi", E, stack(["fx", "fy", "fz"][:D]))
     if want & set(CONTACT_BLOCKS):
-        if branch not in BRANCHES:
-            raise UserError(f"branch {branch!r}: choose from {', '.join(BRANCHES)}")
         if rows is None:
             if first:
                 raise ValueError("a chunk of the particles needs the frame's contact rows")
@@ -162,11 +161,11 @@ def particle_channels(atoms, contacts, layout: Layout, vol, dfac, rho_p, blocks,
         f, n, overlap = _contact_vectors(contacts, D, len(rows[0]))
         accumulate_contacts(_f(rows[0], np.int64), _f(rows[1], np.int64), f, n, overlap, E,
                             _f(atoms["radius"], float), _f(vol, float), _f(dfac, float),
-                            BRANCHES[branch], *(b in want for b in COMPILED_CONTACT_BLOCKS), q,
+                            reach, *(b in want for b in COMPILED_CONTACT_BLOCKS), q,
                             first, _offsets(layout))
         if want & set(COUPLE_BLOCKS):
             _couple_channels(q, layout, atoms, stack, contacts, f, n, overlap, E, want,
-                             BRANCHES[branch], rows, first)
+                             reach, rows, first)
     if want & {"ninter", "fabinter"} and contacts is not None:
         _partner_channels(q, layout, contacts, rows if rows is not None else
                           contact_rows(atoms, contacts), vol, E, first, want)
@@ -298,7 +297,7 @@ POINT_CONTACTS = {"wall": lambda code: code > 0, "inter": lambda code: code < 0,
                   "both": lambda code: code != 0}
 
 
-def wall_points(atoms, contacts, dim=2, branch="contact", rows=None, which="wall"):
+def wall_points(atoms, contacts, dim=2, reach: float = 0.5, rows=None, which="wall"):
     """Contact points and forces on the particles of the wall contacts (``which``:
     ``wall``; ``inter``, the contacts with particles of another species; ``both``,
     :data:`POINT_CONTACTS`).
@@ -306,14 +305,14 @@ def wall_points(atoms, contacts, dim=2, branch="contact", rows=None, which="wall
     Returns
     -------
     points, forces : ndarray, shape (n_wall_contacts, dim)
-        The point x_p + (a_p - s delta) n (s of :data:`BRANCHES`) and the contact's
+        The point x_p + (a_p - s delta) n (s: ``reach``, of :data:`BRANCHES`) and the contact's
         total force on the particle.
     """
     k = POINT_CONTACTS[which](np.asarray(contacts["wall"]))
     p = rows[0][k] if rows is not None else rows_of(atoms["id"], contacts["id1"][k])
-    reach = atoms["radius"][p] - BRANCHES[branch] * contacts["overlap"][k]
+    arm = atoms["radius"][p] - reach * contacts["overlap"][k]
     xyz = "xyz"[:dim]
-    points = np.column_stack([atoms[x][p] + reach * contacts["n" + x][k] for x in xyz])
+    points = np.column_stack([atoms[x][p] + arm * contacts["n" + x][k] for x in xyz])
     forces = np.column_stack([contacts["fn" + x][k] + contacts["ft" + x][k] for x in xyz])
     return points, forces
 

@@ -27,14 +27,14 @@ DRIFT_Z = 3.0
 MIN_RUNS = 3
 
 
-def window_mean(series, column: str, t_min: float) -> dict:
-    """Mean of a per-frame quantity over t >= t_min with its standard error: between
+def window_mean(series, column: str, start: float) -> dict:
+    """Mean of a per-frame quantity over t >= start with its standard error: between
     realisations for an ensemble's series (a ``run`` column), else by blocking analysis
     of the frames (``lower_bound`` where no plateau was reached); None if absent.
     ``series``: a table (DataFrame, or a mapping of columns)."""
     if series is None or column not in series:
         return None
-    inside = np.asarray(series["t_s"], float) >= t_min
+    inside = np.asarray(series["t_s"], float) >= start
     x = np.asarray(series[column], float)[inside]
     if "run" in series:
         runs = np.asarray(series["run"])[inside]
@@ -62,9 +62,9 @@ def _fluctuation_error(t, x):
     return float(sem["x"][0]), bool(lower["x"][0])
 
 
-def stationarity(series, t_min: float, judged=None, t_max: float | None = None) -> dict:
+def stationarity(series, start: float, judged=None, stop: float | None = None) -> dict:
     """Judge each quantity named in ``judged`` (default every column but ``step`` and
-    ``t_s``) over the window t_min <= t <= t_max of a table (DataFrame, or a mapping of
+    ``t_s``) over the window start <= t <= stop of a table (DataFrame, or a mapping of
     columns with ``t_s``).
 
     Returns
@@ -78,8 +78,8 @@ def stationarity(series, t_min: float, judged=None, t_max: float | None = None) 
         ``steady_from_s`` (earliest start that would be steady).
     """
     t = np.asarray(series["t_s"], float)
-    upto = t <= (t_max if t_max is not None else np.inf)
-    window = (t >= t_min) & upto
+    upto = t <= (stop if stop is not None else np.inf)
+    window = (t >= start) & upto
     out = {}
     for q in judged if judged is not None else [c for c in series if c not in ("step", "t_s")]:
         if q not in series:
@@ -90,7 +90,7 @@ def stationarity(series, t_min: float, judged=None, t_max: float | None = None) 
         res = _judge(t[window], x[window])
         if res is None:
             continue
-        res["steady_from_s"] = steady_from({"t_s": t[upto], q: x[upto]}, q, t_min)
+        res["steady_from_s"] = steady_from({"t_s": t[upto], q: x[upto]}, q, start)
         out[q] = res
     return out
 
@@ -122,14 +122,14 @@ def _ratio(a, b):
     return a / b if b > 0 else (0.0 if a == 0 else np.inf)
 
 
-def steady_from(series, q: str, t_min: float, min_frames: int = 16):
-    """Earliest start (s, t >= t_min) of a steady stretch of ``q``: the start that
+def steady_from(series, q: str, start: float, min_frames: int = 16):
+    """Earliest start (s, t >= start) of a steady stretch of ``q``: the start that
     maximises the effective number of independent frames n / g, g the statistical
     inefficiency from blocking (Chodera, J. Chem. Theory Comput. 12, 1799, 2016), if
     the stretch from there does not drift; None otherwise (or with < min_frames)."""
     t = np.asarray(series["t_s"], float)
     x = np.asarray(series[q], float)
-    keep = (t >= t_min) & np.isfinite(x)
+    keep = (t >= start) & np.isfinite(x)
     t, x = t[keep], x[keep]
     if len(x) < min_frames:
         return None

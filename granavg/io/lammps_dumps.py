@@ -133,27 +133,27 @@ class LammpsDumps(PairedDumps):
 
     format_name = "lammps"
 
-    def skip_before(self, t_min: float) -> bool:
-        """Pass over the frames before ``t_min`` by scanning, their rows not parsed: the
+    def skip_before(self, time: float) -> bool:
+        """Pass over the frames before ``time`` by scanning, their rows not parsed: the
         frames the averaging would leave out, no more. By their ``ITEM: TIME`` where the
-        first frame has one, else from the first time step s with s dt >= t_min (the
+        first frame has one, else from the first time step s with s dt >= time (the
         averaging's own test); the contact dump from the first atom frame kept
         (:class:`~granavg.io.frames.PairedDumps`). Not where a window of steps is set (a
         dask worker's) or no time is known; returns whether frames are skipped."""
-        if not t_min > 0 or self.atoms.steps is not None:
+        if not time > 0 or self.atoms.steps is not None:
             return False
         if self.first().time is not None:
-            self.atoms.from_time = t_min
+            self.atoms.from_time = time
         elif self.dt is not None:
-            s = max(math.ceil(t_min / self.dt), 0)
-            while s > 0 and (s - 1) * self.dt >= t_min:
+            s = max(math.ceil(time / self.dt), 0)
+            while s > 0 and (s - 1) * self.dt >= time:
                 s -= 1
-            while s * self.dt < t_min:
+            while s * self.dt < time:
                 s += 1
             self.atoms.steps = (s, sys.maxsize)
         else:
             return False
-        self.skipped_before = t_min
+        self.skipped_before = time
         return True
 
     def describe(self) -> dict:

@@ -149,18 +149,18 @@ class Trajectory(Sequence):
             return frame
         raise TypeError(f"frames are indexed by an integer or a slice, not {key!r}")
 
-    def between(self, t_min=None, t_max=None) -> "Trajectory":
-        """The selected frames with t_min <= t <= t_max (each bound within
+    def between(self, t0=None, t1=None) -> "Trajectory":
+        """The selected frames with t0 <= t <= t1 (each bound within
         :data:`~granavg.engine.timing.axes.TIME_TOLERANCE` of the frames' spacing, as
-        :func:`granavg.average`'s ``t_min`` and ``t_max``)."""
+        :func:`granavg.average`'s ``t_min`` and ``t_max``; None: no bound)."""
         times = self.times
         spacing = np.min(np.diff(self._all()[1])) if len(self._all()[1]) > 1 else 0.0
         slack = TIME_TOLERANCE * spacing
         keep = np.ones(len(times), bool)
-        if t_min is not None:
-            keep &= times >= t_min - slack
-        if t_max is not None:
-            keep &= times <= t_max + slack
+        if t0 is not None:
+            keep &= times >= t0 - slack
+        if t1 is not None:
+            keep &= times <= t1 + slack
         return self._select(self._positions()[keep])
 
     def _select(self, positions) -> "Trajectory":

@@ -16,8 +16,8 @@ from granavg.analysis import shear_band as sb_fit
 from granavg.analysis.continuum import tensor
 from granavg.analysis.balance import FORCE_DENSITIES, residuals, stress_scale
 from granavg.analysis.rounding import plain, pm
-from granavg.analysis.spin_balance import (ARMS, moment_density, spin_balance,
-                                           spin_residuals)
+from granavg.analysis.spin_balance import (ARMS, branch_reach, moment_density,
+                                           spin_balance, spin_residuals)
 from granavg.engine.kernels import BRANCHES
 from granavg.errors import UserError
 from granavg.engine.quantities import TENSOR
@@ -315,10 +315,9 @@ def power_numbers(p, arm):
 def spins(p, arm):
     """The spins' balance residual per ring (cells' and field's form, walls closed) and
     the forces' moment density, over the stress scale, for the figure."""
-    branch = (p.meta or {}).get("branch", "contact")
     cells = spin_balance(p, arm=arm, closed=True)
     field = spin_balance(p, arm=arm, closed=True, form="field")
-    tau = moment_density(p.values, p.cells, arm, branch)[0] / cells["scale"]
+    tau = moment_density(p.values, p.cells, arm, branch_reach(p))[0] / cells["scale"]
     return cells["residual"][0], cells["residual_err"][0], field["residual"][0], tau
 
 
@@ -326,8 +325,8 @@ def spin_numbers(p, arm):
     """The spins' balance over the rings (walls closed), relative to the stress scale:
     the couples passed (``cells`` form) and the couple stress's divergence (``field``)."""
     scale = stress_scale(p.values, p.cells)
-    branch = (p.meta or {}).get("branch", "contact")
-    cells, field = (np.abs(spin_residuals(p.values, p.cells, arm, branch, closed=True,
+    reach = branch_reach(p)
+    cells, field = (np.abs(spin_residuals(p.values, p.cells, arm, reach, closed=True,
                                           form=form)[0]) / scale
                     for form in ("cells", "field"))
     b = bulk(p.cells.n)
@@ -337,7 +336,7 @@ def spin_numbers(p, arm):
             "field_max_residual": float(np.nanmax(field)),
             "field_bulk_median_residual": float(np.nanmedian(field[b])),
             "tau_max": float(np.nanmax(np.abs(moment_density(p.values, p.cells, arm,
-                                                             branch)[0]))) / scale}
+                                                             reach)[0]))) / scale}
 
 
 def layers(p, geo):

@@ -4,7 +4,6 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import logging
@@ -18,18 +17,9 @@ from granavg.io import formats, validate
 from granavg.io.trajectory import Trajectory
 from granavg.pipeline.on_dask import average_run_dask
 from granavg.pipeline.runs import average_run
+from granavg.pipeline.spec import Spec
 
 log = logging.getLogger(__name__)
-
-#: Options of anyone's files that are not a format's: a run directory's manifest says
-#: them instead (with the formats' own options, :func:`dump_options`).
-AVERAGING_OF_FILES = ("density", "gravity", "fmt")
-
-
-def dump_options() -> tuple:
-    """The options of anyone's files: :data:`AVERAGING_OF_FILES` and every format's
-    (:func:`granavg.io.formats.options`)."""
-    return AVERAGING_OF_FILES + tuple(formats.options())
 
 
 def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=None,
@@ -121,72 +111,60 @@ def average(source=None, *, cells=None, atoms=None, contacts=None, quantities=No
     (('z',), 'Pa')
     >>> fields.to_xarray()["sigma_zz"].sel(z=0.011, method="nearest")   # doctest: +SKIP
     """
-    unknown = sorted(set(options) - set(dump_options()))
-    if unknown:
-        raise ParameterError(unknown[0], "{param}: not an option of granavg.average")
-    # the engine's axes beyond the cells: time, and the species of a mixture
-    time = {k: v for k, v in dict(t_max=t_max, windows=windows, window_frames=window_frames,
-                                  time_kernel=time_kernel, time_width=time_width,
-                                  times=times, species=species).items() if v is not None}
-    runs_given = isinstance(source, (list, tuple)) or (
-        isinstance(source, (str, os.PathLike)) and Path(source).is_dir())
-    if species is not None and (workers is not None or scheduler) and runs_given:
-        raise ParameterError("species", "{param} on run directories averages in one "
-                             "process: leave out {workers} (on dask the species of a "
-                             "mixture are built for anyone's dumps)")
-    common = dict(quantities=quantities, kernel=kernel, width=width, t_min=t_min,
-                  block_time=block_time, branch=branch, sectors=sectors,
-                  check_cells=check_cells, time=time or None)
-    if workers is not None and workers < 1:
-        raise ParameterError("workers", f"{{param}} {workers}: must be >= 1 (leave it out to "
-                             "average in this process)")
-    if isinstance(source, Trajectory):
-        return _average_trajectory(source, workers or scheduler, progress, cells, common,
-                                   options)
-    if _frames(source):
-        from granavg.engine.api import average as average_frames
+    return run(Spec.of(source, atoms=atoms, contacts=contacts, cells=cells,
+                       quantities=quantities, kernel=kernel, width=width, t_min=t_min,
+                       t_max=t_max, block_time=block_time, windows=windows,
+                       window_frames=window_frames, time_kernel=time_kernel,
+                       time_width=time_width, times=times, species=species, branch=branch,
+                       sectors=sectors, workers=workers, scheduler=scheduler,
+                       progress=progress, check_cells=check_cells, **options))
+
+
+def run(spec: Spec) -> Fields:
+    """The fields of an average's spec (:class:`~granavg.pipeline.spec.Spec`): of frames
+    in this process, run directories (one, or an ensemble) or anyone's files, here or on
+    dask; the spec in the sidecar (``meta["spec"]``)."""
+    fields = _run(spec)
+    fields.meta["spec"] = spec.to_dict()
+    return fields
+
+
+def _run(spec: Spec) -> Fields:
+    src, on_dask = spec.source, spec.execution.on_dask
+    if isinstance(src.frames, Trajectory):
+        return _average_trajectory(spec)
+    if src.frames is not None:
+        from granavg.engine.api import averager
         from granavg.engine.cells.base import Cells
         from granavg.engine.smoothing import smooth
 
-        if not isinstance(cells, Cells):
+        if not isinstance(spec.cells, Cells):
             raise ParameterError("cells", "frames in memory need their {param} "
                                  "(granavg.cells), lengths given: there is no box to "
                                  "default to")
-        return average_frames(source, smooth(cells, kernel, width), progress=progress,
-                              rho_p=options.get("density"), quantities=quantities,
-                              t_min=t_min, block_time=block_time, branch=branch,
-                              sectors=sectors, **time)
-    runs = [source] if isinstance(source, (str, os.PathLike)) and Path(source).is_dir() \
-        else list(source) if isinstance(source, (list, tuple)) else []
-    if runs:
-        given = [k for k in dump_options() if options.get(k) not in (None, (), [])]
-        if given:
-            raise ParameterError(given[0], "{param} is for plain dumps; a run directory's "
-                                 "manifest already says it (drop the option or the run "
-                                 "directory)")
-        return average_run_dirs(runs, atoms, contacts, workers, scheduler, progress,
-                                dict(common, cells=cells))
-    atoms = source if source is not None else atoms
-    if not atoms:
+        return averager(src.frames, smooth(spec.cells, spec.kernel, spec.width),
+                        spec.averaging, density=src.density).run(spec.execution.progress)
+    if src.runs:
+        return average_run_dirs(spec)
+    if not src.atoms:
         raise ParameterError("atoms", "give a run directory, or a LAMMPS dump with "
                              "{param} (and {contacts})")
-    atoms = validate.existing_file("atoms", atoms)
-    contacts = validate.existing_file("contacts", contacts)
-    if workers is not None or scheduler:
+    validate.existing_file("atoms", src.atoms)
+    validate.existing_file("contacts", src.contacts)
+    if on_dask:
         from granavg.pipeline.on_dask import average_dumps_dask
-        return average_dumps_dask(atoms, contacts, workers=workers or 2,
-                                  scheduler=scheduler, cells=cells, **common, **options)
+        return average_dumps_dask(spec)
     from granavg.pipeline.dumps import average_dumps
-    return average_dumps(atoms, contacts, progress=progress, cells=cells, **common,
-                         **options)
+    return average_dumps(spec)
 
 
-def average_runs(run_dirs, average_one=average_run, **options) -> Fields:
-    """Average several runs with ``average_one(run_dir, **options)``, combine them
-    (:func:`~granavg.engine.combine.combine_runs`) and judge the ensemble's window
-    (:func:`~granavg.engine.stationarity.ensemble_stationarity`); one run gives its own
-    profiles unchanged."""
-    profiles = [average_one(d, **options) for d in run_dirs]
+def average_runs(spec: Spec, average_one=average_run) -> Fields:
+    """Average the spec's run directories each with ``average_one(run_dir, spec)``,
+    combine them (:func:`~granavg.engine.combine.combine_runs`) and judge the ensemble's
+    window (:func:`~granavg.engine.stationarity.ensemble_stationarity`); one run gives its
+    own profiles unchanged."""
+    run_dirs = spec.source.runs
+    profiles = [average_one(d, spec) for d in run_dirs]
     if len(profiles) == 1:
         return profiles[0]
     seeds = [(p.meta.get("run_manifest") or {}).get("scene", {}).get("seed") for p in profiles]
@@ -201,48 +179,35 @@ def average_runs(run_dirs, average_one=average_run, **options) -> Fields:
     return combined
 
 
-def average_run_dirs(run_dirs, atoms, contacts, workers, scheduler, progress, options):
-    """Fields of run directories (one, or an ensemble; on dask with ``workers`` or
-    ``scheduler``), ``atoms`` and ``contacts`` naming other dumps of one run."""
-    for run in run_dirs:
-        validate.run_directory(run)
-    validate.positive("block_time", options.get("block_time"))
-    validate.finite("t_min", options.get("t_min"))
-    validate.existing_file("atoms", atoms)
-    if contacts and Path(contacts).is_dir():                 # read only if needed
-        validate.existing_file("contacts", contacts)
-    if len(run_dirs) > 1 and (atoms or contacts):
+def average_run_dirs(spec: Spec) -> Fields:
+    """Fields of the spec's run directories (one, or an ensemble; on dask with its
+    workers or scheduler), its ``atoms`` and ``contacts`` naming other dumps of one run."""
+    src = spec.source
+    for run_dir in src.runs:
+        validate.run_directory(run_dir)
+    validate.existing_file("atoms", src.atoms)
+    if src.contacts and Path(src.contacts).is_dir():         # read only if needed
+        validate.existing_file("contacts", src.contacts)
+    if len(src.runs) > 1 and (src.atoms or src.contacts):
         raise ParameterError("atoms", "{param} and {contacts} name the dumps of one run; "
                              "give one run directory with them")
-    options = dict(options, atoms=atoms, contacts=contacts)
-    if workers is not None or scheduler:
-        return average_runs(run_dirs, average_run_dask, workers=workers or 2,
-                            scheduler=scheduler, **options)
-    return average_runs(run_dirs, average_run, progress=progress, **options)
+    return average_runs(spec, average_run_dask if spec.execution.on_dask else average_run)
 
 
-def _average_trajectory(frames, on_dask, progress, cells, common, options) -> Fields:
+def _average_trajectory(spec: Spec) -> Fields:
     """Fields of a Trajectory's selected frames (:func:`granavg.open`): the format's
     options are the Trajectory's; the averaging's are given here."""
-    given = [k for k, v in options.items() if v not in (None, (), [])
-             and k in formats.choose(frames.atoms, frames.fmt).accepts + ("fmt",)]
+    frames = spec.source.frames
+    given = [k for k in spec.source.given()
+             if k in formats.choose(frames.atoms, frames.fmt).accepts + ("fmt",)]
     if given:
         raise ParameterError(given[0], "{param} belongs to the files: give it to "
                              "granavg.open, which made these frames")
-    if on_dask:
+    if spec.execution.on_dask:
         raise ParameterError("workers", "{param}: a selection of frames averages in this "
                              "process; leave out {param}, or give the files")
     from granavg.pipeline.dumps import average_dumps
-    return average_dumps(frames, None, progress=progress, cells=cells, **common, **options)
-
-
-def _frames(source) -> bool:
-    """Whether a source is frames in memory (not a path, nor a list of paths)."""
-    if source is None or isinstance(source, (str, os.PathLike)):
-        return False
-    if isinstance(source, (list, tuple)):
-        return bool(source) and not isinstance(source[0], (str, os.PathLike))
-    return True
+    return average_dumps(spec)
 
 
 def read(path) -> Fields:

@@ -6,14 +6,15 @@ realisations: an ensemble; :mod:`granavg.pipeline.runs`) or of anyone's dumps
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from pathlib import Path
 
-from granavg.engine.timing import OPTIONS
 from granavg.extras import require
 from granavg.io import validate
 from granavg.io.output_set import OutputSet
 from granavg.io.profiles_io import REPLICATES, TIMESERIES, write_profile_files
-from granavg.pipeline.api import average
+from granavg.pipeline.api import run
+from granavg.pipeline.spec import Spec
 
 log = logging.getLogger(__name__)
 
@@ -21,33 +22,31 @@ log = logging.getLogger(__name__)
 SERIES = ".vtu.d"
 
 
-def average_to_file(run_dirs, out, *, parquet=False, netcdf=False, vtk=False, workers=None,
-                    scheduler=None, atoms=None, contacts=None, progress=None,
-                    **options) -> Path:
-    """The ``average`` command: :func:`granavg.pipeline.api.average` of run directories
-    (one run, or an ensemble; on dask with ``workers`` or ``scheduler``) or, without
-    any, of the dumps ``atoms`` and ``contacts``, written to ``out`` (never over an
-    existing result); with ``netcdf`` and ``vtk`` also as ``<out>.nc`` and ``<out>.vtu``
+def average_to_file(spec: Spec, out, *, parquet=False, netcdf=False, vtk=False) -> Path:
+    """The ``average`` command: the fields of the spec (:func:`granavg.pipeline.api.run`:
+    run directories, one run or an ensemble, or anyone's files; on dask with its
+    execution's workers or scheduler), written to ``out`` (never over an existing
+    result); with ``netcdf`` and ``vtk`` also as ``<out>.nc`` and ``<out>.vtu``
     (:mod:`granavg.io.field_files`; fields in time: ``<out>.pvd`` and the folder
     ``<out>.vtu.d``), the table last."""
     from granavg.analysis.regime import warn_if_inertial
 
+    execution = spec.execution
     for wanted, extra in ((netcdf, "netcdf"), (vtk, "vtk"), (parquet, "parquet"),
-                          (workers is not None, "dask"), (scheduler, "dask")):
+                          (execution.workers is not None, "dask"),
+                          (execution.scheduler, "dask")):
         if wanted:
-            name = {"dask": "workers" if workers is not None else "scheduler"}.get(extra,
-                                                                                 extra)
+            name = {"dask": "workers" if execution.workers is not None else
+                    "scheduler"}.get(extra, extra)
             require(extra, name)
     if vtk:                  # refused before any work where the cells have no mesh
         from granavg.io.field_files import vtk_cells
-        options = dict(options, check_cells=vtk_cells)
-    in_time = any(options.get(k) is not None for k in OPTIONS if k != "t_max")
-    vtk_files = (".pvd", SERIES) if in_time else (".vtu",)
+        spec = replace(spec, execution=replace(execution, check_cells=vtk_cells))
+    vtk_files = (".pvd", SERIES) if spec.averaging.time.in_time else (".vtu",)
     extra = (".nc",) * bool(netcdf) + vtk_files * bool(vtk)
     out = validate.free_output(Path(out), ("", ".json", REPLICATES, TIMESERIES, *extra))
-    profiles = average(list(run_dirs) or None, atoms=atoms, contacts=contacts,
-                       workers=workers, scheduler=scheduler, progress=progress, **options)
-    if run_dirs:
+    profiles = run(spec)
+    if spec.source.runs:
         warn_if_inertial(profiles)
     with OutputSet(out) as outputs:          # all of them, or none
         if netcdf or vtk:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import logging
 import os
 import re
+from dataclasses import replace
 
 from granavg.errors import UserError, literal, message, named
 
@@ -67,13 +68,16 @@ def _progress(o):
 def simulate(o) -> str:
     from granavg.pipeline.simulation import simulate_command
 
+    from granavg.pipeline.spec import Spec
+
+    spec = Spec.of(t_min=o["t_min"], block_time=o["block_time"],
+                   quantities=names(o["quantities"]), kernel=o["kernel"], width=o["width"],
+                   workers=o["workers"] if o["seeds"] is not None else None,
+                   scheduler=o["scheduler"], **time_options(o))
     return simulate_command(
-        preset=o["preset"], overrides=o["overrides"], out=o["out"], np=o["np"],
+        spec, preset=o["preset"], overrides=o["overrides"], out=o["out"], np=o["np"],
         omp=o["omp"], resume=o["resume"], start=o["start"], engine=o["engine"],
-        average=o["average"], t_min=o["t_min"], block_time=o["block_time"],
-        quantities=names(o["quantities"]), seeds=o["seeds"], workers=o["workers"],
-        scheduler=o["scheduler"], progress=_progress(o), kernel=o["kernel"],
-        width=o["width"], time=time_options(o))
+        average=o["average"], seeds=o["seeds"], progress=_progress(o))
 
 
 def averaging(o, **extra) -> dict:
@@ -173,24 +177,61 @@ def species(o):
     return " ".join(words)
 
 
+#: The command line's options of an average that are no flags of its spec (the
+#: outputs, the execution, the logging); every other option given beside ``--spec`` is
+#: refused.
+NOT_OF_THE_SPEC = ("command", "verbose", "threads", "spec", "out", "parquet", "netcdf",
+                   "vtk", "workers", "scheduler", "no_progress")
+#: Options whose parser default is a value, not None (``--sectors off`` is None).
+DEFAULTS = {"branch": "contact", "sectors": "auto"}
+
+
+def _given(key, value) -> bool:
+    """Whether the command line gave an option (its value not the parser's default)."""
+    if key in DEFAULTS:
+        return value != DEFAULTS[key]
+    return value is not None and value is not False and not (
+        isinstance(value, (list, tuple)) and not value)
+
+
+def average_spec(o):
+    """The spec of the ``average`` command's options (:class:`granavg.pipeline.spec.Spec`):
+    the sidecar's of ``--spec``, else the one the flags say."""
+    from granavg.errors import ParameterError
+    from granavg.pipeline.spec import Execution, Spec
+
+    execution = Execution(o["workers"], o["scheduler"], _progress(o))
+    if o.get("spec"):
+        given = [k for k, v in o.items() if k not in NOT_OF_THE_SPEC and _given(k, v)]
+        if given:
+            param = "run_dirs" if given[0] == "run_dir" else given[0]
+            raise ParameterError(param, "{param} beside {spec}: the spec says how to "
+                                 "average; leave out {param}, or {spec}")
+        spec = Spec.load(o["spec"])
+        return replace(spec, execution=execution)
+    misplaced_group(o["run_dir"], "a run directory")
+    return Spec.of(o["run_dir"] or None, atoms=o["atoms"], contacts=o["contacts"],
+                   workers=execution.workers, scheduler=execution.scheduler,
+                   progress=execution.progress, species=species(o),
+                   **averaging(o, width=o["width"]), **time_options(o))
+
+
 def average(o):
     from granavg.pipeline.averaging import average_to_file
 
-    misplaced_group(o["run_dir"], "a run directory")
-    return average_to_file(o["run_dir"], o["out"], parquet=o["parquet"], netcdf=o["netcdf"],
-                           vtk=o["vtk"], workers=o["workers"], scheduler=o["scheduler"],
-                           atoms=o["atoms"], contacts=o["contacts"], progress=_progress(o),
-                           species=species(o), **averaging(o, width=o["width"]),
-                           **time_options(o))
+    return average_to_file(average_spec(o), o["out"], parquet=o["parquet"],
+                           netcdf=o["netcdf"], vtk=o["vtk"])
 
 
 def scales(o):
     from granavg.pipeline.scales import scale_study_to_file
 
-    return scale_study_to_file(o["run_dir"], o["out"], widths=o["widths"],
-                               diameter=o["diameter"], fields=names(o["fields"]),
-                               atoms=o["atoms"], contacts=o["contacts"],
-                               progress=_progress(o), **averaging(o))
+    from granavg.pipeline.spec import Spec
+
+    spec = Spec.of(o["run_dir"] or None, atoms=o["atoms"], contacts=o["contacts"],
+                   progress=_progress(o), **averaging(o))
+    return scale_study_to_file(spec, o["out"], widths=o["widths"], diameter=o["diameter"],
+                               fields=names(o["fields"]))
 
 
 def analyze(o):
@@ -203,7 +244,9 @@ def analyze(o):
 def demo(o):
     from granavg.pipeline.reporting import demo_command
 
-    return demo_command(o["out"], omp=o["omp"], t_min=o["t_min"])
+    from granavg.pipeline.spec import Spec
+
+    return demo_command(o["out"], omp=o["omp"], spec=Spec.of(t_min=o["t_min"], progress=None))
 
 
 COMMANDS = {"simulate": simulate, "average": average, "scales": scales,

@@ -20,6 +20,7 @@ from granavg.engine.cells import Space, from_options, legacy_description
 from granavg.engine.cells.base import Cells
 from granavg.engine.requirements import needs_body
 from granavg.engine.smoothing import smooth
+from granavg.engine.spec import Averaging
 from granavg.engine.unit_system import SI
 from granavg.io.frames import Frame
 from granavg.io.prefetch import Prefetched
@@ -90,50 +91,59 @@ class RunAverage:
         Rings by default (:mod:`granavg.engine.cells`).
     groups : list of str
         Quantity groups (:data:`granavg.engine.quantities.QUANTITIES`).
-    t_min, block_time : float
-        Start of the average and base block length, s.
-    time : dict
-        The time axis' options (:func:`granavg.engine.api.averager`: ``t_max``,
-        ``windows``, ``time_kernel``, ...).
+    averaging : Averaging
+        The engine's part of the spec, resolved: t_min (s; default the scene's
+        discarded transient) and the base block length (s).
+    spec : Spec or None
+        The spec as given, for the sidecar (:class:`~granavg.pipeline.spec.Spec`).
     """
 
     manifest: dict
     geometry: Cells
     groups: list
-    t_min: float
-    block_time: float
+    averaging: Averaging
     files: dict = field(default_factory=dict)
-    branch: str = "contact"
     body_forces: list = field(default_factory=list)
-    sectors: object = "auto"
-    time: dict = field(default_factory=dict)
+    spec: object = None
+
+    @property
+    def t_min(self) -> float:
+        return self.averaging.time.t_min
+
+    @property
+    def block_time(self) -> float:
+        return self.averaging.time.block_time
 
     @classmethod
-    def of(cls, manifest: dict, groups, *, t_min=None, block_time=None, branch="contact",
-           sectors="auto", kernel=None, width=None, cells=None, time=None,
-           **options) -> "RunAverage":
-        """The average of the run ``manifest`` describes, options resolved. ``cells``:
-        cells (:mod:`granavg.cells`), or options of the cells (a dict, or as keywords
-        ``options``; :func:`granavg.engine.cells.from_options`: ``bins`` equal rings or
-        ``edges``, or any kind of 2D cells about the cell's axis) in the run's annulus:
-        the disks' height h, radii from R_i to R_o about the origin; with a smoothing
-        ``kernel`` of ``width`` (m), their nodes (:func:`granavg.engine.smoothing.smooth`)."""
+    def of(cls, manifest: dict, groups, spec=None) -> "RunAverage":
+        """The average of the run ``manifest`` describes, its spec
+        (:class:`~granavg.pipeline.spec.Spec`; None: the defaults) resolved. The spec's
+        cells: cells (:mod:`granavg.cells`), or options of the cells
+        (:func:`granavg.engine.cells.from_options`: ``bins`` equal rings or ``edges``, or
+        any kind of 2D cells about the cell's axis) in the run's annulus: the disks'
+        height h, radii from R_i to R_o about the origin; with a smoothing kernel of a
+        width (m), their nodes (:func:`granavg.engine.smoothing.smooth`)."""
+        from granavg.pipeline.spec import Spec
+
+        spec = spec if spec is not None else Spec()
         scene, derived = manifest["scene"], manifest["derived"]
-        if isinstance(cells, Cells):
-            rings = smooth(cells, kernel, width)
+        kernel, time = spec.kernel, spec.averaging.time
+        if isinstance(spec.cells, Cells):
+            rings = smooth(spec.cells, kernel, spec.width)
         else:
-            given = {k: v for k, v in {**(cells or {}), **options}.items() if v is not None}
+            given = {k: v for k, v in (spec.cells or {}).items() if v is not None}
             rings = smooth(from_options(Space(2), **{"thickness": scene["h"],
                                                      "r_range": (scene["R_i"], scene["R_o"]),
-                                                     **given}), kernel, width)
+                                                     **given}), kernel, spec.width)
         if kernel not in (None, "exact"):            # refused before any frame is read
             resolvable(rings, 0.5 * scene_diameters(scene), warn=False)
-        t_min = discard_time(manifest) if t_min is None else float(t_min)
-        block_time = block_time or max(derived["dump_interval_s"],
-                                       (derived["t_end_s"] - t_min) / MAX_BLOCKS)
-        return cls(manifest, rings, list(groups), t_min, block_time, branch=branch,
-                   body_forces=scene_body_forces(manifest), sectors=sectors,
-                   time={k: v for k, v in (time or {}).items() if v is not None})
+        t_min = discard_time(manifest) if time.t_min is None else float(time.t_min)
+        block_time = time.block_time or max(derived["dump_interval_s"],
+                                            (derived["t_end_s"] - t_min) / MAX_BLOCKS)
+        return cls(manifest, rings, list(groups),
+                   spec.averaging.with_time(t_min=t_min, block_time=block_time,
+                                            interval=derived["dump_interval_s"]),
+                   body_forces=scene_body_forces(manifest), spec=spec)
 
     def meta(self, engine: dict) -> dict:
         """The sidecar's description of this average: the engine's (``engine``: its
@@ -144,7 +154,8 @@ class RunAverage:
         return {"granavg_version": __version__, **first,
                 **legacy_description(self.geometry), **rest, "run_manifest": self.manifest,
                 **({"files": self.files} if self.files else {}),
-                "body_forces": [t.describe for t in self.body_forces]}
+                "body_forces": [t.describe for t in self.body_forces],
+                **({"spec": self.spec.to_dict()} if self.spec is not None else {})}
 
     def averager(self, frames=None, series: bool = True) -> CellAverage:
         """The :func:`~granavg.engine.api.averager` of ``frames`` (None: fed later, in
@@ -157,9 +168,7 @@ class RunAverage:
             frames = WithBodyForces(frames, self.body_forces, self.geometry, scene["rho_p"])
         if frames is not None:
             frames = Prefetched(frames)
-        avg = averager(frames, self.geometry, rho_p=scene["rho_p"], quantities=self.groups,
-                       t_min=self.t_min, block_time=self.block_time, units=SI,
-                       branch=self.branch, sectors=self.sectors, series=state,
-                       interval=self.manifest["derived"]["dump_interval_s"], **self.time)
+        avg = averager(frames, self.geometry, replace(self.averaging, quantities=self.groups),
+                       density=scene["rho_p"], units=SI, series=state)
         avg.meta = self.meta(avg.meta)
         return avg

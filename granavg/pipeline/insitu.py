@@ -10,6 +10,7 @@ rounding. SI units.
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +27,7 @@ from granavg.engine.smoothing import smooth
 from granavg.pipeline.description import (RunAverage, WithBodyForces, scene_body_forces,
                                           scene_diameters)
 from granavg.pipeline.runs import chosen_sectors
+from granavg.pipeline.spec import Spec
 from granavg.sim.lammps_frames import atoms_by_id
 
 log = logging.getLogger(__name__)
@@ -61,40 +63,30 @@ class InSituAverage:
                 for n in bins}
 
     @staticmethod
-    def check_kernel(scene, bins, kernel, width) -> None:
+    def check_kernel(scene, bins, spec: Spec) -> None:
         """Refuse, before the run, a kernel the in-situ averages cannot take: unknown,
         without a width, or narrower than half the smallest disk radius."""
         rings = smooth(from_options(Space(2), thickness=scene.h,
                                     r_range=(scene.R_i, scene.R_o), bins=min(bins)),
-                       kernel, width)
+                       spec.kernel, spec.width)
         resolvable(rings, 0.5 * scene_diameters(scene.to_dict()), warn=False)
-
-    @staticmethod
-    def check_time(t_min, time) -> None:
-        """Refuse, before the run, time options that do not go together
-        (:func:`granavg.engine.timing.axis`; the dump interval is checked with the
-        first frames)."""
-        from granavg.engine.timing import axis
-
-        axis(t_min=t_min or 0.0, **time, interval=1.0 if time.get("window_frames") else None)
 
     def __init__(self, manifest: dict):
         contacts = manifest["scene"].get("contacts", True)
         opts = manifest["average"]
-        kernel = opts.get("kernel")
-        time = opts.get("time") or {}
-        self.groups = groups_for(opts.get("quantities"), contacts,
+        spec = Spec.from_dict(opts["spec"]) if "spec" in opts else _older(opts)
+        spec = replace(spec, source=replace(spec.source, frames="LAMMPS, in situ"))
+        kernel = spec.kernel
+        self.groups = groups_for(spec.averaging.quantities, contacts,
                                  bool(scene_body_forces(manifest)),
                                  smooth=bool(kernel) and get_kernel(kernel).smooth_edge,
-                                 in_time=bool(time.get("time_kernel")))
-        specs = [RunAverage.of(manifest, self.groups, bins=n, t_min=opts.get("t_min_s"),
-                               block_time=opts.get("block_time_s"),
-                               branch=opts.get("branch", "contact"), kernel=kernel,
-                               width=opts.get("width"), time=time) for n in opts["bins"]]
+                                 in_time=bool(spec.averaging.time.time_kernel))
+        specs = [RunAverage.of(manifest, self.groups, replace(spec, cells={"bins": n}))
+                 for n in opts["bins"]]
         self.body = WithBodyForces((), specs[0].body_forces if needs_body(self.groups) else [],
                                    specs[0].geometry, manifest["scene"]["rho_p"])
-        self.averages = {n: spec.averager(series=k == 0)  # one time series serves all
-                         for k, (n, spec) in enumerate(zip(opts["bins"], specs))}
+        self.averages = {n: run.averager(series=k == 0)  # one time series serves all
+                         for k, (n, run) in enumerate(zip(opts["bins"], specs))}
         for avg in self.averages.values():
             avg.prepare()
         self.dt, self.contacts = manifest["derived"]["dt_s"], contacts
@@ -127,3 +119,12 @@ class InSituAverage:
             log.info("in-situ profiles over %d rings: %s (%d frames)", n, paths[-1],
                      profiles.frames_averaged)
         return paths
+
+
+def _older(opts: dict) -> Spec:
+    """The spec of a manifest's in-situ averages written before specs were (a run
+    resumed across versions)."""
+    return Spec.of(t_min=opts.get("t_min_s"), block_time=opts.get("block_time_s"),
+                   quantities=opts.get("quantities"), branch=opts.get("branch", "contact"),
+                   kernel=opts.get("kernel"), width=opts.get("width"),
+                   **(opts.get("time") or {}))

@@ -13,6 +13,7 @@ import os
 import resource
 import sys
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -21,42 +22,44 @@ from granavg.engine import threads
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.frame_sums import CHUNK
 from granavg.engine.fields import Fields
+from granavg.engine.spec import Averaging, TimeAxis
 from granavg.dask_cluster import Cluster, cluster_client, refusal_safe
 from granavg.errors import ParameterError, UserError, literal, named
 from granavg.io.reader import DumpReader, numbered_series, processor_files, series
 from granavg.pipeline.dumps import average_dumps, dump_averager
 from granavg.pipeline.runs import average_run, run_averager, run_dumps
+from granavg.pipeline.spec import Execution, Spec
 
 log = logging.getLogger(__name__)
 
 
-def chunk_windows(manifest: dict, t_min: float, block_time: float, n_chunks: int,
-                  t_max: float | None = None) -> list:
+def chunk_windows(manifest: dict, time: TimeAxis, n_chunks: int) -> list:
     """Time-step windows ``(first, last)`` of a run's dump frames with t_min <= t <=
-    t_max (:func:`cut_windows`), cut where the manifest's dump interval puts frames; the
+    t_max of the resolved ``time`` (:func:`cut_windows`), cut where the manifest's dump
+    interval puts frames; the
     first reaches back to t_min's step and the last has no end, so that a frame off
     that grid (a run continued with other dump settings) is still in one window."""
     d = manifest["derived"]
     steps = np.arange(d["first_dump_step"], d["n_shear_steps"] + 1, d["dump_every_steps"])
-    windows = cut_windows(steps, steps * d["dt_s"], t_min, block_time, n_chunks, t_max)
+    windows = cut_windows(steps, steps * d["dt_s"], time, n_chunks)
     if windows:
-        first = min(windows[0][0], math.ceil(t_min / d["dt_s"] - 1e-9))
+        first = min(windows[0][0], math.ceil(time.t_min / d["dt_s"] - 1e-9))
         windows[0] = (first, windows[0][1])
         windows[-1] = (windows[-1][0], sys.maxsize)
     return windows
 
 
-def cut_windows(steps, times, t_min: float, block_time: float, n_chunks: int,
-                t_max: float | None = None) -> list:
+def cut_windows(steps, times, time: TimeAxis, n_chunks: int) -> list:
     """Time-step windows ``(first, last)`` of the frames (``steps`` at ``times``) with
-    t_min <= t <= t_max, cut only at block boundaries into at most ``n_chunks`` parts of
-    about equal frame counts; each reaches to the step before the next one's first."""
+    t_min <= t <= t_max of the resolved ``time``, cut only at its base blocks' boundaries
+    into at most ``n_chunks`` parts of about equal frame counts; each reaches to the step
+    before the next one's first."""
     steps, times = np.asarray(steps), np.asarray(times, float)
-    keep = (times >= t_min) & (times <= (np.inf if t_max is None else t_max))
+    keep = (times >= time.t_min) & (times <= (np.inf if time.t_max is None else time.t_max))
     steps, times = steps[keep], times[keep]
     if len(steps) == 0:
         return []
-    acc = CellAccumulator((1, 1), t_min, block_time)
+    acc = CellAccumulator((1, 1), time.t_min, time.block_time)
     blocks = np.array([acc.block_of(t) for t in times])
     starts = np.flatnonzero(np.r_[True, blocks[1:] != blocks[:-1]])   # first frame of a block
     cuts = sorted({int(starts[np.argmin(np.abs(starts - k * len(steps) / n_chunks))])
@@ -67,26 +70,26 @@ def cut_windows(steps, times, t_min: float, block_time: float, n_chunks: int,
 
 
 @refusal_safe
-def _chunk(run_dir, window, options):
+def _chunk(run_dir, window, spec):
     """One worker's job: the accumulators of the frames in ``window``, its peak RSS and
     the frames' time-series rows."""
-    avg = run_averager(run_dir, steps=window, **options)
+    avg = run_averager(run_dir, spec, steps=window)
     avg.prepare()
     for frame in avg.frames:
         avg.add(frame)
     return avg.state(), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, avg.series.rows
 
 
-def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
-                     chunks: int | None = None, client=None, **options) -> Fields:
+def average_run_dask(run_dir, spec: Spec | None = None, *, chunks: int | None = None,
+                     client=None, **keywords) -> Fields:
     """:func:`granavg.pipeline.runs.average_run` on dask workers; identical profiles.
 
     Parameters
     ----------
-    workers : int
-        Processes of the local cluster (ignored with ``scheduler``).
-    scheduler : str, optional
-        Address of a dask scheduler (``tcp://host:8786``).
+    spec : Spec, optional
+        The average (:class:`~granavg.pipeline.spec.Spec`; None: of ``keywords``), its
+        execution's ``workers`` (the local cluster's processes; default 2) or
+        ``scheduler`` (a dask scheduler's address, ``tcp://host:8786``).
     chunks : int, optional
         Number of chunks (default :func:`chunk_count`).
     client : dask.distributed.Client, optional
@@ -95,23 +98,23 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     Without a scheduler (or client), where one process is as fast
     (:func:`one_process_reason`: a run's dumps are gzip streams), the run is averaged in
     this process, said in one line.
-    **options
-        ``bins``, ``edges``, ``t_min``, ``block_time``, ``quantities``, ``atoms``,
-        ``contacts`` as for ``average_run``.
 
     The profiles' ``meta["dask"]`` records the chunks and each worker's peak memory (B).
     """
-    base = run_averager(run_dir, fed=True, **options)      # validates; reads no frame
+    spec = spec if spec is not None else Spec.of(run_dir, **keywords)
+    workers, scheduler = spec.execution.workers or 2, spec.execution.scheduler
+    base = run_averager(run_dir, spec, fed=True)      # validates; reads no frame
     manifest = base.meta["run_manifest"]
-    paths = [p for p in run_dumps(run_dir, manifest, options.get("atoms"),
-                                  options.get("contacts")) if p]
+    paths = [p for p in run_dumps(run_dir, manifest, spec.source.atoms,
+                                  spec.source.contacts) if p]
+    here = replace(spec, execution=Execution(progress=False))
     if scheduler is None and client is None and in_this_process(paths, workers):
-        return average_run(run_dir, progress=False, **options)
+        return average_run(run_dir, here)
     with cluster_client(workers, scheduler, _threads_each(workers)) if client is None else \
             _given(client) as dask_jobs:
-        windows = chunk_windows(manifest, base.t_min, base.block_time,
-                                chunks or chunk_count(paths, dask_jobs.n_workers), base.t_max)
-        futures = [dask_jobs.client.submit(_chunk, str(run_dir), w, options, pure=False)
+        windows = chunk_windows(manifest, base.averaging.time,
+                                chunks or chunk_count(paths, dask_jobs.n_workers))
+        futures = [dask_jobs.client.submit(_chunk, str(run_dir), w, here, pure=False)
                    for w in windows]
         results = dask_jobs.gather(futures)
         workers_used = dask_jobs.n_workers
@@ -127,24 +130,23 @@ def average_run_dask(run_dir, *, workers: int = 2, scheduler: str | None = None,
     return profiles
 
 
-def resolved_time(base, time: dict | None) -> dict | None:
-    """The time options a worker's averager needs, resolved by the client's ``base``
-    (which read the first frames): windows of frames as their length, the frames'
-    interval (a chunk may hold a single frame), and the species of a mixture as the
-    first frame fixed them (a chunk's first frame may lack one)."""
-    if not time:
-        return time
-    axis = base.axis
-    out = dict(time)
-    if out.get("species") is not None and base.classes is not None:
-        out["species"] = base.classes      # the species the first frame fixed, for all
+def resolved(base) -> Averaging:
+    """The engine part a worker's averager needs, resolved by the client's ``base``
+    (which read the first frames): its quantities and base block, windows of frames as
+    their length, the frames' interval (a chunk may hold a single frame), and the
+    species of a mixture as the first frame fixed them (a chunk's first frame may lack
+    one)."""
+    averaging, axis = base.averaging, base.axis
+    out = replace(averaging, quantities=tuple(base.groups))
+    if averaging.species is not None and base.classes is not None:
+        out = replace(out, species=base.classes)   # the species the first frame fixed
+    changes = {"block_time": base.block_time}
     if axis.kind == "windows":
-        out.pop("window_frames", None)
-        out["windows"] = axis.length
-        out["window_start"] = axis.start       # the data's first frame, not a chunk's
+        changes.update(window_frames=None, windows=axis.length,
+                       window_start=axis.start)  # the data's first frame, not a chunk's
     if getattr(axis, "interval", None):
-        out["interval"] = axis.interval
-    return out
+        changes["interval"] = axis.interval
+    return out.with_time(**changes)
 
 
 @contextmanager
@@ -154,13 +156,12 @@ def _given(client):
     yield Cluster(client, [])
 
 
-def _threads_each(workers: int) -> int:
+def _threads_each(n_workers: int) -> int:
     """Engine threads per local worker: this command's threads shared among them."""
-    return max(1, threads.count() // max(int(workers or 1), 1))
+    return max(1, threads.count() // max(int(n_workers or 1), 1))
 
 
-def series_windows(atoms, contacts, time_of, t_min: float, block_time: float,
-                   n_chunks: int, t_max: float | None = None) -> list | None:
+def series_windows(atoms, contacts, time_of, time: TimeAxis, n_chunks: int) -> list | None:
     """Windows ``(first, last)`` of time steps that split a ``dump.*`` series into runs
     of whole files, from each file's first header alone (no row read): the number in
     each name must be that frame's time step, as LAMMPS names them (and the contact
@@ -178,18 +179,17 @@ def series_windows(atoms, contacts, time_of, t_min: float, block_time: float,
         log.info("%s: the numbers in the file names are not their time steps; the frames "
                  "are listed by a scan", atoms)
         return None
-    windows = cut_windows(steps, [time_of(h) for h in heads], t_min, block_time, n_chunks,
-                          t_max)
+    windows = cut_windows(steps, [time_of(h) for h in heads], time, n_chunks)
     starts = [w[0] for w in windows[1:]]
     return [(lo, nxt - 1) for (lo, _), nxt in zip(windows, starts)] + \
         [(windows[-1][0], sys.maxsize)] if windows else []
 
 
 @refusal_safe
-def _dump_chunk(atoms, contacts, window, options):
+def _dump_chunk(spec, window, named):
     """One worker's job for anyone's dumps: the accumulators of the frames in
     ``window``, its peak RSS and the rows it dropped."""
-    avg, frames = dump_averager(atoms, contacts, steps=window, **options)
+    avg, frames = dump_averager(spec, steps=window, **named)
     avg.prepare()
     for frame in avg.frames:
         avg.add(frame)
@@ -229,9 +229,9 @@ def text_bytes(paths) -> int:
     return total
 
 
-def one_process_reason(paths, workers: int, frame_particles: int = 0) -> str | None:
+def one_process_reason(paths, n_workers: int, frame_particles: int = 0) -> str | None:
     """Why one process averages the dump files ``paths`` at least as fast as a local
-    cluster of ``workers`` processes, or None where the cluster pays: frames of
+    cluster of ``n_workers`` processes, or None where the cluster pays: frames of
     :data:`~granavg.engine.frame_sums.CHUNK` particles or more (one process reads and
     sums them on every core), one gzip stream (each worker would inflate it up to its
     chunk; measured 1.4x slower on 2 workers), or too little work to pay back the
@@ -242,9 +242,9 @@ def one_process_reason(paths, workers: int, frame_particles: int = 0) -> str | N
     if any(len(series(p)) == 1 and str(p).endswith(".gz") for p in paths):
         return "one gzip stream, which every worker would inflate up to its part"
     work = text_bytes(f for p in paths for f in series(p)) / ONE_CORE_RATE
-    cost = CLUSTER_COST[0] + CLUSTER_COST[1] * workers
-    if work * (1 - 1 / workers) <= cost:
-        return (f"about {work:.1f} s of work on one core, which {workers} workers would "
+    cost = CLUSTER_COST[0] + CLUSTER_COST[1] * n_workers
+    if work * (1 - 1 / n_workers) <= cost:
+        return (f"about {work:.1f} s of work on one core, which {n_workers} workers would "
                 f"cut by less than a local cluster's fixed cost (about {cost:.1f} s)")
     return None
 
@@ -259,13 +259,13 @@ def cost_model() -> bool:
     return wanted == "on"
 
 
-def in_this_process(paths, workers: int, frame_particles=lambda: 0) -> bool:
+def in_this_process(paths, n_workers: int, frame_particles=lambda: 0) -> bool:
     """Whether one process averages ``paths`` (:func:`one_process_reason`, the cost model
     on: :func:`cost_model`; ``frame_particles()`` the first frame's count), said in one
     line with the reason."""
     if not cost_model():
         return False
-    reason = one_process_reason(paths, workers, frame_particles())
+    reason = one_process_reason(paths, n_workers, frame_particles())
     if reason is None:
         return False
     log.info(named("{workers}: %s, so a local dask cluster would only be slower; averaging "
@@ -274,23 +274,22 @@ def in_this_process(paths, workers: int, frame_particles=lambda: 0) -> bool:
     return True
 
 
-def chunk_count(paths, workers: int) -> int:
-    """Chunks for ``workers`` processes: two each where each chunk then holds
+def chunk_count(paths, n_workers: int) -> int:
+    """Chunks for ``n_workers`` processes: two each where each chunk then holds
     :data:`CHUNK_WORK` or more, else one each, else fewer (at least one); two each where
     the cost model is off (:func:`cost_model`)."""
-    workers = max(int(workers or 1), 1)
+    n_workers = max(int(n_workers or 1), 1)
     if not cost_model():
-        return 2 * workers
+        return 2 * n_workers
     work = text_bytes(f for p in paths for f in series(p)) / ONE_CORE_RATE
-    if work >= 2 * workers * CHUNK_WORK:
-        return 2 * workers
-    return workers if work >= workers * CHUNK_WORK else max(1, int(work // CHUNK_WORK))
+    if work >= 2 * n_workers * CHUNK_WORK:
+        return 2 * n_workers
+    return n_workers if work >= n_workers * CHUNK_WORK else max(1, int(work // CHUNK_WORK))
 
 
-def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
-                       scheduler: str | None = None, chunks: int | None = None,
-                       client=None, **options) -> Fields:
-    """:func:`granavg.pipeline.dumps.average_dumps` on dask workers, for LAMMPS
+def average_dumps_dask(spec: Spec, *, chunks: int | None = None, client=None) -> Fields:
+    """:func:`granavg.pipeline.dumps.average_dumps` of the spec on dask workers (its
+    execution's ``workers``, default 2, or ``scheduler``), for LAMMPS
     dumps each worker can read its own part of: a ``dump.*`` file series, or a plain
     (uncompressed) file (each worker skips to its frames by scanning). Identical
     profiles; ``meta["dask"]`` records the chunks. Without a scheduler (or client),
@@ -300,7 +299,9 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
     :func:`chunk_count` for the cluster's workers, unless ``chunks`` is given."""
     from granavg.io import formats
 
-    chosen = formats.choose(atoms, options.get("fmt")).name
+    atoms, contacts = spec.source.atoms, spec.source.contacts
+    workers, scheduler = spec.execution.workers or 2, spec.execution.scheduler
+    chosen = formats.choose(atoms, spec.source.fmt).name
     if chosen != "lammps":
         raise ParameterError("workers", f"{literal(atoms)}: {{param}} averages LAMMPS dumps; "
                              f"average {chosen} files in this process (leave out {{param}})")
@@ -310,7 +311,7 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
             head = DumpReader(atoms, []).first_header()
             return 0 if head is None else len(head.data)
         if in_this_process(paths, workers, particles):
-            return average_dumps(atoms, contacts, **options)
+            return average_dumps(spec)
     for path in paths:
         files = series(path)
         if len(files) == 1 and files[0].suffix == ".gz":
@@ -319,33 +320,30 @@ def average_dumps_dask(atoms, contacts=None, *, workers: int = 2,
                                  "that every worker would inflate up to its part, so a "
                                  "cluster cannot help; give a dump.* series or an "
                                  "uncompressed dump, or leave out {param}")
-    base, frames = dump_averager(atoms, contacts, scan_early=False, **options)  # checks;
+    base, frames = dump_averager(spec, scan_early=False)  # checks;
     # the first two frames read
     base.frames = ()                                  # (and stops its reader thread)
     with cluster_client(workers, scheduler, _threads_each(workers)) if client is None else \
             _given(client) as dask_jobs:
         workers_used = dask_jobs.n_workers
         n_chunks = chunks or chunk_count(paths, workers_used)
-        by_file = series_windows(atoms, contacts, frames.time, base.t_min, base.block_time,
-                                 n_chunks, base.t_max)
+        time = base.averaging.time
+        by_file = series_windows(atoms, contacts, frames.time, time, n_chunks)
         listed_by = "file names" if by_file is not None else "header scan"
         if by_file is not None:                  # each worker opens its own files alone
             windows, named = by_file, {"named_steps": True}
         else:
             heads = list(DumpReader(atoms, [], headers_only=True))     # no row is parsed
             windows = cut_windows([f.timestep for f in heads],
-                                  [frames.time(f) for f in heads], base.t_min,
-                                  base.block_time, n_chunks, base.t_max)
+                                  [frames.time(f) for f in heads], time, n_chunks)
             named = {}
         if not windows:
             raise ParameterError("t_min", f"no frame at t >= {base.t_min:g}, the start of "
                                  "the average ({param}); lower it")
-        fixed = dict(options, quantities=base.groups, block_time=base.block_time,
-                     check_cells=None, time=resolved_time(base, options.get("time")),
-                     **named)                             # checked above
-        futures = [dask_jobs.client.submit(_dump_chunk, str(atoms),
-                                           str(contacts) if contacts else None, w, fixed,
-                                           pure=False) for w in windows]
+        fixed = replace(spec, averaging=resolved(base),
+                        execution=Execution())             # checked above
+        futures = [dask_jobs.client.submit(_dump_chunk, fixed, w, named, pure=False)
+                   for w in windows]
         results = dask_jobs.gather(futures)
     base.prepare()
     dropped = {}

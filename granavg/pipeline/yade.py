@@ -6,6 +6,7 @@ Yade script's ``PyRunner`` feeds (:class:`YadeAverage`), on the frames of
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 
 from granavg.engine.api import averager
 from granavg.engine.cells import Space, from_options
@@ -13,8 +14,9 @@ from granavg.engine.cells.base import Cells
 from granavg.engine.fields import Fields
 from granavg.engine.smoothing import smooth
 from granavg.engine.unit_system import SI
-from granavg.errors import UserError
+from granavg.errors import ParameterError, UserError
 from granavg.io.yade import DAMPED, YadeScene
+from granavg.pipeline.spec import Spec
 
 log = logging.getLogger(__name__)
 
@@ -40,11 +42,11 @@ class YadeAverage:
         The simulation; default ``yade.Omega()``.
     keep : bool
         Keep every frame added (``scene.frames``).
-    kernel, width : optional
-        A smoothing kernel and its width (m), as ``granavg.average`` takes them.
     **options
-        Options of :func:`granavg.engine.api.averager`: ``quantities``, ``t_min``,
-        ``t_max``, ``block_time``, ``branch``, ``sectors``, ``windows``, ...
+        Options of an average as ``granavg.average`` takes them
+        (:meth:`granavg.pipeline.spec.Spec.of`): ``kernel`` and ``width`` (m),
+        ``quantities``, ``t_min``, ``t_max``, ``block_time``, ``branch``, ``sectors``,
+        ``windows``, ...
 
     Attributes
     ----------
@@ -53,22 +55,31 @@ class YadeAverage:
         The cells, built at the first frame.
     """
 
-    def __init__(self, cells, *, omega=None, keep=False, kernel=None, width=None,
-                 **options):
+    def __init__(self, cells, *, omega=None, keep=False, **options):
         if not isinstance(cells, (Cells, dict)):
             raise UserError(f"cells {cells!r}: give granavg cells (granavg.cells) or a "
                             "dict of their options")
-        self.scene, self.keep, self.options = YadeScene(omega), keep, options
-        self._given, self._kernel = cells, (kernel, width)
+        self.scene, self.keep = YadeScene(omega), keep
+        spec = Spec.of(cells=cells, **options)
+        src = spec.source
+        files = [k for k in ("atoms", "contacts") if getattr(src, k)] + \
+            [k for k in src.given() if k != "density"] + ["workers"] * spec.execution.on_dask
+        if files:
+            raise ParameterError(files[0], "{param}: not an option of a running Yade's "
+                                 "average (its frames come from O.bodies and "
+                                 "O.interactions, in this process; the masses from the "
+                                 "spheres, or density=)")
+        #: the average's spec (:class:`~granavg.pipeline.spec.Spec`), its frames Yade's
+        self.spec = replace(spec, source=replace(spec.source, frames=self.scene))
         self.cells, self._avg, self._head = None, None, []
 
     def add(self) -> None:
         """Take the frame now and average it."""
         frame = self.scene.record() if self.keep else self.scene.frame()
         if self.cells is None:
-            given = self._given if isinstance(self._given, Cells) else from_options(
-                Space(3, self.scene.box, self.scene.periodic), **self._given)
-            self.cells = smooth(given, *self._kernel)
+            given = self.spec.cells if isinstance(self.spec.cells, Cells) else \
+                from_options(Space(3, self.scene.box, self.scene.periodic), **self.spec.cells)
+            self.cells = smooth(given, self.spec.kernel, self.spec.width)
         if self._avg is not None:
             self._avg.add(frame)
             return
@@ -79,7 +90,8 @@ class YadeAverage:
     def _start(self) -> None:
         if self.scene.damping():
             log.warning("damping %g: %s", self.scene.damping(), DAMPED)
-        self._avg = averager(self._head, self.cells, units=SI, **self.options)
+        self._avg = averager(self._head, self.cells, self.spec.averaging,
+                             density=self.spec.source.density, units=SI)
         self._avg.prepare()
         for frame in self._head:
             self._avg.add(frame)
@@ -103,7 +115,8 @@ class YadeAverage:
         fields.meta.update({"files": {"atoms": "in process (Yade)", "contacts":
                                       "in process (Yade)"},
                             "inputs": {"format": self.scene.format_name,
-                                       **self.scene.describe()}})
+                                       **self.scene.describe()},
+                            "spec": self.spec.to_dict()})
         if any(self.scene.dropped.values()):
             fields.meta["dropped"] = dict(self.scene.dropped)
         log.info("averaged %d Yade frames", fields.frames_averaged)

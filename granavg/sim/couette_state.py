@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from granavg.engine.kernels import contact_rows, wall_points
+from granavg.engine.kernels import BRANCHES, contact_rows, wall_points
 from granavg.sim._contact_state import contact_state, disk_state
 
 ZONES = {"in": (0.0, 0.2), "bulk": (0.3, 0.8), "out": (0.85, 1.0)}
@@ -113,7 +113,7 @@ def wall_torques(atoms, contacts, rows) -> dict:
     (:func:`~granavg.engine.kernels.wall_points`), and minus their contact couples
     (``mz``: rolling resistance). The shear cell's torque, which the experiments measure
     (``torque_in_Nm`` on the turning inner ring, ``torque_out_Nm`` on the outer)."""
-    points, forces = wall_points(atoms, contacts, 2, "contact", rows)
+    points, forces = wall_points(atoms, contacts, 2, BRANCHES["contact"], rows)
     code = np.asarray(contacts["wall"])
     walls = code != 0
     code = code[walls]

@@ -40,18 +40,16 @@ def seeds_for(scene: Scene, k: int) -> list:
 
 
 @refusal_safe
-def _one(scene_dict: dict, out: str, preset, quantities) -> str:
+def _one(scene_dict: dict, out: str, preset) -> str:
     """One dask task: simulate one realisation (single-threaded LAMMPS, no progress bar)."""
     from granavg.sim.simulate import simulate
 
-    simulate(Scene.from_dict(scene_dict), out, progress=False, preset=preset,
-             quantities=quantities)
+    simulate(Scene.from_dict(scene_dict), out, progress=False, preset=preset)
     return out
 
 
-def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
-                      scheduler: str | None = None, preset: str | None = None,
-                      quantities=None) -> list:
+def simulate_ensemble(scene: Scene, out, k: int, execution,
+                      preset: str | None = None) -> list:
     """Simulate ``k`` independent realisations of ``scene`` into ``out/seed<N>/``.
 
     Parameters
@@ -62,10 +60,12 @@ def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
         A new directory; it receives one run directory per seed and ``ensemble.json``.
     k : int
         Number of realisations.
-    workers : int
-        Processes of the local dask cluster (one LAMMPS each); ignored with ``scheduler``.
-    scheduler : str, optional
-        Address of a dask scheduler whose workers see ``out``.
+    execution : Execution
+        Where the realisations run (:class:`granavg.pipeline.spec.Execution`): its
+        ``workers``, the processes of the local dask cluster (one LAMMPS each; None: 2),
+        or its ``scheduler``, the address of a dask scheduler whose workers see ``out``.
+    preset : str, optional
+        The preset's name, recorded.
 
     Returns
     -------
@@ -80,6 +80,7 @@ def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
         dataclasses.replace(scene, seed=s).derive()      # refuse before any work
         if scene.packing:
             packings.check(scene.packing, s)
+    workers, scheduler = execution.workers or 2, execution.scheduler
     if scheduler is None and workers < 1:
         raise ParameterError("workers", f"{{param}} {workers}: need at least one")
     out = claim_new(Path(out))
@@ -95,7 +96,7 @@ def simulate_ensemble(scene: Scene, out, k: int, *, workers: int = 2,
     failed = []
     with cluster_client(min(workers, k), scheduler) as dask_jobs:
         futures = {dask_jobs.client.submit(_one, dataclasses.replace(scene, seed=s).to_dict(),
-                                           str(r), preset, quantities, pure=False): r
+                                           str(r), preset, pure=False): r
                    for s, r in zip(seeds, runs)}
         for fut in dask_jobs.completed(list(futures)):
             run = futures[fut]

@@ -61,10 +61,8 @@ ENGINES = ("lammps", "reference")
 
 def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
              progress: bool | None = None, preset: str | None = None, start=None,
-             engine: str = "lammps", average=None, t_min: float | None = None,
-             block_time: float | None = None, quantities=None, insitu=None,
-             kernel: str | None = None, width: float | None = None,
-             time: dict | None = None) -> Path:
+             engine: str = "lammps", average=None, insitu=None,
+             plan: dict | None = None) -> Path:
     """Run a new Couette simulation into the empty directory ``out``.
 
     Parameters
@@ -92,38 +90,30 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         Ring counts to average over in situ (while LAMMPS runs, from its memory): writes
         ``profiles_<n>.csv`` for each. Under MPI each rank runs granavg with LAMMPS and
         rank 0 gathers the frames. With ``scene.dumps`` False no dump is written.
-    t_min : float, optional
-        In-situ averages start at t_min (s); default the scene's discarded transient
-        (``discard_rotations`` inner-ring rotations).
-    block_time : float, optional
-        Base block length (s) of the in-situ blocking analysis; default one dump
-        interval (at most 512 blocks).
-    quantities : sequence of str, optional
-        The quantities the run is for (names of :data:`granavg.engine.profiles.QUANTITIES`);
-        if none of them needs contact forces, LAMMPS computes and writes no contact
-        output (``contacts`` off), and the in-situ averages compute only these.
     insitu : class, optional
         The frame sink that averages in situ (needed with ``average``): built as
         ``insitu(manifest)`` on the process that gathers the frames, fed
         ``add(step, atoms, table)`` and ``write(out)``; ``insitu.files(bins)`` names
         what it writes and ``insitu.RANK_MODULE`` is started on every MPI rank. The
         pipeline gives :class:`granavg.pipeline.insitu.InSituAverage`.
-    kernel, width : optional
-        The in-situ averages' smoothing kernel and its width (m), recorded for the sink
-        (``manifest["average"]``).
+    plan : dict, optional
+        The in-situ averages' spec as plain values (the pipeline's ``Spec.to_dict()``),
+        recorded for the sink (``manifest["average"]["spec"]``): their start (``time``'s
+        ``t_min``, s; default the scene's discarded transient, ``discard_rotations``
+        inner-ring rotations), base block (default one dump interval, at most 512
+        blocks), kernel, width and time axis.
 
     Returns
     -------
     Path
         The run directory, with ``manifest.json`` status ``complete``.
     """
-    scene = scene_for(scene, quantities)
     derived = scene.derive()                      # refuse before touching the disk
     shipped = scene.packing and start is None
     if shipped:
         packings.check(scene.packing, scene.seed)
     start = _check_start(start, engine, np_ranks, omp_threads, shipped)
-    average = _check_average(derived, average, engine, t_min)
+    average = _check_average(derived, average, engine, plan)
     if average and insitu is None:
         raise UserError("in-situ averages need a frame sink (granavg.pipeline.simulation."
                         "simulate_run gives it)")
@@ -146,11 +136,7 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         manifest["forecast"] = trade.expectation(derived, prepared=start is not None,
                                                  np_ranks=np_ranks, omp_threads=omp_threads)
         log.info("%s", trade.describe(manifest["forecast"]))
-    manifest["average"] = {"bins": average, "t_min_s": t_min, "block_time_s": block_time,
-                           "quantities": quantities,
-                           **({"kernel": kernel, "width": width} if kernel else {}),
-                           **({"time": time} if time else {})} \
-        if average else None
+    manifest["average"] = {"bins": average, "spec": plan} if average else None
     if average:
         manifest["files"].update(insitu.files(average))
     write_manifest(out, manifest)
@@ -175,9 +161,10 @@ def scene_for(scene: Scene, quantities) -> Scene:
     return scene
 
 
-def _check_average(derived: Derived, average, engine, t_min):
+def _check_average(derived: Derived, average, engine, plan):
     scene = derived.scene
     bins = sorted({int(n) for n in average}) if average else []
+    t_min = ((plan or {}).get("time") or {}).get("t_min")
     if any(n < 1 for n in bins):
         raise ParameterError("average", f"{{param}} {literal(bins)}: ring counts must be "
                              ">= 1")

@@ -163,30 +163,30 @@ class Smoothed(Cells):
         moments take the quantities from the polar basis at each item's own position."""
         return self._pairs(tuple(np.asarray(u, float) for u in pos), None, deriv)
 
-    def segment_weights(self, start, branch):
+    def segment_weights(self, start, l):
         """(segment, node, W) of the line integrals along the segments from ``start``
-        (tuple of D arrays) by ``branch`` (array (S, D)), the moments taking the
+        (tuple of D arrays) by ``l`` (array (S, D)), the moments taking the
         quantities from the polar basis at the start."""
         item, node, W, _ = self._pairs(tuple(np.asarray(u, float) for u in start),
-                                       np.asarray(branch, float), False)
+                                       np.asarray(l, float), False)
         return item, node, W
 
-    def _pairs(self, pos, branch, deriv):
+    def _pairs(self, pos, l, deriv):
         c = self.cutoff
-        length = np.zeros(len(pos[0])) if branch is None else \
-            np.sqrt(np.sum(branch ** 2, axis=1))
+        length = np.zeros(len(pos[0])) if l is None else \
+            np.sqrt(np.sum(l ** 2, axis=1))
         periods = getattr(self.cells, "periods", None)
         index = None
         if periods and any(p is not None for p in periods):
             pos, _, index = with_images(pos, c + length, periods)   # images within reach
             length = length[index]
-            branch = None if branch is None else branch[index]
+            l = None if l is None else l[index]
         # the pairs: a segment's middle within c + half its length of the node
-        mid = pos if branch is None else tuple(u + 0.5 * branch[:, k]
+        mid = pos if l is None else tuple(u + 0.5 * l[:, k]
                                                for k, u in enumerate(pos))
         kind, *spec = self.cells.nodes()
         item, node, W, dW = getattr(self, f"_{kind}")(spec, pos, mid, c + 0.5 * length,
-                                                      branch, deriv)
+                                                      l, deriv)
         keep = np.any(W != 0.0, axis=1) | np.any(dW != 0.0, axis=(1, 2))
         item, node, W, dW = item[keep], node[keep], W[keep], dW[keep]
         if index is not None:
@@ -194,41 +194,41 @@ class Smoothed(Cells):
         f = self._per_node[node]
         return item, node, W * f[:, None], dW * f[:, None, None]
 
-    def _points(self, x, branch, grid, basis, item, node, deriv):
+    def _points(self, x, l, grid, basis, item, node, deriv):
         """Point nodes at ``grid`` (basis rows per node): w (T,) and dw (T, D)."""
         k, c, D = self.kernel, self.cutoff, grid.shape[1]
         scale = k.norms[D] / c ** D
         w, dw = np.zeros(len(item)), np.zeros((len(item), D))
         x = np.ascontiguousarray(x, float)
         grid = np.ascontiguousarray(grid, float)
-        if branch is None:
+        if l is None:
             point_pairs(x, grid, np.ascontiguousarray(basis, float), item, node, k.packed,
                         scale, c, deriv, w, dw)
         else:
-            point_segment_pairs(x, np.ascontiguousarray(branch, float), grid, item, node,
+            point_segment_pairs(x, np.ascontiguousarray(l, float), grid, item, node,
                                 k.packed, scale, c, w)
         return w, dw
 
-    def _lattice(self, spec, pos, mid, reach, branch, deriv):
+    def _lattice(self, spec, pos, mid, reach, l, deriv):
         (axes,) = spec
         D = self.dim
         item, node = lookup.lattice_pairs(mid, axes, reach)
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, D)
         basis = np.broadcast_to(np.eye(D), (len(grid), D, D))
-        w, dw = self._points(np.column_stack(pos), branch, grid, basis, item, node, deriv)
+        w, dw = self._points(np.column_stack(pos), l, grid, basis, item, node, deriv)
         return item, node, w[:, None], dw[:, None, :]
 
-    def _planes(self, spec, pos, mid, reach, branch, deriv):
+    def _planes(self, spec, pos, mid, reach, l, deriv):
         axis, centres, _ = spec
         item, node = lookup.lattice_pairs((mid[axis],), (centres,), reach)
-        w, dw1 = self._points(pos[axis][:, None], None if branch is None else
-                              branch[:, axis:axis + 1], centres[:, None],
+        w, dw1 = self._points(pos[axis][:, None], None if l is None else
+                              l[:, axis:axis + 1], centres[:, None],
                               np.ones((len(centres), 1, 1)), item, node, deriv)
         dw = np.zeros((len(w), 1, self.dim))
         dw[:, 0, axis] = dw1[:, 0]
         return item, node, w[:, None], dw
 
-    def _polar(self, spec, pos, mid, reach, branch, deriv):
+    def _polar(self, spec, pos, mid, reach, l, deriv):
         """Points of a polar lattice: the kernel weight times the turn (cos, sin of k
         delta) from the particle's azimuth to the node's, and the turn's own derivative
         along e_phi (delta grows by 1/R per unit length)."""
@@ -245,7 +245,7 @@ class Smoothed(Cells):
                                 center[1] + (R * np.sin(P)).ravel()])
         c_, s_ = np.cos(P).ravel(), np.sin(P).ravel()
         basis = np.stack([np.column_stack([c_, s_]), np.column_stack([-s_, c_])], axis=1)
-        w, dw = self._points(np.column_stack(pos), branch, grid, basis, item, node, deriv)
+        w, dw = self._points(np.column_stack(pos), l, grid, basis, item, node, deriv)
         delta = P.ravel()[node] - np.arctan2(y, x)[item]
         turn = np.column_stack([np.ones_like(delta), np.cos(delta), np.sin(delta),
                                 np.cos(2 * delta), np.sin(2 * delta)])
@@ -268,7 +268,7 @@ class Smoothed(Cells):
         center, radii, heights = self.cells.nodes()[1:]
         return circles.RingTables(self.kernel, self.cutoff, radii).arrays()
 
-    def _circles(self, spec, pos, mid, reach, branch, deriv):
+    def _circles(self, spec, pos, mid, reach, l, deriv):
         center, radii, heights = spec
         k, c, D = self.kernel, self.cutoff, self.dim
         rho = np.hypot(mid[0] - center[0], mid[1] - center[1])
@@ -279,19 +279,19 @@ class Smoothed(Cells):
         x, y = pos[0], pos[1]
         if D == 2:
             tables = self._ring_tables
-            if branch is None:
+            if l is None:
                 ring_pairs(x, y, cx, cy, *tables, item, node, deriv, W, dW)
             else:
-                ring_segment_pairs(x, y, np.ascontiguousarray(branch[:, 0]),
-                                   np.ascontiguousarray(branch[:, 1]), cx, cy, *tables,
+                ring_segment_pairs(x, y, np.ascontiguousarray(l[:, 0]),
+                                   np.ascontiguousarray(l[:, 1]), cx, cy, *tables,
                                    self._margin, item, node, W)
             return item, node, W, dW
         args = (cx, cy, np.asarray(radii, float), np.asarray(heights, float), len(heights),
                 item, node, k.packed, k.norms[3] / c ** 3, c)
-        if branch is None:
+        if l is None:
             shell_pairs(x, y, pos[2], *args, deriv, W, dW)
         else:
-            shell_segment_pairs(x, y, pos[2], *(np.ascontiguousarray(branch[:, j])
+            shell_segment_pairs(x, y, pos[2], *(np.ascontiguousarray(l[:, j])
                                                 for j in range(3)), *args, self._margin, W)
         return item, node, W, dW
 

@@ -22,7 +22,7 @@ TIME_KERNELS = Registry(__name__, "TIME_KERNEL", lambda k: isinstance(k, TimeKer
 
 #: At most this many times or windows in one average (each is an accumulator).
 MAX_SLOTS = 100_000
-#: The options of :func:`axis` besides t_min (what every route passes on as ``time``).
+#: The time options of a spec besides t_min (:class:`~granavg.engine.spec.TimeAxis`).
 OPTIONS = ("t_max", "windows", "window_frames", "time_kernel", "time_width", "times")
 
 
@@ -72,28 +72,26 @@ def time_grid(times) -> np.ndarray:
     return start + step * np.arange(n)
 
 
-def axis(*, t_min: float = 0.0, t_max: float | None = None, windows: float | None = None,
-         window_frames: int | None = None, time_kernel: str | None = None,
-         time_width: float | None = None, times=None, interval: float | None = None,
-         window_start: float | None = None):
-    """The time axis the options ask for (one-line refusals of options that do not go
-    together).
+def axis(time, interval: float | None = None, window_start: float | None = None):
+    """The time axis a spec's :class:`~granavg.engine.spec.TimeAxis` asks for (one-line
+    refusals of options that do not go together).
 
     Parameters
     ----------
-    t_min, t_max : float
-        The frames averaged: t_min <= t <= t_max.
-    windows : float, optional
-        A field per window of this length.
-    window_frames : int, optional
-        A field per this many frames (windows of that many frame intervals).
-    time_kernel, time_width, times : optional
-        Fields at ``times`` (START STOP STEP) smoothed by this time kernel of this width.
+    time : TimeAxis
+        The frames averaged, t_min <= t <= t_max (t_min None: 0), and one way to
+        resolve time: ``windows`` (a field per window of this length),
+        ``window_frames`` (a field per this many frames: windows of that many frame
+        intervals) or ``time_kernel``, ``time_width`` and ``times`` (fields at START
+        STOP STEP smoothed by this time kernel of this width).
     interval : float, optional
         The frames' spacing, where known (the first two frames').
     window_start : float, optional
         The first window's start (default t_min).
     """
+    t_min, t_max = time.t_min or 0.0, time.t_max
+    windows, window_frames = time.windows, time.window_frames
+    time_kernel, time_width, times = time.time_kernel, time.time_width, time.times
     start = t_min if window_start is None else window_start
     if t_max is not None and not t_max >= t_min:
         raise ParameterError("t_max", f"{{param}} {t_max:g}: before {{t_min}} {t_min:g}; "
