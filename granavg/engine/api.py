@@ -22,7 +22,6 @@ import logging
 
 import numpy as np
 
-from granavg.engine import timing
 from granavg.engine.cell_average import CellAverage
 from granavg.engine.fields import Fields
 from granavg.engine.gate import Gate
