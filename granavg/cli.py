@@ -307,6 +307,11 @@ def _time(p, prefix=""):
                    "width (at least the frames' interval)")
     t.add_argument("--times", type=_finite, nargs=3, metavar=("START", "STOP", "STEP"),
                    help="the times of the smoothed fields")
+    t.add_argument("--time-accuracy", type=_finite, metavar="FRACTION",
+                   help="the median residual of the momentum balance in time (of rho g at "
+                   "bulk nodes) that the dump-interval forecast aims for (default 0.01): "
+                   "average says after it runs what interval gives it, simulate before "
+                   "it runs")
 
 
 def _threads(p):

@@ -220,6 +220,13 @@ PLAN = {
                          subs=(("DIR/", "<collapse_run>/"),
                                ("contact_map={...}", "contact_map=" + COLLAPSE_MAP)),
                          why="as the block above; {...}: the collapse's contact columns"),
+    ("time.md", 2): Plan("text", "granavg: momentum balance in time at the frames'",
+                         why="what granavg prints (tests/test_transient_decks.py -k "
+                             "cli_says)"),
+    ("time.md", 3): Plan("text", "fix     fmean all ave/atom 1 N N fx fy fz",
+                         why="LAMMPS input (lammps_inputs/collapse_2d.lmp with -var "
+                             "mean_forces 1 dumps the same; tests/test_transient_decks.py "
+                             "-k mean_forces)"),
     # -- docs/*/README.md: the published runs, made again --------------------------------
     ("paper/README.md", 0): Plan("parsed", "python benchmarks/end_to_end.py OUT paper 4 2",
                                  why="the published ensemble: 7 min 32 s"),

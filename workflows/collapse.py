@@ -9,7 +9,8 @@
    window) (OUT/front.csv, OUT/front.png);
 3. the continuity and momentum balance in time (Lucy kernel in space, w = 6 mm; Gauss
    in time, w_t = 1 ms) over a window dumped every step, thinned to every 1, 2, 4, 8,
-   16 and 32 steps: the residuals against the frame interval, with their order
+   16 and 32 steps: the residuals against the frame interval, with their order (the
+   continuity residual with the dumped velocities, and with the displacements' flux)
    (OUT/balance.md).
 
     python workflows/collapse.py OUT [--steps-per-tc N]     # about 3 min, 0.5 GB
@@ -47,19 +48,32 @@ DENSE = (0.0605, 0.0695)
 #: Where the balance laws are evaluated (s): inside the dense window by 3 w_t.
 BALANCE_TIMES = (0.064, 0.066, 0.001)
 THINNING = (1, 2, 4, 8, 16, 32)
+
+
+def deck_numbers(run: Path) -> dict:
+    """The contact duration t_c and timestep dt (s) the deck printed in its log."""
+    line = next(ln for ln in (run / "log.lammps").read_text().splitlines()
+                if ln.startswith("collapse_2d: n_disks"))
+    words = line.replace(",", "").split()
+    return {"t_c": float(words[words.index("t_c") + 1]),
+            "dt": float(words[words.index("dt") + 1])}
 log = logging.getLogger("collapse")
 
 
 def run_deck(out: Path, steps_per_tc: int = 200, dense=DENSE, duration=0.6,
-             step: int = 1) -> Path:
+             step: int = 1, every: int | None = None, mean_forces: bool = False) -> Path:
     """Run the collapse deck into ``out`` (skipped where its dumps are there): dumps
-    every 5.2 ms, and every ``step`` steps over ``dense`` (s)."""
+    every 5.2 ms (``every`` steps), and every ``step`` steps over ``dense`` (s; None:
+    no dense window); ``mean_forces``: the atom dump holds the disks' mean forces over
+    each interval (fix ave/atom; no dense window)."""
     if (out / "contacts.dump").exists():
         return out
     out.mkdir(parents=True, exist_ok=True)
-    every = 500 * steps_per_tc // 50
+    every = every or 500 * steps_per_tc // 50
     args = {"out": out, "every": every, "duration": duration, "steps_per_tc": steps_per_tc,
-            "dense_every": step, "dense_from": dense[0], "dense_until": dense[1]}
+            "dense_every": step if dense else 0, "mean_forces": int(mean_forces)}
+    if dense:
+        args.update(dense_from=dense[0], dense_until=dense[1])
     cmd = ["-log", str(out / "log.lammps")]
     for k, v in args.items():
         cmd += ["-var", k, str(v)]
@@ -82,6 +96,32 @@ def thin(src: Path, dst: Path, every: int) -> Path:
             rows = rows or line.startswith("ITEM: NUMBER OF")
         if index % every == 0:
             fout.writelines(block)
+    return dst
+
+
+def thin_steps(src: Path, dst: Path, every: int, first: int = 0,
+               last: int | None = None) -> Path:
+    """Copy the frames of a LAMMPS text dump whose time step is a multiple of ``every``,
+    between steps ``first`` and ``last`` (what a dump every ``every`` steps would have
+    held; ITEM: UNITS kept)."""
+    def flush(block, out):
+        if "ITEM: TIMESTEP\n" not in block:
+            out.writelines(block)               # ITEM: UNITS, before the first frame
+            return
+        step = int(block[block.index("ITEM: TIMESTEP\n") + 1])
+        if step % every == 0 and first <= step and (last is None or step <= last):
+            out.writelines(block)
+
+    with open(src) as fin, open(dst, "w") as fout:
+        block = []
+        for line in fin:
+            if line.startswith("ITEM: TIME") and not line.startswith("ITEM: TIMESTEP") \
+                    and block:
+                flush(block, fout)
+                block = []
+            block.append(line)
+        if block:
+            flush(block, fout)
     return dst
 
 
@@ -134,10 +174,11 @@ def balance(run: Path, work: Path) -> list:
                                    "y_range": (0.0, 0.05), "thickness": 0.002},
                             kernel="lucy", width=0.006, t_min=DENSE[0], t_max=DENSE[1],
                             time_kernel="gauss", time_width=0.001, times=BALANCE_TIMES)
-        c, m = continuity(f), momentum(f)
+        c, m = continuity(f, "continuity_v"), momentum(f)
         rows.append({"steps": every, "continuity": c["ratio"], "momentum": m["ratio"],
                      "continuity_verdict": c["claim"]["verdict"],
-                     "momentum_verdict": m["claim"]["verdict"]})
+                     "momentum_verdict": m["claim"]["verdict"],
+                     "continuity_flux": continuity(f)["ratio"]})
         atoms.unlink()
         contacts.unlink()
     return rows
@@ -151,13 +192,15 @@ def orders(rows, key) -> list:
 
 def markdown(rows) -> str:
     oc, om = orders(rows, "continuity"), orders(rows, "momentum")
-    lines = ["| frames every (steps) | continuity / max abs d rho/dt | order | "
-             "momentum / rho g | order |", "|---|---|---|---|---|"]
+    lines = ["| frames every (steps) | continuity with the dumped velocities / max abs d "
+             "rho/dt | order | with the displacements' flux | momentum / rho g | order |",
+             "|---|---|---|---|---|---|"]
     for i, r in enumerate(rows):
         a = f"{oc[i - 1]:.1f}" if i else ""
         b = f"{om[i - 1]:.1f}" if i else ""
         lines.append(f"| {r['steps']} | {r['continuity']:.2g} ({r['continuity_verdict']}) "
-                     f"| {a} | {r['momentum']:.2g} ({r['momentum_verdict']}) | {b} |")
+                     f"| {a} | {r['continuity_flux']:.1g} | {r['momentum']:.2g} "
+                     f"({r['momentum_verdict']}) | {b} |")
     return "\n".join(lines)
 
 

@@ -14,21 +14,23 @@ own per-frame state, whose steadiness over the window is judged
 from __future__ import annotations
 
 import logging
+import math
 from typing import Protocol
 
 import numpy as np
 
 from granavg.engine.accumulate import CellAccumulator
 from granavg.engine.cells.base import Cells, layout_of
-from granavg.engine.channels import TIME_BLOCKS
+from granavg.engine.channels import BLOCK, FLUX_BLOCKS, TIME_BLOCKS
 from granavg.engine.fields import Fields
 from granavg.engine.frame_sums import frame_sums
 from granavg.engine.gate import Gate
 from granavg.engine.spec import Averaging
 from granavg.engine.species import with_species
+from granavg.engine.smoothing.displacements import Kept, displacement_sums, flux_size
 from granavg.engine.profiles import flags, standard_errors, values
 from granavg.engine.conventions import MICROPOLAR, MICROPOLAR_CONVENTIONS
-from granavg.engine.quantities import QUANTITIES
+from granavg.engine.quantities import QUANTITIES, columns
 from granavg.engine.stationarity import DRIFT_Z, stationarity
 from granavg.engine.timing import Whole
 from granavg.engine.timing.axes import TIME_TOLERANCE
@@ -44,6 +46,48 @@ MAX_BLOCKS = 512
 SLOT_BLOCKS, SLOT_REPLICA_BLOCKS = 16, 4
 #: A time kernel's support is cut into this many time blocks for the errors.
 KERNEL_BLOCKS = 8
+
+
+#: Interleaved phases of the frames (frame index mod this) whose own time quadratures
+#: estimate the quadrature error of the momentum balance (:class:`Phase`).
+PHASES = 4
+
+
+class Phase:
+    """The weighted sums of one phase of the frames (every :data:`PHASES`-th frame from
+    an offset): their mean sums and the time derivative of the mass and momentum, as a
+    :class:`Slot` keeps them for all frames."""
+
+    def __init__(self, shape, ndc):
+        self.wsum, self.w = np.zeros(shape), 0.0
+        self.dsum, self.dw = np.zeros((shape[0], ndc)), 0.0
+
+    def add(self, sums, w, dw, dcols) -> None:
+        self.wsum += w * sums
+        self.w += w
+        if dw != 0.0:
+            self.dsum += dw * sums[:, dcols]
+            self.dw += dw
+
+    def merge(self, other: "Phase") -> "Phase":
+        self.wsum, self.w = self.wsum + other.wsum, self.w + other.w
+        self.dsum, self.dw = self.dsum + other.dsum, self.dw + other.dw
+        return self
+
+    @staticmethod
+    def joined(phases) -> "Phase":
+        """The phases' frames together (a coarser quadrature's, or the whole)."""
+        out = Phase(phases[0].wsum.shape, phases[0].dsum.shape[1])
+        for p in phases:
+            out.merge(p)
+        return out
+
+    def sums(self, dcols) -> tuple:
+        """(mean sums, rates) as :meth:`Slot.rates`; NaN without a frame."""
+        if self.w == 0.0:
+            return (np.full_like(self.wsum, np.nan), np.full_like(self.dsum, np.nan))
+        mean = self.wsum / self.w
+        return mean, (self.dsum - mean[:, dcols] * self.dw) / self.w
 
 
 class Slot:
@@ -65,17 +109,23 @@ class Slot:
         The channels whose time derivative is kept (None: none).
     """
 
-    def __init__(self, shape, t0, block_time, max_blocks, k, replica_blocks, dcols=None):
+    def __init__(self, shape, t0, block_time, max_blocks, k, replica_blocks, dcols=None,
+                 flux=0):
         self.acc = CellAccumulator(shape, t0, block_time, max_blocks)
         self.replicas = CellAccumulator((shape[0], k, shape[1]), t0, block_time,
                                         replica_blocks) if k else None
         self.dcols = dcols
         self.dsum = np.zeros((shape[0], len(dcols))) if dcols is not None else None
         self.dweight = 0.0
+        #: the displacements' flux sums, weighted (:meth:`add_flux`)
+        self.fsum = np.zeros((shape[0], flux)) if flux else None
+        #: the frames' interleaved phases (:class:`Phase`), where kept
+        self.phases = None
 
-    def add(self, step, t, sums, w=1.0, dw=0.0) -> None:
+    def add(self, step, t, sums, w=1.0, dw=0.0, phase=None) -> None:
         """Add a frame's sums (with the sectors' when ``sums`` has them) of weight w and
-        time-derivative weight dw."""
+        time-derivative weight dw (``phase``: the frame's index mod :data:`PHASES`,
+        where the phases are kept)."""
         if self.replicas is not None:
             self.replicas.add(step, t, sums, w)
             sums = sums.sum(axis=1)
@@ -83,6 +133,15 @@ class Slot:
         if self.dsum is not None and dw != 0.0:
             self.dsum += dw * sums[:, self.dcols]
             self.dweight += dw
+        if phase is not None:
+            if self.phases is None:
+                self.phases = [Phase(sums.shape, len(self.dcols)) for _ in range(PHASES)]
+            self.phases[phase].add(sums, w, dw, self.dcols)
+
+    def add_flux(self, sums, u: float) -> None:
+        """Add the displacements' flux sums of an interval between frames (the mass flux
+        and its divergence, :mod:`granavg.engine.smoothing.displacements`), weight u."""
+        self.fsum += u * sums
 
     def merge(self, other: "Slot") -> "Slot":
         """The slot of both slots' frames (disjoint; exact)."""
@@ -92,6 +151,11 @@ class Slot:
         if self.dsum is not None:
             self.dsum = self.dsum + other.dsum
             self.dweight += other.dweight
+        if self.fsum is not None:
+            self.fsum = self.fsum + other.fsum
+        if other.phases is not None:
+            self.phases = other.phases if self.phases is None else \
+                [a.merge(b) for a, b in zip(self.phases, other.phases)]
         return self
 
     def rates(self) -> np.ndarray:
@@ -99,7 +163,10 @@ class Slot:
         len(dcols)): (sum dw S - mean sum dw) / sum w, the exact derivative of the
         smoothed sums sampled at the frames."""
         W = self.acc.weight
-        return (self.dsum - self.acc.mean()[:, self.dcols] * self.dweight) / W
+        rates = (self.dsum - self.acc.mean()[:, self.dcols] * self.dweight) / W
+        if self.fsum is None:
+            return rates
+        return np.concatenate([rates, self.fsum / W], axis=1)
 
 
 class FrameObserver(Protocol):
@@ -182,9 +249,23 @@ class CellAverage:
         self.frame_channels = [b for b in self.channels if b not in TIME_BLOCKS]
         self.frame_layout = layout_of(cells.axes, self.frame_channels)
         self.dcols = None
-        if {"dtmass", "dtmom"} & set(self.channels):
+        if set(TIME_BLOCKS) & set(self.channels):
             fl = self.frame_layout
-            self.dcols = [fl.index["mass"], *range(fl.first("mom"), fl.first("mom") + fl.dim)]
+            mom = range(fl.first("mom"), fl.first("mom") + fl.dim) if "mom" in fl.blocks \
+                else ()
+            self.dcols = [fl.index["mass"], *mom]
+        #: the frames' phases are kept (the quadrature error's estimates: both, the one
+        #: at twice the interval giving the other its order)
+        self.phased = any(QUANTITIES[g].phases for g in self.groups)
+        if self.phased:
+            self.groups += [g for g, q in QUANTITIES.items() if q.phases and g not in self.groups]
+        #: the displacements' flux blocks between frames wanted, and their channels
+        self.flux_blocks = [b for b in FLUX_BLOCKS if b in self.channels]
+        self.flux = flux_size(self.flux_blocks, cells.dim)
+        #: the atoms' columns a frame's positions keep for the next interval
+        self.kept_columns = sorted({"id", "radius", "mass", *cells.position_names,
+                                    *(c for b in self.flux_blocks
+                                      for c in BLOCK[b].atom_columns(cells.dim))})
         self.series = series
         self.results: Fields | None = None
         self.meta: dict = {}
@@ -211,6 +292,12 @@ class CellAverage:
         self.span = None                # the first and last frame times added, and their number
         self.extent = None              # the particles' reach (lo, hi) in x, y [, z], of them
         self.previous = None            # the last frame time added (their spacing)
+        #: the first and last frames added (their positions: the displacements' flux
+        #: between this pass's frames and another's, :meth:`merge`), of the mixture and
+        #: of each species
+        self.ends = None
+        self.joins = []                 # the ends of the passes merged into this one
+        self.appeared = [0, 0]          # particles that vanished, appeared between frames
         if self.series is not None:
             self.series.rows = []
 
@@ -232,7 +319,7 @@ class CellAverage:
                 c = axis.cutoff
                 self.slots[key] = Slot(shape, axis.times[j] - c, 2 * c / KERNEL_BLOCKS,
                                        KERNEL_BLOCKS, self.k_fine, SLOT_REPLICA_BLOCKS,
-                                       self.dcols)
+                                       self.dcols, self.flux)
         return self.slots[key]
 
     def add(self, frame):
@@ -248,20 +335,61 @@ class CellAverage:
         if t < self.t_min - slack or (self.t_max is not None and t > self.t_max + slack):
             return
         self._spaced(t)
+        if self.flux:
+            self._displaced(frame)
         hits = self.axis.hits(t)
         if not hits:
             return                              # outside every time's kernel
         self._reach(frame)
         sums = frame_sums(frame, self.cells, self.rho_p, self.frame_channels,
                           self.averaging.reach, self.k_fine)
+        phase = self._phase(t)
         for j, w, dw in hits:
-            self._slot(j).add(frame.timestep, t, sums, w, dw)
+            self._slot(j).add(frame.timestep, t, sums, w, dw, phase)
         if self.classes is not None:
             for name, share in zip(self.classes.names, self.classes.shares(frame)):
                 part = frame_sums(share, self.cells, self.rho_p, self.frame_channels,
                                   self.averaging.reach, self.k_fine)
                 for j, w, dw in hits:
-                    self._slot(j, name).add(frame.timestep, t, part, w, dw)
+                    self._slot(j, name).add(frame.timestep, t, part, w, dw, phase)
+
+    def _phase(self, t: float):
+        """The frame's index mod :data:`PHASES` on the frames' grid (None where the
+        phases are not kept, or the interval is not known yet: that frame is then in
+        no phase, and the estimates say so)."""
+        interval = getattr(self.axis, "interval", None)
+        if not self.phased or not interval:
+            return None
+        return int(round(t / interval)) % PHASES
+
+    def _displaced(self, frame) -> None:
+        """Add the displacements' flux from the last frame added to ``frame`` (of the
+        mixture and each species) to the slots the interval reaches; keep ``frame``'s
+        positions for the next."""
+        parts = [(None, frame)]
+        if self.classes is not None:
+            parts += list(zip(self.classes.names, self.classes.shares(frame)))
+        box = getattr(frame, "box", None)       # (a species' share has the frame's)
+        kept = {name: _positions(part, self.kept_columns, box) for name, part in parts}
+        if self.ends is None:
+            self.ends = [kept, kept]
+        else:
+            self._flux(self.ends[1], kept)
+            self.ends[1] = kept
+
+    def _flux(self, before: dict, after: dict) -> None:
+        """The displacements' flux between two consecutive frames' kept positions."""
+        t0, t1 = before[None].time, after[None].time
+        hits = self.axis.flux_hits(t0, t1)
+        if not hits:
+            return
+        for name in after:
+            sums, lost = displacement_sums(before[name], after[name], self.cells, self.rho_p,
+                                           self.flux_blocks)
+            if name is None:
+                self.appeared = [self.appeared[0] + lost[0], self.appeared[1] + lost[1]]
+            for j, u in hits:
+                self._slot(j, name).add_flux(sums, u)
 
     def _reach(self, frame) -> None:
         """Widen ``extent`` to the frame's particles (centres -+ radii)."""
@@ -315,13 +443,19 @@ class CellAverage:
         self.previous = t
 
     def state(self) -> tuple:
-        """The slots' accumulators, the frames' span and the particles' extent: what a
-        worker hands back."""
-        return self.slots, self.span, self.extent
+        """The slots' accumulators, the frames' span, the particles' extent and the
+        first and last frames' positions (for the flux between passes): what a worker
+        hands back."""
+        return self.slots, self.span, self.extent, (self.ends, self.appeared)
 
     def merge(self, state) -> None:
-        """Add another averager's :meth:`state` (disjoint frames; exact)."""
-        slots, span, extent = state
+        """Add another averager's :meth:`state` (disjoint frames; exact: the
+        displacements' flux between the passes' frames is added when the fields are
+        concluded)."""
+        slots, span, extent, (ends, appeared) = state
+        if ends is not None:
+            self.joins.append(ends)
+        self.appeared = [self.appeared[0] + appeared[0], self.appeared[1] + appeared[1]]
         self.extent = _wider(self.extent, extent)
         for j, slot in slots.items():
             self.slots[j] = self.slots[j].merge(slot) if j in self.slots else slot
@@ -333,6 +467,7 @@ class CellAverage:
         """Fields of the frames added so far: one average, or one per window or time of
         the time axis (:meth:`Fields.stack`); of a mixture, one per species and the
         whole (:func:`~granavg.engine.species.with_species`)."""
+        self._join()
         if not self.slots:
             upto = f" and t <= {self.t_max:g} ({{t_max}})" if self.t_max is not None else ""
             raise ParameterError("t_min", f"no frame at t >= {self.t_min:g}, the start of "
@@ -352,6 +487,20 @@ class CellAverage:
                  for name in self.classes.names}
         self.results = with_species(whole, parts, self.classes)
         return self.results
+
+    def _join(self) -> None:
+        """Add the displacements' flux across the seams of the passes merged (the last
+        frame of one and the first of the next, one frame interval apart)."""
+        if not self.joins:
+            return
+        ends = sorted(self.joins + ([self.ends] if self.ends is not None else []),
+                      key=lambda e: e[0][None].time)
+        self.joins = []
+        interval = self.axis.interval
+        for (_, last), (first, _) in zip(ends, ends[1:]):
+            gap = first[None].time - last[None].time
+            if interval and abs(gap - interval) <= 1e-6 * interval:
+                self._flux(last, first)
 
     def _conclude(self, slots: dict, whole: bool = True, replicas=None) -> Fields:
         """The fields of one set of slots (the mixture's, or a species': not ``whole``,
@@ -373,7 +522,16 @@ class CellAverage:
                                              "n": int(self.span[2])}}
         meta["time"] = {**self.axis.describe(), "n_times": len(order),
                         "frames_span": [float(self.span[0]), float(self.span[1])]}
-        return Fields.stack(fields, times, edges, meta)
+        if self.flux:
+            meta["time"]["mass_flux"] = {
+                "from": "the displacements between consecutive frames (ids paired, "
+                        "periodic faces unwrapped)",
+                "particles_vanished": int(self.appeared[0]),
+                "particles_appeared": int(self.appeared[1])}
+        stacked = Fields.stack(fields, times, edges, meta)
+        if self.phased:
+            stacked.meta["time"]["quadrature"] = quadrature_order(stacked.values)
+        return stacked
 
     def _ordered(self, slots: dict) -> list:
         """The slots in time order, checked: windows from the first holding a frame to
@@ -411,6 +569,8 @@ class CellAverage:
         acc, V, layout = slot.acc, self.cells.volume, self.layout
         S = self._full(acc.mean(), slot.rates() if slot.dsum is not None else None)
         vals = values(S, V, self.rho_p, self.groups, layout)
+        if self.phased:
+            vals.update(self._quadrature(slot))
         counts, sums = acc.block_sums()
         sums = self._full(sums)
         sem, lower, replicates = standard_errors(counts, sums, V, self.rho_p, self.groups,
@@ -502,6 +662,34 @@ class CellAverage:
                               replicates, series=series)
         return self.results
 
+    def _quadrature(self, slot: Slot) -> dict:
+        """The momentum balance's time-quadrature error at each node, estimated from the
+        frames' phases: half the difference of the residuals of the even and the odd
+        frames (each a quadrature at twice the interval, offset by one frame: the
+        error's part that the sampling's phase decides), and the same at twice the
+        interval (phases 0 and 2, 1 and 3). NaN where a phase holds no frame."""
+        V, n = self.cells.volume, self.cells.n
+        if slot.phases is None or len(slot.phases) != PHASES:
+            return {"momentum_quadrature": np.full(n, np.nan),
+                    "momentum_quadrature_2h": np.full(n, np.nan)}
+        cols = columns("momentum_balance", self.layout.axes)
+
+        def residual(phases):
+            mean, rates = Phase.joined(phases).sums(self.dcols)
+            extra = np.full((n, self.flux), np.nan)
+            S = self._full(mean, np.concatenate([rates, extra], axis=1))
+            got = values(S, V, self.rho_p, ["momentum_balance"], self.layout)
+            return np.stack([got[c] for c in cols], axis=1)
+
+        P = slot.phases
+        half = 0.5 * np.linalg.norm(residual([P[0], P[2]]) - residual([P[1], P[3]]), axis=1)
+        quarter = 0.5 * (np.linalg.norm(residual([P[0]]) - residual([P[2]]), axis=1) +
+                         np.linalg.norm(residual([P[1]]) - residual([P[3]]), axis=1)) / 2
+        # the spreads of quadratures at 2 and 4 intervals: scaled to the errors at 1 and
+        # 2 intervals by the order the two give (:func:`quadrature_order`, over every
+        # time, when the fields are stacked)
+        return {"momentum_quadrature": half, "momentum_quadrature_2h": quarter}
+
     def _full(self, sums, rates=None):
         """Sums over the frames' channels (last axis) widened to :attr:`layout`'s: the
         time derivatives' channels from ``rates`` (n_cells, mass and momentum), else
@@ -511,11 +699,18 @@ class CellAverage:
             return sums
         out = np.concatenate([sums, np.full((*sums.shape[:-1], extra), np.nan)], axis=-1)
         if rates is not None:
+            D = self.layout.dim
             if "dtmass" in self.layout.blocks:
                 out[:, self.layout.index["dtmass"]] = rates[:, 0]
+            n = len(self.dcols)
             if "dtmom" in self.layout.blocks:
                 k = self.layout.first("dtmom")
-                out[:, k:k + self.layout.dim] = rates[:, 1:]
+                out[:, k:k + D] = rates[:, 1:n]
+            for b in self.flux_blocks:            # in channel order, as the slot keeps them
+                size = BLOCK[b].size(D)
+                k = self.layout.first(b)
+                out[:, k:k + size] = rates[:, n:n + size]
+                n += size
         return out
 
 
@@ -550,6 +745,44 @@ def warn_if_drifting(judged: dict, start: float) -> list:
         log.info("%s t >= %g s is steady in %s (changes within %g between-run errors)",
                  whose, start, ", ".join(judged), DRIFT_Z)
     return drifting
+
+
+#: The range of the quadrature error's order (:func:`quadrature_order`): an error that
+#: does not grow with the interval (0) to the Lucy time kernel's trapezoid order (4).
+ORDERS = (0.0, 4.0)
+
+
+def quadrature_order(values: dict) -> dict:
+    """Turn the phases' spreads into error estimates, in place: ``momentum_quadrature``
+    and ``momentum_quadrature_2h`` arrive as the spreads of the residuals of the frames'
+    two halves (quadratures at twice the interval, offset by one frame) and of their
+    quarters (four intervals). Each spread is the error at its own interval (the part of
+    it that the sampling's phase decides); their ratio over every node and time gives
+    the error's order p between the two intervals, ``2^p = rms(quarters) /
+    rms(halves)``. The estimate at the frames' interval is then halves / 2^p, and at
+    twice it the halves' spread. Returns the order and how it was found."""
+    d1, d2 = values["momentum_quadrature"], values["momentum_quadrature_2h"]
+    both = np.isfinite(d1) & np.isfinite(d2)
+    r1 = float(np.sqrt(np.mean(d1[both] ** 2))) if both.any() else float("nan")
+    r2 = float(np.sqrt(np.mean(d2[both] ** 2))) if both.any() else float("nan")
+    raw = math.log2(r2 / r1) if r1 > 0 and r2 > 0 else float("nan")
+    order = float(np.clip(raw, *ORDERS)) if math.isfinite(raw) else float("nan")
+    values["momentum_quadrature_2h"] = d1
+    values["momentum_quadrature"] = d1 / 2.0 ** order if math.isfinite(order) else d1 * np.nan
+    return {"order": order, "order_measured": raw, "orders_allowed": list(ORDERS),
+            "how": "the momentum balance's residuals of the frames' two interleaved "
+                   "halves and four quarters: half their spread is the error at 2 and 4 "
+                   "frame intervals; their rms ratio over every node and time gives the "
+                   "order p, and the error at the frames' interval is the halves' / 2^p"}
+
+
+def _positions(frame, keep, box):
+    """What the displacements' flux keeps of a frame (or a species' share of one): its
+    time, step, ``box`` and the atoms' columns ``keep`` that it has (ids, positions,
+    radii, masses, and the velocities and forces the momentum's flux reads; copies: a
+    reader may reuse its arrays)."""
+    atoms = {k: np.array(frame.atoms[k]) for k in keep if k in frame.atoms}
+    return Kept(frame.timestep, frame.time, atoms, box)
 
 
 def _wider(a, b):

@@ -51,6 +51,16 @@ ma         ma_<i>                      F^p: the particle's total force (m a; the
                                        fx fy fz)
 dtmass     dtmass                      d/dt of the mass sum (a time kernel's)
 dtmom      dtmom_<i>                   d/dt of the mom_i sum (a time kernel's)
+jmass      jmass_<i>                   m^p dx_i / dt: the mass flux of the displacements
+                                       between consecutive frames, along their
+                                       segments (a time kernel's; smoothing kernels)
+djmass     djmass                      its divergence: m^p (W(x - x_p(t_f)) -
+                                       W(x - x_p(t_f+1))) / dt, the segment's ends
+jmom       jmom_<ij>                   m^p v_i dx_j / dt: the momentum flux of the
+                                       displacements (v at the interval's start)
+djmom      djmom_<i>                   its divergence, from the segment's ends
+impulse    impulse_<i>                 F^p at the interval's end frame (fix ave/atom:
+                                       the mean force over the interval), there
 =========  ==========================  ==========================================
 
 I^p = k m^p a_p^2 with k = 1/2 for a disk and 2/5 for a sphere (``inertia``). The
@@ -195,6 +205,18 @@ BLOCK = {b.name: b for b in (
     # kernel's derivative does (granavg.engine.timing), after the frames' channels
     Block("dtmass", "scalar"),
     Block("dtmom", "vector"),
+    # the mass flux of the displacements between consecutive frames (the particles
+    # paired by id) and its divergence: the time axis fills them from pairs of frames
+    # (granavg.engine.smoothing.displacements), so that d rho/dt + div j = 0 holds
+    # whatever happened between the frames
+    Block("jmass", "vector", ("id",)),
+    Block("djmass", "scalar", ("id",)),
+    # ... and of the momentum: the displacements' flux of m v (v at the interval's start)
+    # and its divergence, and the forces dumped at the interval's end (LAMMPS' fix
+    # ave/atom of fx fy fz over the interval: the exact impulse between the frames)
+    Block("jmom", "tensor", ("id", "{v}")),
+    Block("djmom", "vector", ("id", "{v}")),
+    Block("impulse", "vector", ("id", "{a}")),
 )}
 #: How a smoothing kernel spreads a block over its nodes (:attr:`Block.spread`), each
 #: with its weight: ``particle``, the particle's channel at its centre (W); ``segment``,
@@ -213,7 +235,10 @@ DERIVATIVE_BLOCKS = tuple(b.name for b in BLOCK.values()
 BLOCKS = tuple(BLOCK)
 #: Blocks the time axis fills from its kernel's derivative (the last in channel order:
 #: a frame's channels are the first of any layout's).
-TIME_BLOCKS = ("dtmass", "dtmom")
+TIME_BLOCKS = ("dtmass", "dtmom", "jmass", "djmass", "jmom", "djmom", "impulse")
+#: The time blocks filled from pairs of consecutive frames (their displacements), in
+#: channel order.
+FLUX_BLOCKS = ("jmass", "djmass", "jmom", "djmom", "impulse")
 #: The blocks a frame fills.
 FRAME_BLOCKS = tuple(b for b in BLOCKS if b not in TIME_BLOCKS)
 #: Blocks that the particles' contacts fill in the contact pass (``wall`` is filled at

@@ -69,6 +69,10 @@ class Quantity:
     species : bool
         It is defined for a species of a mixture (:mod:`granavg.engine.species`): the
         forces between species.
+    phases : bool
+        Its values come from the frames' interleaved phases, which the averager keeps
+        for it (:class:`~granavg.engine.cell_average.Phase`): the time quadrature's
+        error of a balance law, estimated from the data; ``value`` gives NaN.
     help : str
         What it is, in words (the command line's help).
     """
@@ -86,6 +90,7 @@ class Quantity:
     smooth: bool = False
     in_time: bool = False
     species: bool = False
+    phases: bool = False
     help: str = ""
 
     @property
@@ -282,15 +287,38 @@ def _divergence(block, div_block):
 
 
 def _continuity(S, V, layout, name):
-    """d rho/dt + div(rho v) at each node: the time kernel's derivative of the mass sum
-    plus the divergence of the momentum sum (its trace, and P_r / r in a polar basis);
-    zero up to the time quadrature of the frames."""
+    """d rho/dt + div j at each node, j the mass flux of the displacements between
+    frames (:mod:`granavg.engine.smoothing.displacements`): zero by construction at any
+    frame interval, up to the quadrature of the integral of the time kernel's
+    derivative (:meth:`~granavg.engine.timing.axes.Smoothed.flux_hits`), and where
+    particles appear or vanish between frames (a source)."""
+    return {name: (S[:, layout.index["dtmass"]] + S[:, layout.index["djmass"]]) / V}
+
+
+def _continuity_v(S, V, layout, name):
+    """d rho/dt + div(rho v) at each node, rho v from the dumped velocities: the time
+    kernel's derivative of the mass sum plus the divergence of the momentum sum (its
+    trace, and P_r / r in a polar basis); zero up to the time quadrature of the frames,
+    which misses by the collisions it does not resolve."""
     D = layout.dim
     div = np.trace(layout.block(S, "dmom").reshape(-1, D, D), axis1=1, axis2=2)
     rinv = _curvature(S, layout)
     if rinv is not None:
         div = div + layout.block(S, "mom")[:, 0] * rinv
     return {name: (S[:, layout.index["dtmass"]] + div) / V}
+
+
+def _impulse_balance(S, V, layout, name):
+    """d(rho v)/dt + div j_p - F at each node: the momentum's change between frames (the
+    time kernel's derivative of the momentum sums, the displacements' momentum flux)
+    against the forces dumped at each interval's end, weighed as the displacements'
+    flux is (:meth:`~granavg.engine.timing.axes.Smoothed.flux_hits`). Zero, whatever
+    happened between the frames, where those forces are the interval's means (LAMMPS'
+    fix ave/atom): they then carry the exact impulse; with instantaneous forces it
+    misses by the collisions the frames do not resolve."""
+    res = (layout.block(S, "dtmom") + layout.block(S, "djmom") -
+           layout.block(S, "impulse")) / V[:, None]
+    return {n: res[:, k] for k, n in enumerate(columns(name, layout.axes))}
 
 
 def _momentum_balance(S, V, layout, name):
@@ -303,6 +331,15 @@ def _momentum_balance(S, V, layout, name):
         if force in layout.blocks:
             res = res - layout.block(S, force) / V[:, None]
     return {n: res[:, k] for k, n in enumerate(columns(name, layout.axes))}
+
+
+#: The blocks of the momentum balance in time (and of its quadrature error's estimate).
+_MOMENTUM_BLOCKS = ("vol", "mass", "mom", "sig", "dsig", "kin", "dkin", "rinv", "dtmom")
+
+
+def _from_phases(S, V, layout, name):
+    """NaN: the averager fills these from the frames' phases (``phases``)."""
+    return {name: np.full(len(V), np.nan)}
 
 
 def _granular_temperature(S, V, layout, name):
@@ -405,17 +442,45 @@ QUANTITIES = {q.name: q for q in (
              _values(_per_cell_volume("dtmom"), "dmomentum_dt"), needs_mass=True,
              in_time=True, unit="{momentum_flux}/{length}",
              help="d(rho v) / dt (time kernels only)"),
-    Quantity("continuity", ("vol", "mass", "mom", "dmass", "dmom", "rinv", "dtmass"),
+    Quantity("mass_flux", ("vol", "mass", "jmass"), "vector",
+             _values(_per_cell_volume("jmass"), "mass_flux"), needs_mass=True, smooth=True,
+             in_time=True, unit="{mass}/{length}^2/{time}",
+             help="mass flux of the displacements between frames (rho v where the frames "
+                  "resolve the motion; smoothing and time kernels, atoms' ids)"),
+    Quantity("continuity", ("vol", "mass", "dtmass", "jmass", "djmass"),
              "scalar", _values(_continuity, "continuity"), needs_mass=True, smooth=True,
              in_time=True, unit="{mass}/{length}^3/{time}",
-             help="the continuity residual d rho/dt + div(rho v) (smoothing and time "
-                  "kernels)"),
-    Quantity("momentum_balance", ("vol", "mass", "mom", "sig", "dsig", "kin", "dkin",
-                                  "rinv", "dtmom"), "vector",
+             help="the continuity residual d rho/dt + div j, j the displacements' mass "
+                  "flux: zero at any frame interval (smoothing and time kernels, atoms' "
+                  "ids)"),
+    Quantity("impulse_balance", ("vol", "mass", "mom", "dtmom", "djmom", "impulse"),
+             "vector", _values(_impulse_balance, "impulse_balance"), needs_mass=True,
+             smooth=True, in_time=True, unit="{momentum_flux}/{length}",
+             help="d(rho v)/dt + div j_p - F: the momentum's change between frames against "
+                  "the forces dumped at each interval's end, zero where they are fix "
+                  "ave/atom means over the interval (smoothing and time kernels, atoms' "
+                  "ids and fx fy [fz])"),
+    Quantity("continuity_v", ("vol", "mass", "mom", "dmass", "dmom", "rinv", "dtmass"),
+             "scalar", _values(_continuity_v, "continuity_v"), needs_mass=True, smooth=True,
+             in_time=True, unit="{mass}/{length}^3/{time}",
+             help="d rho/dt + div(rho v) with the dumped velocities: how far frames at "
+                  "this interval resolve the motion (smoothing and time kernels)"),
+    Quantity("momentum_balance", _MOMENTUM_BLOCKS, "vector",
              _values(_momentum_balance, "momentum_balance"), needs_mass=True, smooth=True,
              in_time=True, unit="{momentum_flux}/{length}",
              help="the momentum balance's residual d(rho v)/dt - div(sigma - dsigma) - b "
                   "- t (smoothing and time kernels)"),
+    Quantity("momentum_quadrature", _MOMENTUM_BLOCKS, "scalar",
+             _values(_from_phases, "momentum_quadrature"), needs_mass=True, smooth=True,
+             in_time=True, phases=True, unit="{momentum_flux}/{length}",
+             help="the time quadrature's error of momentum_balance at the frames' interval, "
+                  "estimated from the data: half the difference of the residuals of the "
+                  "even and odd frames (smoothing and time kernels)"),
+    Quantity("momentum_quadrature_2h", _MOMENTUM_BLOCKS, "scalar",
+             _values(_from_phases, "momentum_quadrature_2h"), needs_mass=True, smooth=True,
+             in_time=True, phases=True, unit="{momentum_flux}/{length}",
+             help="the same at twice the frames' interval (every fourth frame's residuals): "
+                  "how the error grows with the interval"),
     # micropolar fields (granavg.analysis.spin_balance) and energy
     Quantity("mu", ("cst",), "couple", _values(_per_cell_volume("cst"), "mu"),
              unit="{force}/{length}",

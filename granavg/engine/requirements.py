@@ -88,7 +88,8 @@ def groups_for(quantities, have_contacts: bool, have_body: bool = False,
         return [g for g, q in QUANTITIES.items()
                 if (have_contacts or not q.contacts) and (have_body or "body" not in q.blocks)
                 and (smooth or not q.smooth) and (in_time or not q.in_time)
-                and (species or not q.species) and (have_forces or "ma" not in q.blocks)]
+                and (species or not q.species)
+                and (have_forces or not {"ma", "impulse"} & set(q.blocks))]
     alone = [q for q in quantities if q in QUANTITIES and QUANTITIES[q].species
              and not species]
     if alone:

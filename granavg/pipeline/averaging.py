@@ -22,14 +22,19 @@ log = logging.getLogger(__name__)
 SERIES = ".vtu.d"
 
 
-def average_to_file(spec: Spec, out, *, parquet=False, netcdf=False, vtk=False) -> Path:
+def average_to_file(spec: Spec, out, *, parquet=False, netcdf=False, vtk=False,
+                    time_accuracy: float | None = None) -> Path:
     """The ``average`` command: the fields of the spec (:func:`granavg.pipeline.api.run`:
     run directories, one run or an ensemble, or anyone's files; on dask with its
     execution's workers or scheduler), written to ``out`` (never over an existing
     result); with ``netcdf`` and ``vtk`` also as ``<out>.nc`` and ``<out>.vtu``
     (:mod:`granavg.io.field_files`; fields in time: ``<out>.pvd`` and the folder
-    ``<out>.vtu.d``), the table last."""
+    ``<out>.vtu.d``), the table last. Fields in time with the momentum balance's
+    estimated quadrature error get the dump interval that a median residual of
+    ``time_accuracy`` needs (:func:`~granavg.analysis.time_balance.interval_forecast`),
+    logged and in the sidecar (``meta["time"]["forecast"]``)."""
     from granavg.analysis.regime import warn_if_inertial
+    from granavg.analysis.time_balance import TARGET, forecast_line, interval_forecast
 
     execution = spec.execution
     for wanted, extra in ((netcdf, "netcdf"), (vtk, "vtk"), (parquet, "parquet"),
@@ -48,6 +53,11 @@ def average_to_file(spec: Spec, out, *, parquet=False, netcdf=False, vtk=False) 
     profiles = run(spec)
     if spec.source.runs:
         warn_if_inertial(profiles)
+    forecast = interval_forecast(profiles, time_accuracy or TARGET) if profiles.in_time \
+        else None
+    if forecast is not None:
+        profiles.meta["time"]["forecast"] = forecast
+        log.info("%s", forecast_line(forecast))
     with OutputSet(out) as outputs:          # all of them, or none
         if netcdf or vtk:
             from granavg.io import field_files

@@ -65,6 +65,17 @@ def _progress(o):
     return False if o.get("no_progress") else None
 
 
+def time_accuracy(o):
+    """``--time-accuracy``: a fraction (0 < it < 1), or None where not given."""
+    from granavg.errors import ParameterError
+
+    value = o.get("time_accuracy")
+    if value is not None and not 0.0 < value < 1.0:
+        raise ParameterError("time_accuracy", f"{{param}} {value:g}: give a fraction between "
+                             "0 and 1 (0.01: a median residual of 1% of rho g)")
+    return value
+
+
 def simulate(o) -> str:
     from granavg.pipeline.simulation import simulate_command
 
@@ -77,7 +88,8 @@ def simulate(o) -> str:
     return simulate_command(
         spec, preset=o["preset"], overrides=o["overrides"], out=o["out"], np=o["np"],
         omp=o["omp"], resume=o["resume"], start=o["start"], engine=o["engine"],
-        average=o["average"], seeds=o["seeds"], progress=_progress(o))
+        average=o["average"], seeds=o["seeds"], progress=_progress(o),
+        time_accuracy=time_accuracy(o))
 
 
 def averaging(o, **extra) -> dict:
@@ -181,7 +193,7 @@ def species(o):
 #: outputs, the execution, the logging); every other option given beside ``--spec`` is
 #: refused.
 NOT_OF_THE_SPEC = ("command", "verbose", "threads", "spec", "out", "parquet", "netcdf",
-                   "vtk", "workers", "scheduler", "no_progress")
+                   "vtk", "workers", "scheduler", "no_progress", "time_accuracy")
 #: Options whose parser default is a value, not None (``--sectors off`` is None).
 DEFAULTS = {"branch": "contact", "sectors": "auto"}
 
@@ -219,8 +231,9 @@ def average_spec(o):
 def average(o):
     from granavg.pipeline.averaging import average_to_file
 
+    accuracy = time_accuracy(o)
     return average_to_file(average_spec(o), o["out"], parquet=o["parquet"],
-                           netcdf=o["netcdf"], vtk=o["vtk"])
+                           netcdf=o["netcdf"], vtk=o["vtk"], time_accuracy=accuracy)
 
 
 def scales(o):

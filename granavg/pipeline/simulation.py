@@ -45,7 +45,7 @@ def simulate_run(scene, out, *, average=None, spec: Spec | None = None, **option
 
 def simulate_command(spec: Spec, *, preset="demo", overrides=(), out, np=1, omp=1,
                      resume=False, start=None, engine="lammps", average=None, seeds=None,
-                     progress=None) -> str:
+                     progress=None, time_accuracy=None) -> str:
     """The ``simulate`` command: one run, a resumed run, or ``seeds`` realisations (on
     the spec's execution: its workers, default 2, or scheduler)."""
     quantities, scheduler = spec.averaging.quantities, spec.execution.scheduler
@@ -77,4 +77,4 @@ def simulate_command(spec: Spec, *, preset="demo", overrides=(), out, np=1, omp=
         return ", ".join(str(r) for r in runs)
     return str(simulate_run(scene, out, np_ranks=np, omp_threads=omp, progress=progress,
                             preset=preset, start=start, engine=engine, average=average,
-                            spec=spec))
+                            spec=spec, time_accuracy=time_accuracy))

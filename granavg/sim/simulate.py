@@ -62,7 +62,7 @@ ENGINES = ("lammps", "reference")
 def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
              progress: bool | None = None, preset: str | None = None, start=None,
              engine: str = "lammps", average=None, insitu=None,
-             plan: dict | None = None) -> Path:
+             plan: dict | None = None, time_accuracy: float | None = None) -> Path:
     """Run a new Couette simulation into the empty directory ``out``.
 
     Parameters
@@ -103,6 +103,11 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         inner-ring rotations), base block (default one dump interval, at most 512
         blocks), kernel, width and time axis.
 
+    time_accuracy : float, optional
+        The median momentum residual in time (of rho g) that the dump-interval forecast
+        aims for (:func:`granavg.sim.trade.dump_interval`; the manifest's
+        ``dump_interval_forecast``, for 0.01 where not given), logged where given.
+
     Returns
     -------
     Path
@@ -136,6 +141,11 @@ def simulate(scene: Scene, out, *, np_ranks: int = 1, omp_threads: int = 1,
         manifest["forecast"] = trade.expectation(derived, prepared=start is not None,
                                                  np_ranks=np_ranks, omp_threads=omp_threads)
         log.info("%s", trade.describe(manifest["forecast"]))
+    if derived.dump_every:
+        manifest["dump_interval_forecast"] = trade.dump_interval(
+            derived.coeffs.t_c, derived.dt, derived.dump_every, time_accuracy or 0.01)
+        if time_accuracy is not None:          # said where asked; the manifest holds it
+            log.info("%s", trade.describe_dump_interval(manifest["dump_interval_forecast"]))
     manifest["average"] = {"bins": average, "spec": plan} if average else None
     if average:
         manifest["files"].update(insitu.files(average))

@@ -189,6 +189,41 @@ def expectation(derived, *, prepared: bool, np_ranks: int = 1, omp_threads: int 
                     f"{100 * max(t['time_spread'] for t in tables):.0f}% there"}
 
 
+#: The dump interval, in contact durations t_c, that gave a median momentum residual in
+#: time of 1% of rho g at bulk nodes on the column collapse (lammps_inputs/collapse_2d.lmp
+#: dumped every step and thinned: 1% between 4 and 7 steps of t_c/50; docs/time.md):
+#: the forecast before a run takes it, and scales it with order 1 for other targets.
+CALIBRATED_INTERVAL_TC = 0.13
+
+
+def dump_interval(t_c: float, dt: float, dump_every: int, target: float = 0.01) -> dict:
+    """The dump interval that fields in time need for a median residual ``target`` of
+    the momentum balance in time, forecast before a run from its contact duration
+    ``t_c`` (s), against the run's own (``dump_every`` steps of ``dt``): for the
+    manifest and the log. Calibrated on one scene, the collapse; after the run
+    ``granavg average`` forecasts it from the data themselves
+    (:func:`granavg.analysis.time_balance.interval_forecast`)."""
+    interval = CALIBRATED_INTERVAL_TC * t_c * target / 0.01
+    steps = max(1, int(interval / dt))
+    return {"target": target, "interval_s": interval, "every_steps": steps,
+            "in_contact_durations": interval / t_c,
+            "run_dumps_every_s": dump_every * dt,
+            "run_in_contact_durations": dump_every * dt / t_c,
+            "what": f"{CALIBRATED_INTERVAL_TC:g} t_c for a median residual of 1% of rho g, "
+                    "measured on the 2D column collapse (docs/time.md), scaled with order "
+                    "1; another scene's collisions may move it several-fold either way: "
+                    "granavg average forecasts it from the run's own frames"}
+
+
+def describe_dump_interval(f: dict) -> str:
+    """One log line for :func:`dump_interval`."""
+    return (f"fields in time: a median momentum residual of {f['target']:g} needs frames "
+            f"every {f['interval_s']:.3g} s ({f['every_steps']} steps, "
+            f"{f['in_contact_durations']:.2g} contact durations; forecast, {f['what']}); "
+            f"this run dumps every {f['run_dumps_every_s']:.3g} s "
+            f"({f['run_in_contact_durations']:.3g} contact durations)")
+
+
 def describe(forecast: dict) -> str:
     """One log line for a forecast."""
     if "wall_time_s" not in forecast:

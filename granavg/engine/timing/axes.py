@@ -143,6 +143,37 @@ class Smoothed:
         return [(int(lo + k), float(psi[k]), float(dpsi[k])) for k in range(hi - lo)
                 if psi[k] > 0]
 
+    def flux_hits(self, t0: float, t1: float) -> list:
+        """The slots the interval between consecutive frames at ``t0`` and ``t1`` adds
+        its displacements' flux to, with the weight u that makes the continuity equation
+        hold by summation by parts: [(j, u)].
+
+        The time derivative weighs frame g by a_g = psi'(t_j - t_g)
+        (:meth:`hits`). With rho_g+1 - rho_g = -dt div j_g for the interval g (the
+        displacements' flux, exact), sum_g a_g rho_g = -dt sum_g U_g div j_g when
+        U_f = -sum_{g <= f} a_g; equally U_f = sum_{g > f} a_g (the two differ by
+        sum_g a_g, the quadrature of the integral of psi', zero to the quadrature's
+        accuracy), taken on the side of t_j away from the interval so that U is zero
+        outside the kernel's support. u = dt U: about psi at the interval's middle."""
+        dt = t1 - t0
+        mid = 0.5 * (t0 + t1)
+        lo, hi = np.searchsorted(self.times, [mid - self.cutoff - dt, mid + self.cutoff + dt])
+        out = []
+        for j in range(lo, hi):
+            s0 = self.times[j] - t0                     # the lag of the interval's start
+            n = int(math.ceil((self.cutoff + abs(s0)) / dt)) + 2
+            if self.times[j] >= mid:                    # frames at and before t0
+                lags = s0 + dt * np.arange(n)
+                sign = -1.0
+            else:                                       # frames after t0
+                lags = s0 - dt * np.arange(1, n + 1)
+                sign = 1.0
+            _, dpsi = self.kernel.weights(lags, self.width)
+            u = sign * dt * float(np.sum(dpsi))
+            if u != 0.0:
+                out.append((int(j), u))
+        return out
+
     def reach(self, first: float, last: float) -> None:
         """Refuse times whose kernel reaches beyond the frames [first, last] (half a
         frame interval of slack: the frames' quadrature covers it)."""

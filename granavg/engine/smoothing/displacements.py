@@ -1,0 +1,158 @@
+"""The mass flux of the displacements between two consecutive frames, at a smoothing
+kernel's nodes: what makes the continuity equation hold at any dump interval.
+
+Between frames at t_f and t_f+1 = t_f + dt, particle p moves by dx_p (its two
+positions paired by id, unwrapped across periodic faces). Its mass flux along the
+straight segment between them,
+
+    j_f(x) = sum_p m_p (dx_p / dt) int_0^1 W(x - x_p(t_f) - s dx_p) ds,
+
+has the divergence sum_p m_p (W(x - x_p(t_f)) - W(x - x_p(t_f+1))) / dt, so that
+rho_f+1 - rho_f = -dt div j_f exactly, whatever collisions the particle went through
+in between (the density is a function of the positions alone). The time axis weighs
+the intervals so that the smoothed fields keep d rho/dt + div j = 0 by summation by
+parts (:meth:`~granavg.engine.timing.axes.Smoothed.flux_hits`). The segment is not the
+particle's path: j is the flux that the frames fix, equal to the momentum density
+rho v where the frames resolve the motion (the dumped velocities keep their own
+meaning in the momentum balance and the kinetic stress).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from granavg.engine.body_forces import masses
+from granavg.engine.channels import BLOCK, FLUX_BLOCKS
+from granavg.engine.cells.base import layout_of
+from granavg.engine.smoothing.sums import _EMPTY_SECTOR, _EMPTY_SHARE, _scatter, _Terms
+from granavg.errors import UserError
+
+
+@dataclass
+class Kept:
+    """What the flux keeps of a frame for the next: its step, time, atoms' columns (ids,
+    positions, radii, masses) and box."""
+
+    timestep: int
+    time: float
+    atoms: dict
+    box: object | None = None
+
+
+def paired(before, after, dim: int, periods=None):
+    """The particles of both frames, paired by id: their rows in each and their
+    displacements (minimum image along the periodic axes ``periods``: per axis its
+    length or None), and how many appear or vanish between them."""
+    for frame in (before, after):
+        if "id" not in frame.atoms:
+            raise UserError(f"time step {frame.timestep}: the atoms have no id column; the "
+                            "displacements' mass flux pairs each particle's positions "
+                            "across frames by id: dump the ids, or ask continuity_v (the "
+                            "dumped velocities' residual) instead")
+    ids0 = np.asarray(before.atoms["id"])
+    ids1 = np.asarray(after.atoms["id"])
+    common, r0, r1 = np.intersect1d(ids0, ids1, assume_unique=True, return_indices=True)
+    xyz = "xyz"[:dim]
+    dx = np.column_stack([np.asarray(after.atoms[c], float)[r1] -
+                          np.asarray(before.atoms[c], float)[r0] for c in xyz])
+    for k, length in enumerate(periods or ()):
+        if length:
+            dx[:, k] -= length * np.round(dx[:, k] / length)
+    return r0, r1, dx, (len(ids0) - len(common), len(ids1) - len(common))
+
+
+def box_periods(frame, dim: int):
+    """The periodic lengths of the frame's box (None per axis not periodic; None
+    without a box)."""
+    box = getattr(frame, "box", None)
+    if box is None:
+        return None
+    return [float(box.hi[k] - box.lo[k]) if box.periodic[k] else None for k in range(dim)]
+
+
+def flux_size(blocks, dim: int) -> int:
+    """Columns of the flux blocks ``blocks`` (:data:`~granavg.engine.channels.FLUX_BLOCKS`
+    order) in ``dim`` dimensions."""
+    return sum(BLOCK[b].size(dim) for b in FLUX_BLOCKS if b in blocks)
+
+
+def displacement_sums(before, after, cells, rho_p, blocks=("jmass", "djmass")):
+    """The displacements' fluxes between two consecutive frames at the nodes, shape
+    (n_nodes, :func:`flux_size`): the flux blocks ``blocks`` in channel order, vectors
+    and tensors in the nodes' basis (the basis at each segment's start, or at the point):
+
+    - ``jmass``, ``djmass``: the mass flux j_f and its divergence (module docstring);
+    - ``jmom``, ``djmom``: the momentum flux of the displacements, m v (x) dx / dt along
+      the segment (v at the start), and its divergence m v (W(start) - W(end)) / dt;
+    - ``impulse``: the forces dumped at the end frame (``fx fy fz``; LAMMPS' fix
+      ave/atom over the interval: its mean force), at the end.
+
+    Then P_f+1 - P_f = dt (sum m dv/dt W(end) - div j_p) exactly (P the momentum sums),
+    and the momentum balance between frames closes with the impulse where the dumped
+    forces are the interval's means. Also returns how many particles vanish and appear
+    between the frames (their mass and momentum leave or enter without a flux).
+
+    Parameters
+    ----------
+    before, after : Frame
+        Consecutive frames (``id`` among their atoms' columns).
+    cells : Smoothed
+        A smoothing kernel's nodes.
+    rho_p : float or None
+        The material density, for masses where the frames have no mass column.
+    blocks : sequence of str
+        The flux blocks wanted.
+    """
+    D = cells.dim
+    dt = after.time - before.time
+    r0, r1, dx, lost = paired(before, after, D, box_periods(after, D))
+    out = np.zeros((cells.n, flux_size(blocks, D)))
+    if not len(r0):
+        return out, lost
+    a0, a1 = before.atoms, after.atoms
+    m = np.asarray(masses(a0, cells.particle_volume, rho_p), float)[r0]
+    start = tuple(np.asarray(a0[c], float)[r0] for c in cells.position_names)
+    end = tuple(np.asarray(a1[c], float)[r1] for c in cells.position_names)
+    E0 = cells.basis(start)
+    terms = _Terms(layout_of(cells.axes, ()), cells.moments > 1)
+    none = (_EMPTY_SECTOR, _EMPTY_SHARE, 0)
+    xyz = "xyz"[:D]
+    first, col = 0, {}
+    for b in FLUX_BLOCKS:
+        if b in blocks:
+            col[b] = first
+            first += BLOCK[b].size(D)
+
+    def into(shape, b):
+        return terms.into(shape, lambda o: col[b] + o, 0)
+
+    def at_points(pos, values, shape, b):
+        item, node, W, _ = cells.kernel_weights(pos, False)
+        _scatter(item, node, W, np.ascontiguousarray(values), into(shape, b), *none, out)
+
+    segments = None
+    if "jmass" in col or "jmom" in col:
+        segments = cells.segment_weights(start, dx)
+    if "jmass" in col:
+        flux = np.einsum("pij,pj->pi", E0, m[:, None] * dx / dt)
+        _scatter(*segments, np.ascontiguousarray(flux), into("vector", "jmass"), *none, out)
+    if "djmass" in col:
+        for pos, sign in ((start, 1.0), (end, -1.0)):
+            at_points(pos, (sign / dt) * m[:, None], "scalar", "djmass")
+    if "jmom" in col or "djmom" in col:
+        p = m[:, None] * np.column_stack([np.asarray(a0["v" + c], float)[r0] for c in xyz])
+    if "jmom" in col:
+        pb = np.einsum("pij,pj->pi", E0, p)
+        lb = np.einsum("pij,pj->pi", E0, dx / dt)
+        Q = (pb[:, :, None] * lb[:, None, :]).reshape(-1, D * D)
+        _scatter(*segments, np.ascontiguousarray(Q), into("tensor", "jmom"), *none, out)
+    if "djmom" in col:
+        for pos, sign in ((start, 1.0), (end, -1.0)):
+            E = cells.basis(pos)
+            at_points(pos, np.einsum("pij,pj->pi", E, (sign / dt) * p), "vector", "djmom")
+    if "impulse" in col:
+        F = np.column_stack([np.asarray(a1["f" + c], float)[r1] for c in xyz])
+        at_points(end, np.einsum("pij,pj->pi", cells.basis(end), F), "vector", "impulse")
+    return out, lost
