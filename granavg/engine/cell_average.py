@@ -335,23 +335,33 @@ class CellAverage:
         if t < self.t_min - slack or (self.t_max is not None and t > self.t_max + slack):
             return
         self._spaced(t)
-        if self.flux:
-            self._displaced(frame)
         hits = self.axis.hits(t)
-        if not hits:
+        shares = self.classes.shares(frame) if self.classes is not None else []
+        if not hits and not (self.flux and self._flux_near(t)):
+            if self.flux:
+                self._displaced(frame, shares, None)
             return                              # outside every time's kernel
         self._reach(frame)
         sums = frame_sums(frame, self.cells, self.rho_p, self.frame_channels,
                           self.averaging.reach, self.k_fine)
+        parts = [frame_sums(share, self.cells, self.rho_p, self.frame_channels,
+                            self.averaging.reach, self.k_fine) for share in shares]
+        if self.flux:
+            self._displaced(frame, shares, [sums, *parts])
         phase = self._phase(t)
         for j, w, dw in hits:
             self._slot(j).add(frame.timestep, t, sums, w, dw, phase)
-        if self.classes is not None:
-            for name, share in zip(self.classes.names, self.classes.shares(frame)):
-                part = frame_sums(share, self.cells, self.rho_p, self.frame_channels,
-                                  self.averaging.reach, self.k_fine)
-                for j, w, dw in hits:
-                    self._slot(j, name).add(frame.timestep, t, part, w, dw, phase)
+            for name, part in zip(self.classes.names if shares else (), parts):
+                self._slot(j, name).add(frame.timestep, t, part, w, dw, phase)
+
+    def _flux_near(self, t: float) -> bool:
+        """Whether the intervals before or after the frame at ``t`` reach a time (their
+        flux then needs the frame's mass sums)."""
+        interval = getattr(self.axis, "interval", None)
+        if not interval:
+            return True
+        return bool(self.axis.flux_hits(t - interval, t) or
+                    self.axis.flux_hits(t, t + interval))
 
     def _phase(self, t: float):
         """The frame's index mod :data:`PHASES` on the frames' grid (None where the
@@ -362,15 +372,20 @@ class CellAverage:
             return None
         return int(round(t / interval)) % PHASES
 
-    def _displaced(self, frame) -> None:
+    def _displaced(self, frame, shares, sums) -> None:
         """Add the displacements' flux from the last frame added to ``frame`` (of the
-        mixture and each species) to the slots the interval reaches; keep ``frame``'s
-        positions for the next."""
-        parts = [(None, frame)]
-        if self.classes is not None:
-            parts += list(zip(self.classes.names, self.classes.shares(frame)))
+        mixture and each species' ``shares``) to the slots the interval reaches; keep
+        ``frame``'s positions, and its mass sums (``sums``: the frame's and the shares'
+        sums, or None where not made), for the next."""
+        names = [None, *(self.classes.names if shares else ())]
         box = getattr(frame, "box", None)       # (a species' share has the frame's)
-        kept = {name: _positions(part, self.kept_columns, box) for name, part in parts}
+        mass = self.frame_layout.index["mass"]
+        kept = {}
+        for k, (name, part) in enumerate(zip(names, [frame, *shares])):
+            kept[name] = _positions(part, self.kept_columns, box)
+            if sums is not None:
+                S = sums[k]
+                kept[name].mass_sums = (S.sum(axis=1) if S.ndim == 3 else S)[:, mass].copy()
         if self.ends is None:
             self.ends = [kept, kept]
         else:

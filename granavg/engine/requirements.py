@@ -79,14 +79,14 @@ def groups_for(quantities, have_contacts: bool, have_body: bool = False,
                smooth: bool = False, in_time: bool = False, species: bool = False,
                have_forces: bool = False) -> list:
     """The quantity groups to compute: the requested ones (checked), or all that the
-    data allow (without contacts, only those that need none; ``body`` only where the
-    frames carry body forces; the derivatives only with a ``smooth`` kernel, the time
-    derivatives only with a time kernel, ``in_time``; the forces between species only
-    with ``species``; the particles' total forces only where the atoms carry them,
-    ``have_forces``)."""
+    data allow but those computed by name only (``by_name``; without contacts, only
+    those that need none; ``body`` only where the frames carry body forces; the
+    derivatives only with a ``smooth`` kernel, the time derivatives only with a time
+    kernel, ``in_time``; the forces between species only with ``species``; the
+    particles' total forces only where the atoms carry them, ``have_forces``)."""
     if quantities is None:
-        return [g for g, q in QUANTITIES.items()
-                if (have_contacts or not q.contacts) and (have_body or "body" not in q.blocks)
+        return [g for g, q in QUANTITIES.items() if not q.by_name
+                and (have_contacts or not q.contacts) and (have_body or "body" not in q.blocks)
                 and (smooth or not q.smooth) and (in_time or not q.in_time)
                 and (species or not q.species)
                 and (have_forces or not {"ma", "impulse"} & set(q.blocks))]

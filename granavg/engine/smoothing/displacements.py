@@ -39,6 +39,8 @@ class Kept:
     time: float
     atoms: dict
     box: object | None = None
+    #: the frame's mass sums at the nodes, shape (n_nodes,), where made
+    mass_sums: np.ndarray | None = None
 
 
 def paired(before, after, dim: int, periods=None):
@@ -70,6 +72,28 @@ def box_periods(frame, dim: int):
     if box is None:
         return None
     return [float(box.hi[k] - box.lo[k]) if box.periodic[k] else None for k in range(dim)]
+
+
+def _mass_divergence(before, after, r0, r1, cells, rho_p, dt, at_points, paired_, out):
+    """div j_f into ``out``: sum_p m_p (W(x - x_p(t_f)) - W(x - x_p(t_f+1))) / dt over
+    the paired particles. Where both frames' mass sums are kept, their difference less
+    the unpaired particles' own (the same sums' weights: the identity holds to
+    round-off); else from the kernel's weights at the segments' ends."""
+    if before.mass_sums is None or after.mass_sums is None:
+        start, end, m = paired_
+        for pos, sign in ((start, 1.0), (end, -1.0)):
+            at_points(pos, (sign / dt) * m[:, None], "scalar", "djmass")
+        return
+    out += (before.mass_sums - after.mass_sums) / dt
+    for frame, rows, sign in ((before, r0, -1.0), (after, r1, 1.0)):
+        alone = np.ones(len(frame.atoms["id"]), bool)
+        alone[rows] = False
+        if alone.any():                 # vanished (before) or appeared (after): no flux
+            a = frame.atoms
+            m = np.asarray(masses(a, cells.particle_volume, rho_p), float)[alone]
+            pos = tuple(np.asarray(a[c], float)[alone] for c in cells.position_names)
+            item, node, W, _ = cells.kernel_weights(pos, False)
+            np.add.at(out, node, (sign / dt) * m[item] * W[:, 0])
 
 
 def flux_size(blocks, dim: int) -> int:
@@ -139,8 +163,8 @@ def displacement_sums(before, after, cells, rho_p, blocks=("jmass", "djmass")):
         flux = np.einsum("pij,pj->pi", E0, m[:, None] * dx / dt)
         _scatter(*segments, np.ascontiguousarray(flux), into("vector", "jmass"), *none, out)
     if "djmass" in col:
-        for pos, sign in ((start, 1.0), (end, -1.0)):
-            at_points(pos, (sign / dt) * m[:, None], "scalar", "djmass")
+        _mass_divergence(before, after, r0, r1, cells, rho_p, dt, at_points,
+                         (start, end, m), out[:, col["djmass"]])
     if "jmom" in col or "djmom" in col:
         p = m[:, None] * np.column_stack([np.asarray(a0["v" + c], float)[r0] for c in xyz])
     if "jmom" in col:
