@@ -220,8 +220,8 @@ def interval_forecast(p, target: float = TARGET) -> dict | None:
            "quadrature_median": e, "floor": floor,
            "residual_is": "the time quadrature's" if quadrature else
            "mostly not the time quadrature's", "order_measured": order,
-           "collisions": "resolved (order >= 1)" if resolved else
-           "not resolved (order < 1: the frames alias them)",
+           "collisions": "resolved: order >= 1" if resolved else
+           "not resolved: order < 1, the frames alias them",
            "toward": toward, "order_used": FORECAST_ORDERS[toward], "margin": margin,
            "time_unit": p.unit_system.unit("{time}"), "yardstick": found[3]}
     if floor >= aim:
