@@ -75,7 +75,9 @@ def continuity(p, name: str = "continuity") -> dict | None:
     where = "" if worst is None else \
         f" at t = {p.times[worst // p.cells.n]:.4g}, node {worst % p.cells.n}"
     unit = p.units.get("drho_dt", "")
-    flux = "div j (the displacements' mass flux)" if name == "continuity" else \
+    # fields written before continuity came from the displacements hold the velocities'
+    displaced = name == "continuity" and "mass_flux" in (p.meta or {}).get("time", {})
+    flux = "div j (the displacements' mass flux)" if displaced else \
         "div(rho v) (the dumped velocities)"
     return {"ratio": ratio, "scale": scale, "per_time": per_time.tolist(),
             "claim": _entry(
@@ -211,6 +213,7 @@ def interval_forecast(p, target: float = TARGET) -> dict | None:
         return None
     quadrature = e >= 0.5 * r
     anchor, floor = (r, 0.0) if quadrature else (e, r - e)
+    width = (p.meta["time"].get("width") or np.inf)
     order = (p.meta["time"].get("quadrature") or {}).get("order")
     resolved = order is not None and np.isfinite(order) and order >= 1.0
     toward = "shorter" if r > target else "longer"
@@ -230,8 +233,13 @@ def interval_forecast(p, target: float = TARGET) -> dict | None:
             f"{aim:.3g}: no dump interval reaches {target:g}; look for a force the balance "
             "lacks (a body force, a wall) or the dumps' own consistency (docs/time.md)"))
         return out
-    out["forecast_interval"] = float(interval) * ((aim - floor) / anchor) ** (
-        1.0 / FORECAST_ORDERS[toward])
+    # an anchor of zero (no residual, no error): any interval up to the time kernel's
+    # width (the widest a kernel takes frames at)
+    h = float(interval) * ((aim - floor) / anchor) ** (1.0 / FORECAST_ORDERS[toward]) \
+        if anchor > 0 else np.inf
+    out["forecast_interval"] = float(min(h, width))
+    if h > width:
+        out["capped"] = "at the time kernel's width: frames no sparser than it"
     return out
 
 

@@ -187,6 +187,8 @@ def averager(frames, cells, averaging: Averaging = Averaging(), *,
         spacing = gate.spacing
         # windows from t_min, else from the first frame
         axis = time.axis(spacing, time.t_min if time.t_min is not None else head[0].time)
+        if axis.kind == "smoothed" and axis.origin is None:
+            axis.origin = head[0].time          # a frame on the frames' grid
         kernel = getattr(cells, "kernel", None)
         groups = groups_for(quantities, head[0].contacts is not None, "bx" in head[0].atoms,
                             smooth=bool(kernel and kernel.smooth_edge),

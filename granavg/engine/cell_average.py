@@ -364,13 +364,16 @@ class CellAverage:
                     self.axis.flux_hits(t, t + interval))
 
     def _phase(self, t: float):
-        """The frame's index mod :data:`PHASES` on the frames' grid (None where the
-        phases are not kept, or the interval is not known yet: that frame is then in
-        no phase, and the estimates say so)."""
+        """The frame's index mod :data:`PHASES` on the frames' grid, counted from the
+        axis' origin, a frame's time (the first frame seen where none is given; None
+        where the phases are not kept, or the interval is not known yet: that frame is
+        then in no phase, and the estimates say so)."""
         interval = getattr(self.axis, "interval", None)
         if not self.phased or not interval:
             return None
-        return int(round(t / interval)) % PHASES
+        if self.axis.origin is None:
+            self.axis.origin = t
+        return int(round((t - self.axis.origin) / interval)) % PHASES
 
     def _displaced(self, frame, shares, sums) -> None:
         """Add the displacements' flux from the last frame added to ``frame`` (of the
@@ -540,7 +543,8 @@ class CellAverage:
         if self.flux:
             meta["time"]["mass_flux"] = {
                 "from": "the displacements between consecutive frames (ids paired, "
-                        "periodic faces unwrapped)",
+                        "periodic faces unwrapped); the particles that vanished and "
+                        "appeared over the intervals that reach a time",
                 "particles_vanished": int(self.appeared[0]),
                 "particles_appeared": int(self.appeared[1])}
         stacked = Fields.stack(fields, times, edges, meta)
@@ -684,7 +688,7 @@ class CellAverage:
         error's part that the sampling's phase decides), and the same at twice the
         interval (phases 0 and 2, 1 and 3). NaN where a phase holds no frame."""
         V, n = self.cells.volume, self.cells.n
-        if slot.phases is None or len(slot.phases) != PHASES:
+        if slot.phases is None:
             return {"momentum_quadrature": np.full(n, np.nan),
                     "momentum_quadrature_2h": np.full(n, np.nan)}
         cols = columns("momentum_balance", self.layout.axes)
@@ -778,6 +782,11 @@ def quadrature_order(values: dict) -> dict:
     twice it the halves' spread. Returns the order and how it was found."""
     d1, d2 = values["momentum_quadrature"], values["momentum_quadrature_2h"]
     both = np.isfinite(d1) & np.isfinite(d2)
+    if not both.any():
+        values["momentum_quadrature"] = values["momentum_quadrature_2h"] = d1 * np.nan
+        return {"order": float("nan"), "why": "a phase holds no frame at every time: the "
+                "time kernel spans too few frames (at least 4 within its support, 2 per "
+                "phase pair); widen it or dump more often"}
     r1 = float(np.sqrt(np.mean(d1[both] ** 2))) if both.any() else float("nan")
     r2 = float(np.sqrt(np.mean(d2[both] ** 2))) if both.any() else float("nan")
     raw = math.log2(r2 / r1) if r1 > 0 and r2 > 0 else float("nan")

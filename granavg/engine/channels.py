@@ -56,9 +56,9 @@ jmass      jmass_<i>                   m^p dx_i / dt: the mass flux of the displ
                                        segments (a time kernel's; smoothing kernels)
 djmass     djmass                      its divergence: m^p (W(x - x_p(t_f)) -
                                        W(x - x_p(t_f+1))) / dt, the segment's ends
-jmom       jmom_<ij>                   m^p v_i dx_j / dt: the momentum flux of the
-                                       displacements (v at the interval's start)
-djmom      djmom_<i>                   its divergence, from the segment's ends
+djmom      djmom_<i>                   the divergence of m^p v_i dx_j / dt along the
+                                       segment (the displacements' momentum flux, v at
+                                       the interval's start), from its ends
 impulse    impulse_<i>                 F^p at the interval's end frame (fix ave/atom:
                                        the mean force over the interval), there
 =========  ==========================  ==========================================
@@ -211,10 +211,9 @@ BLOCK = {b.name: b for b in (
     # whatever happened between the frames
     Block("jmass", "vector", ("id",)),
     Block("djmass", "scalar", ("id",)),
-    # ... and of the momentum: the displacements' flux of m v (v at the interval's start)
-    # and its divergence, and the forces dumped at the interval's end (LAMMPS' fix
+    # ... and of the momentum: the divergence of the displacements' flux of m v (v at the
+    # interval's start), and the forces dumped at the interval's end (LAMMPS' fix
     # ave/atom of fx fy fz over the interval: the exact impulse between the frames)
-    Block("jmom", "tensor", ("id", "{v}")),
     Block("djmom", "vector", ("id", "{v}")),
     Block("impulse", "vector", ("id", "{a}")),
 )}
@@ -235,10 +234,10 @@ DERIVATIVE_BLOCKS = tuple(b.name for b in BLOCK.values()
 BLOCKS = tuple(BLOCK)
 #: Blocks the time axis fills from its kernel's derivative (the last in channel order:
 #: a frame's channels are the first of any layout's).
-TIME_BLOCKS = ("dtmass", "dtmom", "jmass", "djmass", "jmom", "djmom", "impulse")
+TIME_BLOCKS = ("dtmass", "dtmom", "jmass", "djmass", "djmom", "impulse")
 #: The time blocks filled from pairs of consecutive frames (their displacements), in
 #: channel order.
-FLUX_BLOCKS = ("jmass", "djmass", "jmom", "djmom", "impulse")
+FLUX_BLOCKS = ("jmass", "djmass", "djmom", "impulse")
 #: The blocks a frame fills.
 FRAME_BLOCKS = tuple(b for b in BLOCKS if b not in TIME_BLOCKS)
 #: Blocks that the particles' contacts fill in the contact pass (``wall`` is filled at

@@ -76,7 +76,9 @@ class Quantity:
     by_name : bool
         Computed only where asked for by name, not among "all the data allow": a
         diagnostic whose cost is its own (the displacements' mass flux along their
-        segments: 1.2 times the time of fields in time with the balance laws).
+        segments: 1.2 times the time of fields in time with the balance laws), or one
+        that means what it says only for some dumps (the momentum between frames: with
+        the forces' means over each interval, not the instantaneous forces).
     help : str
         What it is, in words (the command line's help).
     """
@@ -293,10 +295,10 @@ def _divergence(block, div_block):
 
 def _continuity(S, V, layout, name):
     """d rho/dt + div j at each node, j the mass flux of the displacements between
-    frames (:mod:`granavg.engine.smoothing.displacements`): zero by construction at any
-    frame interval, up to the quadrature of the integral of the time kernel's
-    derivative (:meth:`~granavg.engine.timing.axes.Smoothed.flux_hits`), and where
-    particles appear or vanish between frames (a source)."""
+    frames (:mod:`granavg.engine.smoothing.displacements`): zero to round-off at any
+    frame interval by summation by parts
+    (:meth:`~granavg.engine.timing.axes.Smoothed.flux_hits`), but where particles
+    appear or vanish between frames (a source)."""
     return {name: (S[:, layout.index["dtmass"]] + S[:, layout.index["djmass"]]) / V}
 
 
@@ -460,7 +462,7 @@ QUANTITIES = {q.name: q for q in (
                   "ids)"),
     Quantity("impulse_balance", ("vol", "mass", "mom", "dtmom", "djmom", "impulse"),
              "vector", _values(_impulse_balance, "impulse_balance"), needs_mass=True,
-             smooth=True, in_time=True, unit="{momentum_flux}/{length}",
+             smooth=True, in_time=True, by_name=True, unit="{momentum_flux}/{length}",
              help="d(rho v)/dt + div j_p - F: the momentum's change between frames against "
                   "the forces dumped at each interval's end, zero where they are fix "
                   "ave/atom means over the interval (smoothing and time kernels, atoms' "

@@ -49,9 +49,11 @@ class TimeAxis:
         A field per this many frames.
     time_kernel, time_width, times : optional
         Fields at ``times`` (START, STOP, STEP) smoothed by a time kernel of this width.
-    interval, window_start : float or None
-        Resolved from the data by a client for its workers: the frames' spacing and the
-        first window's start (None: from the first frames).
+    interval, window_start, origin : float or None
+        Resolved from the data by a client for its workers: the frames' spacing, the
+        first window's start and a frame's time on the frames' grid (the phases of a
+        time kernel's quadrature error count frames from it; None: from the first
+        frames).
     """
 
     t_min: float | None = None
@@ -64,6 +66,7 @@ class TimeAxis:
     times: tuple | None = None
     interval: float | None = None
     window_start: float | None = None
+    origin: float | None = None
 
     def __post_init__(self):
         finite("t_min", self.t_min)
@@ -81,9 +84,12 @@ class TimeAxis:
     def axis(self, interval: float | None = None, window_start: float | None = None):
         """The time axis (:mod:`granavg.engine.timing`), given the frames' spacing and
         the first window's start where the data fix them (this spec's own first)."""
-        return timing.axis(self, self.interval if self.interval is not None else interval,
+        axis = timing.axis(self, self.interval if self.interval is not None else interval,
                            self.window_start if self.window_start is not None
                            else window_start)
+        if self.origin is not None and axis.kind == "smoothed":
+            axis.origin = float(self.origin)
+        return axis
 
 
 @dataclass(frozen=True)

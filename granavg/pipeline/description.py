@@ -142,7 +142,8 @@ class RunAverage:
                                             (derived["t_end_s"] - t_min) / MAX_BLOCKS)
         return cls(manifest, rings, list(groups),
                    spec.averaging.with_time(t_min=t_min, block_time=block_time,
-                                            interval=derived["dump_interval_s"]),
+                                            interval=derived["dump_interval_s"],
+                                            origin=_first_dump(derived)),
                    body_forces=scene_body_forces(manifest), spec=spec)
 
     def meta(self, engine: dict) -> dict:
@@ -172,3 +173,10 @@ class RunAverage:
                        density=scene["rho_p"], units=SI, series=state)
         avg.meta = self.meta(avg.meta)
         return avg
+
+
+def _first_dump(derived: dict):
+    """The first dump's time (s), on the dumps' grid: where fields in time count their
+    frames' phases from (None where an older manifest lacks it: the first frame seen)."""
+    step = derived.get("first_dump_step")
+    return None if step is None else step * derived["dt_s"]

@@ -146,6 +146,8 @@ def resolved(base) -> Averaging:
                        window_start=axis.start)  # the data's first frame, not a chunk's
     if getattr(axis, "interval", None):
         changes["interval"] = axis.interval
+    if getattr(axis, "origin", None) is not None:
+        changes["origin"] = axis.origin         # the data's first frame, not a chunk's
     return out.with_time(**changes)
 
 

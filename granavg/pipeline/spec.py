@@ -20,7 +20,7 @@ from granavg.errors import ParameterError, UserError, literal
 #: The version of the spec's plain form (``to_dict``).
 SPEC_VERSION = 1
 #: The time axis' fields that the data resolve (a client for its workers), not options.
-RESOLVED = ("interval", "window_start")
+RESOLVED = ("interval", "window_start", "origin")
 
 
 @dataclass(frozen=True)

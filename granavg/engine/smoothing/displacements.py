@@ -65,25 +65,22 @@ def paired(before, after, dim: int, periods=None):
     return r0, r1, dx, (len(ids0) - len(common), len(ids1) - len(common))
 
 
-def box_periods(frame, dim: int):
-    """The periodic lengths of the frame's box (None per axis not periodic; None
-    without a box)."""
+def box_periods(frame, cells, dim: int):
+    """The periodic lengths along each axis (None where not periodic): the frame's box's,
+    else (frames without one: VTK, tables, frames in memory) the cells' periods."""
     box = getattr(frame, "box", None)
-    if box is None:
-        return None
-    return [float(box.hi[k] - box.lo[k]) if box.periodic[k] else None for k in range(dim)]
+    if box is not None:
+        return [float(box.hi[k] - box.lo[k]) if box.periodic[k] else None
+                for k in range(dim)]
+    periods = getattr(getattr(cells, "cells", cells), "periods", None) or ()
+    return [None if p is None else float(p[1] - p[0]) for p in periods]
 
 
-def _mass_divergence(before, after, r0, r1, cells, rho_p, dt, at_points, paired_, out):
+def _mass_divergence(before, after, r0, r1, cells, rho_p, dt, out):
     """div j_f into ``out``: sum_p m_p (W(x - x_p(t_f)) - W(x - x_p(t_f+1))) / dt over
-    the paired particles. Where both frames' mass sums are kept, their difference less
-    the unpaired particles' own (the same sums' weights: the identity holds to
-    round-off); else from the kernel's weights at the segments' ends."""
-    if before.mass_sums is None or after.mass_sums is None:
-        start, end, m = paired_
-        for pos, sign in ((start, 1.0), (end, -1.0)):
-            at_points(pos, (sign / dt) * m[:, None], "scalar", "djmass")
-        return
+    the paired particles: the two frames' mass sums' difference (the averager keeps
+    them for every frame whose intervals reach a time), less the unpaired particles'
+    own, so that the identity holds to round-off."""
     out += (before.mass_sums - after.mass_sums) / dt
     for frame, rows, sign in ((before, r0, -1.0), (after, r1, 1.0)):
         alone = np.ones(len(frame.atoms["id"]), bool)
@@ -108,8 +105,8 @@ def displacement_sums(before, after, cells, rho_p, blocks=("jmass", "djmass")):
     and tensors in the nodes' basis (the basis at each segment's start, or at the point):
 
     - ``jmass``, ``djmass``: the mass flux j_f and its divergence (module docstring);
-    - ``jmom``, ``djmom``: the momentum flux of the displacements, m v (x) dx / dt along
-      the segment (v at the start), and its divergence m v (W(start) - W(end)) / dt;
+    - ``djmom``: the divergence of the displacements' momentum flux, m v (x) dx / dt
+      along the segment (v at the start): m v (W(start) - W(end)) / dt;
     - ``impulse``: the forces dumped at the end frame (``fx fy fz``; LAMMPS' fix
       ave/atom over the interval: its mean force), at the end.
 
@@ -131,7 +128,7 @@ def displacement_sums(before, after, cells, rho_p, blocks=("jmass", "djmass")):
     """
     D = cells.dim
     dt = after.time - before.time
-    r0, r1, dx, lost = paired(before, after, D, box_periods(after, D))
+    r0, r1, dx, lost = paired(before, after, D, box_periods(after, cells, D))
     out = np.zeros((cells.n, flux_size(blocks, D)))
     if not len(r0):
         return out, lost
@@ -139,7 +136,6 @@ def displacement_sums(before, after, cells, rho_p, blocks=("jmass", "djmass")):
     m = np.asarray(masses(a0, cells.particle_volume, rho_p), float)[r0]
     start = tuple(np.asarray(a0[c], float)[r0] for c in cells.position_names)
     end = tuple(np.asarray(a1[c], float)[r1] for c in cells.position_names)
-    E0 = cells.basis(start)
     terms = _Terms(layout_of(cells.axes, ()), cells.moments > 1)
     none = (_EMPTY_SECTOR, _EMPTY_SHARE, 0)
     xyz = "xyz"[:D]
@@ -156,23 +152,14 @@ def displacement_sums(before, after, cells, rho_p, blocks=("jmass", "djmass")):
         item, node, W, _ = cells.kernel_weights(pos, False)
         _scatter(item, node, W, np.ascontiguousarray(values), into(shape, b), *none, out)
 
-    segments = None
-    if "jmass" in col or "jmom" in col:
-        segments = cells.segment_weights(start, dx)
     if "jmass" in col:
-        flux = np.einsum("pij,pj->pi", E0, m[:, None] * dx / dt)
-        _scatter(*segments, np.ascontiguousarray(flux), into("vector", "jmass"), *none, out)
+        flux = np.einsum("pij,pj->pi", cells.basis(start), m[:, None] * dx / dt)
+        _scatter(*cells.segment_weights(start, dx), np.ascontiguousarray(flux),
+                 into("vector", "jmass"), *none, out)
     if "djmass" in col:
-        _mass_divergence(before, after, r0, r1, cells, rho_p, dt, at_points,
-                         (start, end, m), out[:, col["djmass"]])
-    if "jmom" in col or "djmom" in col:
-        p = m[:, None] * np.column_stack([np.asarray(a0["v" + c], float)[r0] for c in xyz])
-    if "jmom" in col:
-        pb = np.einsum("pij,pj->pi", E0, p)
-        lb = np.einsum("pij,pj->pi", E0, dx / dt)
-        Q = (pb[:, :, None] * lb[:, None, :]).reshape(-1, D * D)
-        _scatter(*segments, np.ascontiguousarray(Q), into("tensor", "jmom"), *none, out)
+        _mass_divergence(before, after, r0, r1, cells, rho_p, dt, out[:, col["djmass"]])
     if "djmom" in col:
+        p = m[:, None] * np.column_stack([np.asarray(a0["v" + c], float)[r0] for c in xyz])
         for pos, sign in ((start, 1.0), (end, -1.0)):
             E = cells.basis(pos)
             at_points(pos, np.einsum("pij,pj->pi", E, (sign / dt) * p), "vector", "djmom")

@@ -122,6 +122,8 @@ class Smoothed:
         self.times = np.asarray(times, float)
         self.cutoff = kernel.cutoff(self.width)
         self.interval = None
+        #: a frame's time (the frames' grid: frame k is at origin + k interval)
+        self.origin = None
         if interval is not None:
             self.fit(interval)
 
@@ -148,30 +150,32 @@ class Smoothed:
         its displacements' flux to, with the weight u that makes the continuity equation
         hold by summation by parts: [(j, u)].
 
-        The time derivative weighs frame g by a_g = psi'(t_j - t_g)
-        (:meth:`hits`). With rho_g+1 - rho_g = -dt div j_g for the interval g (the
-        displacements' flux, exact), sum_g a_g rho_g = -dt sum_g U_g div j_g when
-        U_f = -sum_{g <= f} a_g; equally U_f = sum_{g > f} a_g (the two differ by
-        sum_g a_g, the quadrature of the integral of psi', zero to the quadrature's
-        accuracy), taken on the side of t_j away from the interval so that U is zero
-        outside the kernel's support. u = dt U: about psi at the interval's middle."""
+        The field at t_j is sum_g psi_g S_g / W (psi_g = psi(t_j - t_g), W = sum_g
+        psi_g) and its derivative sum_g a_g S_g / W with a_g = psi'_g - psi_g A / W,
+        A = sum_g psi'_g (:meth:`hits`, :meth:`~granavg.engine.cell_average.Slot.rates`):
+        the a_g sum to zero. With rho_g+1 - rho_g = -dt div j_g for the interval g (the
+        displacements' flux, exact), sum_g a_g rho_g = -dt sum_g U_g div j_g when U_f =
+        -sum_{g <= f} a_g = sum_{g > f} a_g, over the frames of t_j's support on the
+        frames' grid (each taken on the side of t_j away from the interval, for its
+        round-off). u = dt U: about psi at the interval's middle."""
         dt = t1 - t0
         mid = 0.5 * (t0 + t1)
         lo, hi = np.searchsorted(self.times, [mid - self.cutoff - dt, mid + self.cutoff + dt])
         out = []
         for j in range(lo, hi):
             s0 = self.times[j] - t0                     # the lag of the interval's start
-            n = int(math.ceil((self.cutoff + abs(s0)) / dt)) + 2
-            if self.times[j] >= mid:                    # frames at and before t0
-                lags = s0 + dt * np.arange(n)
-                sign = -1.0
-            else:                                       # frames after t0
-                lags = s0 - dt * np.arange(1, n + 1)
-                sign = 1.0
-            _, dpsi = self.kernel.weights(lags, self.width)
-            u = sign * dt * float(np.sum(dpsi))
+            back = int(math.ceil((self.cutoff - s0) / dt)) + 1    # frames before t0 ...
+            ahead = int(math.ceil((self.cutoff + s0) / dt)) + 1   # ... and after it
+            k = np.arange(-ahead, back + 1)             # t_g = t0 - k dt
+            psi, dpsi = self.kernel.weights(s0 + dt * k, self.width)
+            W = float(np.sum(psi))
+            if W == 0.0:
+                continue
+            a = dpsi - psi * (float(np.sum(dpsi)) / W)
+            u = -float(np.sum(a[k >= 0])) if self.times[j] >= mid else \
+                float(np.sum(a[k < 0]))
             if u != 0.0:
-                out.append((int(j), u))
+                out.append((int(j), dt * u))
         return out
 
     def reach(self, first: float, last: float) -> None:
