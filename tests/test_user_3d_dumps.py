@@ -241,6 +241,38 @@ def test_cells_that_do_not_fit_a_tilted_box_are_refused(capsys, tilted, tmp_path
                                "--out", tmp_path / "p.csv", *extra), "tilted", needle)
 
 
+def _tilted_by(path, xy: float) -> Path:
+    """Two frames of 40 disks in a periodic unit square whose header says the box is
+    tilted by ``xy`` (a box deformed from zero tilt writes 1e-14 at its first frame)."""
+    rng = np.random.default_rng(3)
+    x, y = rng.uniform(0, 1, 40), rng.uniform(0, 1, 40)
+    with open(path, "w") as f:
+        for step in (0, 100):
+            f.write(f"ITEM: TIMESTEP\n{step}\nITEM: NUMBER OF ATOMS\n40\n"
+                    f"ITEM: BOX BOUNDS xy xz yz pp pp pp\n0 1 {xy:g}\n0 1 0\n"
+                    "-0.05 0.05 0\nITEM: ATOMS id type radius x y z vx vy vz\n")
+            f.writelines(f"{i + 1} 1 0.03 {x[i]:.6f} {y[i]:.6f} 0 0.1 0 0\n"
+                         for i in range(40))
+    return path
+
+
+@pytest.mark.parametrize("cells", [("--grid", 2, 2), ("--slabs", "x", "--bins", 4)])
+def test_a_tilt_within_round_off_is_none(capsys, tmp_path, cells):
+    """A tilt of 1.4e-14 (a sheared box's first frame) is no tilt: cells that come from
+    the box are made, and the fields are those of the same dump written untilted; a
+    tilt of 1e-6 of the box (a sheared box a moment later) is still one."""
+    common = ("--thickness", 0.1, "--density", 1, "--dt", 1, *cells)
+    out = {}
+    for xy in (1.4e-14, 0.0):
+        out[xy] = tmp_path / f"f{xy:g}.csv"
+        code, err = cli(capsys, "average", "--atoms", _tilted_by(tmp_path / f"a{xy:g}", xy),
+                        *common, "--out", out[xy])
+        assert code == 0, err
+    assert out[1.4e-14].read_text() == out[0.0].read_text()
+    refused(capsys, tmp_path, ("average", "--atoms", _tilted_by(tmp_path / "a", 1e-6),
+                               *common, "--out", tmp_path / "p.csv"), "tilted")
+
+
 def test_a_grid_with_ranges_in_a_tilted_box(capsys, tilted, tmp_path):
     d, _ = tilted[3, "no"]
     assert cli(capsys, "average", "--atoms", d / "atoms.dump", "--dt", 0.0005, "--grid", 2,

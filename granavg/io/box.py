@@ -21,6 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 
+#: A tilt factor within this fraction of the box's largest edge is round-off: none.
+ROUND_OFF = 1e-12
+
+
 @dataclass(frozen=True)
 class Box:
     """The cell of a dump frame.
@@ -44,6 +48,10 @@ class Box:
         """The box of a :class:`~granavg.io.reader.DumpFrame` (bounds, tilt, flags)."""
         (xlo, xhi), (ylo, yhi), (zlo, zhi) = (tuple(map(float, b)) for b in frame.box)
         xy, xz, yz = (float(t) for t in getattr(frame, "tilt", (0.0, 0.0, 0.0)))
+        # a tilt within round-off of the box's size is none (a box deformed from zero
+        # tilt writes 1e-14 at its first frame): xy and xz shift x, yz shifts y
+        size = max(abs(xhi - xlo), abs(yhi - ylo), abs(zhi - zlo), 1e-300)
+        xy, xz, yz = (0.0 if abs(t) <= ROUND_OFF * size else t for t in (xy, xz, yz))
         if any((xy, xz, yz)):
             xlo -= min(0.0, xy, xz, xy + xz)
             xhi -= max(0.0, xy, xz, xy + xz)
