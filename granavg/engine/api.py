@@ -72,6 +72,29 @@ def _with_columns(groups, requested: bool, frame, dim: int) -> tuple:
                                                      for g, m in lacking.items()}
 
 
+#: The blocks of the displacements between frames (:mod:`granavg.engine.smoothing.
+#: displacements`), which a sheared box's images do not carry.
+DISPLACED = {"jmass", "djmass", "djmom"}
+
+
+def _unsheared(groups, requested: bool, frame) -> list:
+    """The groups without the displacements' fluxes where the box is sheared (its
+    images' paths between frames slide with the tilt): a requested one is refused in
+    one line; of "all the data allow" they are left out, said in one log line."""
+    if getattr(frame, "shear", None) is None:
+        return groups
+    sliding = [g for g in groups if DISPLACED & set(QUANTITIES[g].blocks)]
+    if sliding and requested:
+        raise ParameterError("quantities", f"{sliding[0]} comes from the displacements "
+                             "between frames, which granavg does not follow across a "
+                             "sheared (tilted) box's faces; leave it out of {param} "
+                             "(continuity_v gives the continuity residual there)")
+    if sliding:
+        log.info("left out, in a sheared box: %s (the displacements between frames)",
+                 ", ".join(sliding))
+    return [g for g in groups if g not in sliding]
+
+
 def _taken_as_zero(groups, frame, dim: int) -> dict:
     """Optional contact columns the groups read and the frame lacks (the contact
     couple: a law without rolling resistance, or dumps that do not hold it), said in
@@ -195,6 +218,7 @@ def averager(frames, cells, averaging: Averaging = Averaging(), *,
                             in_time=axis.derivative, species=species is not None,
                             have_forces="fx" in head[0].atoms)
         groups, lacking = _with_columns(groups, quantities is not None, head[0], cells.dim)
+        groups = _unsheared(groups, quantities is not None, head[0])
         if time.block_time is None:
             averaging = averaging.with_time(block_time=spacing if spacing is not None
                                             else 1.0)

@@ -60,6 +60,7 @@ def frame_sums(frame, cells, rho_p: float, blocks, reach: float = 0.5,
         return smoothed_frame_sums(frame, cells, rho_p, blocks, reach, n_sectors, layout)
     a = frame.atoms
     contacts = frame.contacts
+    shear = getattr(frame, "shear", None)
     radius = a["radius"]
     rows = frame_rows(frame) if contacts is not None and (
         {*CONTACT_BLOCKS, "wall", "inter", "ninter", "fabinter"} & set(blocks)) else None
@@ -76,13 +77,24 @@ def frame_sums(frame, cells, rho_p: float, blocks, reach: float = 0.5,
         mine, mine_rows = contacts, rows
         if rows is not None and len(starts) > 1:
             mine, mine_rows = _chunk_contacts(contacts, rows, lo, lo + CHUNK)
-        q = particle_channels(chunk, mine, layout, cells.particle_volume(r),
-                              cells.def_factor(r), rho_p, blocks, basis=cells.basis(pos),
-                              reach=reach, rows=mine_rows, first=lo,
-                              out=_buffer(rows_needed, layout.n))
-        particle, cell, w = cells.weights(pos, r)
+        basis = cells.basis(pos)
+
+        def channels(atoms, out=None):
+            return particle_channels(atoms, mine, layout, cells.particle_volume(r),
+                                     cells.def_factor(r), rho_p, blocks, basis=basis,
+                                     reach=reach, rows=mine_rows, first=lo, out=out)
+        q = channels(chunk, _buffer(rows_needed, layout.n))
+        images = cells.images(pos, r, shear) if shear is not None and \
+            hasattr(cells, "images") else None
+        if images is None:
+            particle, cell, w = cells.weights(pos, r)
+        else:                           # a sheared box: images that move have own rows
+            q = images.extend(q, chunk, channels)
+            particle, cell, w = cells.weights(pos, r, images)
         if n_sectors:
             sector, share = cells.sector_shares(pos, r, n_sectors)
+            if images is not None:
+                sector, share = images.take(sector), images.take(share)
             return sector_sums(particle, cell, w, sector, share, n_sectors, q, cells.n)
         return cell_sums(particle, cell, w, q, n)
 

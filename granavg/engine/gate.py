@@ -22,7 +22,11 @@ check by handing its frames to the engine.
 :class:`Gate` adds what needs the frames before: time steps and times strictly
 increasing, the same columns in every frame, and a box whose periodic axes keep their
 flags and whose periodic lengths change only with the atoms inside it (a deforming
-box).
+box). It also gives each frame of a sheared (tilted) box its
+:class:`~granavg.engine.cells.base.Shear`: the tilt, and its rate from the frame before
+(the first frame's from the frame after; a tilt that flips by a period counts as the
+change it stands for). The rate is exact for a box sheared at a constant rate (LAMMPS'
+``fix deform ... erate`` or ``vel``), first order in the frames' interval otherwise.
 
 A refusal is one line: where (``file:line`` where the frame says where it was read,
 ``file (timestep T, atom row k)`` where its rows are no lines, a scene's body or
@@ -32,11 +36,13 @@ and what to do.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 
 from granavg.engine._checks import contact_rows_checked, not_integers
+from granavg.engine.cells.base import Shear
 from granavg.engine.kernels import lookup
 from granavg.errors import UserError
 
@@ -76,6 +82,8 @@ BOX_TOLERANCE = 1e-9
 OUTSIDE = 0.1
 
 _AXES = ("x", "y", "z")
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -393,6 +401,7 @@ class Gate:
         self.seen = ()              # frames admitted ahead of their turn (the head)
         #: the first two frames' spacing (None before two)
         self.spacing = None
+        self.tilts = None           # the frame before's (time, tilt, lengths)
 
     def admit(self, frame) -> None:
         """Refuse the frame, in one line, if it cannot be averaged after those before."""
@@ -402,10 +411,20 @@ class Gate:
         self._sequence(frame)
 
     def ahead(self, frames) -> None:
-        """Admit ``frames`` now (an averager's head) and pass them later."""
+        """Admit ``frames`` now (an averager's head) and pass them later; the first
+        frame of a sheared box takes the tilt's rate to the second."""
         for frame in frames:
             self.admit(frame)
         self.seen = tuple(frames)
+        first = frames[0] if frames else None
+        if getattr(first, "shear", None) is None:
+            return
+        if len(frames) > 1 and getattr(frames[1], "shear", None) is not None:
+            first.shear = Shear(first.shear.tilt, frames[1].shear.rate)
+        elif len(frames) == 1:
+            log.warning("%s: one frame of a tilted box: the tilt's rate (two frames give "
+                        "it) is taken as 0, so images across its sheared faces move as "
+                        "their atoms do", source(first))
 
     def _sequence(self, frame) -> None:
         step, t = frame.timestep, frame.time
@@ -445,6 +464,7 @@ class Gate:
         b = getattr(frame, "box", None)
         if b is None:
             return
+        self._shear(frame, b)
         flags = tuple(bool(p) for p in b.periodic[:self.dim])
         lengths = np.subtract(b.hi, b.lo)[:self.dim]
         if self.periodic is None:
@@ -459,6 +479,22 @@ class Gate:
         for k in range(self.dim):
             if flags[k] and abs(lengths[k] - lengths0[k]) > BOX_TOLERANCE * lengths0[k]:
                 self._deformed(frame, b, k, lengths0[k])
+
+    def _shear(self, frame, b) -> None:
+        """The frame's :class:`~granavg.engine.cells.base.Shear` (None for a box that is
+        not tilted and was not before): its tilt, and the rate from the frame before
+        (xy and xz flip by lx, yz by ly)."""
+        tilt = tuple(float(v) for v in getattr(b, "tilt", (0.0, 0.0, 0.0)))
+        rate = (0.0, 0.0, 0.0)
+        if self.tilts is not None:
+            t0, tilt0, lengths = self.tilts
+            dt = frame.time - t0
+            flips = (lengths[0], lengths[0], lengths[1])
+            rate = tuple(float((v - v0) - p * np.round((v - v0) / p)) / dt if p > 0 else 0.0
+                         for v, v0, p in zip(tilt, tilt0, flips))
+        self.tilts = (frame.time, tilt, np.subtract(b.hi, b.lo))
+        if any(tilt) or any(rate):
+            frame.shear = Shear(tilt, rate)
 
     def _deformed(self, frame, b, k: int, before: float) -> None:
         """Accept a periodic length that changed from the frame before (a deforming

@@ -233,6 +233,7 @@ class Share:
     atoms: dict
     contacts: dict | None
     rows: tuple | None = None
+    shear: object | None = None
 
 
 def _share(frame, mine: np.ndarray, rows) -> Share:
@@ -241,7 +242,7 @@ def _share(frame, mine: np.ndarray, rows) -> Share:
     species' particle is second."""
     atoms = {k: np.asarray(v)[mine] for k, v in frame.atoms.items()}
     if frame.contacts is None:
-        return Share(frame.timestep, frame.time, atoms, None)
+        return Share(frame.timestep, frame.time, atoms, None, None, getattr(frame, "shear", None))
     i1, i2 = rows
     wall = np.asarray(frame.contacts["wall"])
     first = mine[i1]
@@ -260,7 +261,7 @@ def _share(frame, mine: np.ndarray, rows) -> Share:
         elif key == "wall":
             v = np.where(partner, PARTNER, v)
         out[key] = v[keep]
-    return Share(frame.timestep, frame.time, atoms, out)
+    return Share(frame.timestep, frame.time, atoms, out, None, getattr(frame, "shear", None))
 
 
 def with_species(whole, parts: dict, classes: Classes):

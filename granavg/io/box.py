@@ -10,8 +10,10 @@ zlo), with (LAMMPS' Howto_triclinic)
 
 :class:`Box` gives the cell's own bounds (what cells that default to "the box" must
 span: the slabs across z of a box tilted in xy have the cross-section lx ly, not that of
-its bounding box), turns scaled coordinates into positions, and wraps positions into
-the cell along its periodic axes through the fractional (lamda) coordinates.
+its bounding box), turns scaled coordinates into positions, and wraps positions along
+its periodic axes: a tilted box into its brick (its own lengths from its lower corner),
+which tiles space as the tilted cell does, the images of a row sliding by the tilt
+(:class:`~granavg.engine.cells.base.Shear`).
 """
 
 from __future__ import annotations
@@ -92,29 +94,21 @@ class Box:
 
     def wrap(self, pos: list, dim: int) -> list:
         """Positions wrapped into the cell along its periodic axes (the first ``dim``);
-        others are left where they are (an atom beyond a fixed boundary stays there)."""
+        others are left where they are (an atom beyond a fixed boundary stays there). A
+        tilted box wraps into its brick, its own lengths from its lower corner, which
+        tiles space as its parallelepiped does: along the last axis first, a step along
+        an edge vector moving the axes before it by the tilt."""
         axes = [k for k in range(dim) if self.periodic[k] and self.hi[k] > self.lo[k]]
-        if not axes:
-            return pos
-        if not self.tilted:
-            out = list(pos)
-            for k in axes:
-                u, lo, hi = out[k], self.lo[k], self.hi[k]
-                outside = (u < lo) | (u >= hi)
-                if outside.any():
-                    out[k] = np.where(outside, lo + np.mod(u - lo, hi - lo), u)
-            return out
-        H = self.matrix()[:dim, :dim]
-        lo = np.asarray(self.lo[:dim])[:, None]
-        x = np.asarray(pos, float)
-        lam = np.linalg.solve(H, x - lo)
-        outside = np.zeros(x.shape[1], bool)
-        for k in axes:
-            outside |= (lam[k] < 0.0) | (lam[k] >= 1.0)
-        if not outside.any():
-            return pos
-        for k in axes:
-            lam[k] = np.where(outside, np.mod(lam[k], 1.0), lam[k])
-        wrapped = lo + H @ lam
-        # atoms inside keep their exact coordinates (no round trip through lamda)
-        return [np.where(outside, wrapped[k], x[k]) for k in range(dim)]
+        out = list(pos)
+        H = self.matrix()
+        for k in (reversed(axes) if self.tilted else axes):
+            u, lo, hi = np.asarray(out[k], float), self.lo[k], self.hi[k]
+            outside = (u < lo) | (u >= hi)
+            if not outside.any():
+                continue
+            out[k] = np.where(outside, lo + np.mod(u - lo, hi - lo), u)
+            steps = np.where(outside, np.floor((u - lo) / (hi - lo)), 0.0)
+            for i in range(k):
+                if H[i, k] != 0.0:
+                    out[i] = np.asarray(out[i], float) - steps * H[i, k]
+        return out

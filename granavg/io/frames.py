@@ -47,6 +47,9 @@ class Frame:
     origin : dict or None
         ``{"atoms": Origin, "contacts": Origin}``: where the tables were read
         (:class:`~granavg.engine.gate.Origin`), for the gate's messages.
+    shear : Shear or None
+        A sheared box's tilt and its rate (:class:`~granavg.engine.cells.base.Shear`),
+        which the engine's gate sets from the frames' boxes.
     """
 
     timestep: int
@@ -56,6 +59,7 @@ class Frame:
     rows: tuple | None = None
     box: object | None = None
     origin: dict | None = None
+    shear: object | None = None
 
     def to_pandas(self, table: str = "atoms"):
         """The ``atoms`` or ``contacts`` columns as a :class:`pandas.DataFrame` (one row

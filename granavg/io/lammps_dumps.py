@@ -178,10 +178,6 @@ class LammpsDumps(PairedDumps):
         """Per axis of the dimension, whether the box is periodic along it (``pp``)."""
         return tuple(b == "pp" for b in self.first().boundary[:self.dim])
 
-    def tilt(self) -> tuple:
-        """The first frame's tilt factors (xy, xz, yz): zeros for an orthogonal box."""
-        return Box.of(self.first()).tilt
-
     def first(self):
         """The atom dump's first frame (its box and boundary; its header alone, the rows
         left to the frames' reading), read once."""

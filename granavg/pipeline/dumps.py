@@ -61,7 +61,6 @@ def dump_averager(spec: Spec, *, scan_early: bool = True, **chunk):
         frames.skip_before(t_min)
     dim = getattr(frames, "dim", 2)
     space = Space(dim, frames.box, getattr(frames, "periodic", None) or (lambda: (False,) * 3),
-                  getattr(frames, "tilt", None) or (lambda: (0.0, 0.0, 0.0)),
                   getattr(frames, "dim_reason", None))
     built = spec.cells if isinstance(spec.cells, Cells) else \
         from_options(space, **(spec.cells or {}))

@@ -45,11 +45,9 @@ class Space:
         2 (disks) or 3 (spheres).
     box : callable
         ``box()`` -> one (lo, hi) per axis: the bounds of the first frame's cell (of a
-        tilted box its own cell, not its bounding box).
+        tilted box its brick, its own lengths, not its bounding box).
     periodic : callable
         ``periodic()`` -> per axis, whether the box is periodic along it.
-    tilt : callable
-        ``tilt()`` -> (xy, xz, yz), zeros for an orthogonal box.
     why_2d : str or None
         Why the data were read as 2D, for the message that asks for the disks' height.
     """
@@ -57,12 +55,7 @@ class Space:
     dim: int = 2
     box: Callable = None
     periodic: Callable = lambda: (False,) * 3
-    tilt: Callable = lambda: (0.0, 0.0, 0.0)
     why_2d: str | None = None
-
-    @property
-    def tilted(self) -> bool:
-        return any(t != 0.0 for t in self.tilt())
 
     def span(self, axis: str, given=None) -> tuple:
         """The range along ``axis``: ``given``, else the box's."""
@@ -75,14 +68,12 @@ class Space:
         None: the particles' images across its faces then reach every cell and kernel
         node near them, whether the cells span the box (``given`` None) or a range of it
         (``given``, the option ``name``: refused if it reaches beyond the box, where
-        cells would repeat it). A tilted box's images are not pure shifts along one
-        axis: there only cells whose range comes from the box take them."""
+        cells would repeat it). A tilted box's span is its own length from its lower
+        corner: that brick tiles space as the box does (:class:`Shear`)."""
         if not self.periodic()["xyz".index(axis)]:
             return None
         if given is None:
             return self.span(axis)
-        if self.tilted:
-            return None
         lo, hi = self.span(axis)
         g_lo, g_hi = (float(v) for v in given)
         slack = PERIOD_SLACK * (hi - lo)
@@ -92,18 +83,6 @@ class Space:
                                  "and cells beyond it would repeat it; give a range "
                                  "within the box")
         return lo, hi
-
-    def needs_ranges(self, what: str, **ranges) -> None:
-        """In a tilted box, refuse cells whose ranges would come from it."""
-        if not self.tilted:
-            return
-        missing = [name for name, value in ranges.items() if value is None]
-        if missing:
-            xy, xz, yz = self.tilt()
-            shown = f"xy {xy:g}, xz {xz:g}, yz {yz:g}" if self.dim == 3 else f"xy {xy:g}"
-            raise ParameterError(missing[0], f"the box is tilted ({shown}): give {{param}} "
-                                 f"for {what} (such cells are cells in space, not of the "
-                                 "tilted box, and take no images across its faces)")
 
 
 #: Options several kinds of cells take.
@@ -467,25 +446,124 @@ def positive(name, value):
 
 # -- periodic images ---------------------------------------------------------------------
 
-def with_images(pos, a, periods):
+@dataclass(frozen=True)
+class Shear:
+    """A sheared (tilted) periodic box at one frame: its tilt factors and their rates
+    (Lees-Edwards boundaries: LAMMPS' ``fix deform xy erate ... remap v``).
+
+    The lattice of images is spanned by the edge vectors a = (lx, 0, 0), b = (xy, ly, 0)
+    and c = (xz, yz, lz): an image one step across the y faces lies at x + xy, y + ly
+    and moves with v_x + d(xy)/dt; one across the z faces at x + xz, y + yz, z + lz,
+    moving with v + (d(xz)/dt, d(yz)/dt, 0). The box's own lengths (the brick lx ly lz
+    from its lower corner, which tiles space as its parallelepiped does, its rows sliding
+    by the tilt) are the cells' periods.
+
+    Attributes
+    ----------
+    tilt, rate : tuple of 3 float
+        (xy, xz, yz) and their time derivatives.
+    """
+
+    tilt: tuple = (0.0, 0.0, 0.0)
+    rate: tuple = (0.0, 0.0, 0.0)
+
+    def column(self, k: int, which: str) -> dict:
+        """The off-diagonal entries of edge vector k (0 a, 1 b, 2 c) of the ``tilt`` or
+        its ``rate``, by axis: b {x: xy}, c {x: xz, y: yz}."""
+        xy, xz, yz = getattr(self, which)
+        return {0: {}, 1: {0: xy}, 2: {0: xz, 1: yz}}[k]
+
+    @property
+    def moving(self) -> bool:
+        return any(r != 0.0 for r in self.rate)
+
+
+@dataclass
+class Images:
+    """Particles and their periodic images within reach of the cells
+    (:func:`with_images`).
+
+    Attributes
+    ----------
+    pos : tuple of D ndarray, shape (E,)
+        The entries' centres: the P particles first, then their images.
+    a : ndarray, shape (E,)
+        Their reach (radius, or a kernel's).
+    index : ndarray, shape (E,)
+        The particle each entry is of.
+    row : ndarray, shape (E,)
+        Each entry's row among the per-particle values: its particle's, or, for an image
+        that moves with a velocity shift (a sheared box), a row after the P particles'
+        that holds the particle's values at the shifted velocity (:meth:`extend`).
+    moving : list of (ndarray (D,), ndarray (U,))
+        Each velocity shift and the particles (sorted) whose images move with it, in the
+        order of their rows.
+    """
+
+    pos: tuple
+    a: np.ndarray
+    index: np.ndarray
+    row: np.ndarray
+    moving: list
+
+    def take(self, values):
+        """Per-particle ``values`` (first axis P) with the moving images' rows after them
+        (their particles' values: velocity-free quantities)."""
+        if not self.moving:
+            return values
+        return np.concatenate([values, *(values[u] for _, u in self.moving)])
+
+    def extend(self, q, atoms: dict, channels):
+        """Per-particle channels ``q`` (P, C) of ``atoms`` with the moving images' rows
+        after them: ``channels(atoms)`` -> (P, C), taken of the atoms moving with
+        v + dv for each velocity shift dv."""
+        if not self.moving:
+            return q
+        return np.concatenate([q, *(channels(_shifted(atoms, dv))[u]
+                                    for dv, u in self.moving)])
+
+
+def _shifted(atoms: dict, dv) -> dict:
+    """The ``atoms`` (their columns ``vx vy [vz]``) moving with v + ``dv``."""
+    out = dict(atoms)
+    for axis, d in zip("xyz", dv):
+        if d != 0.0 and f"v{axis}" in atoms:
+            out[f"v{axis}"] = np.asarray(atoms[f"v{axis}"], float) + d
+    return out
+
+
+def with_images(pos, a, periods, shear: Shear | None = None) -> Images:
     """The particles and, along each axis with a period (the cells spanning a periodic
     box), the images of those that reach across its ends, so that their volume beyond
     one end lands in the cells at the other.
+
+    In a sheared box (``shear`` with a tilt) an image across the y (z) faces is also
+    moved along x (x, y) by the tilt and folded back into the periods there, the axes
+    taken from the last; with a tilt rate it moves with the velocity shift of its steps
+    (:class:`Shear`), and has its own row (:attr:`Images.row`).
 
     Parameters
     ----------
     pos : tuple of D ndarray, shape (P,)
     a : ndarray, shape (P,)
+        How far each particle reaches.
     periods : tuple of D (lo, hi) or None
         The periodic span along each axis.
+    shear : Shear, optional
 
     Returns
     -------
-    pos, a, index : the extended arrays and, for each entry, the particle it is of.
+    Images
     """
-    index = np.arange(len(a))
+    n = len(a)
+    index = np.arange(n)
     pos = [np.asarray(u, float) for u in pos]
-    for k, span in enumerate(periods):
+    a = np.asarray(a, float)
+    D = len(pos)
+    tilted = shear is not None and any(shear.tilt)
+    steps = np.zeros((n, 3), np.int64)         # steps along the edge vectors a, b, c
+    for k in (reversed(range(D)) if tilted else range(D)):
+        span = periods[k] if k < len(periods) else None
         if span is None:
             continue
         lo, hi = span
@@ -493,12 +571,62 @@ def with_images(pos, a, periods):
         if not (low.any() or high.any()):
             continue
         extra = np.concatenate([np.flatnonzero(low), np.flatnonzero(high)])
-        shift = np.concatenate([np.full(low.sum(), hi - lo), np.full(high.sum(), lo - hi)])
-        pos = [np.concatenate([u, u[extra] + (shift if j == k else 0.0)])
-               for j, u in enumerate(pos)]
+        step = np.concatenate([np.ones(low.sum(), np.int64), -np.ones(high.sum(), np.int64)])
+        new = [u[extra] for u in pos]
+        new[k] = new[k] + step * (hi - lo)
+        new_steps = steps[extra].copy()
+        new_steps[:, k] += step
+        if tilted:
+            _tilt_and_fold(new, new_steps, step, k, periods, shear)
+        pos = [np.concatenate([u, v]) for u, v in zip(pos, new)]
         a = np.concatenate([a, a[extra]])
         index = np.concatenate([index, index[extra]])
-    return tuple(pos), a, index
+        steps = np.concatenate([steps, new_steps])
+    return _rows(tuple(pos), a, index, steps, n, shear, D)
+
+
+def _tilt_and_fold(new, steps, step, k, periods, shear) -> None:
+    """Move images one ``step`` across axis k's faces along the lower axes by the tilt,
+    then fold them into the periods there (from the highest lower axis down: a step
+    along an edge vector moves the axes below it)."""
+    for j, t in shear.column(k, "tilt").items():
+        new[j] = new[j] + step * t
+    for j in reversed(range(k)):
+        span = periods[j] if j < len(periods) else None
+        if span is None:
+            continue
+        lo, hi = span
+        m = np.floor((new[j] - lo) / (hi - lo)).astype(np.int64)
+        if not m.any():
+            continue
+        new[j] = new[j] - m * (hi - lo)
+        for i, t in shear.column(j, "tilt").items():
+            new[i] = new[i] - m * t
+        steps[:, j] -= m
+
+
+def _rows(pos, a, index, steps, n, shear, D) -> Images:
+    """:class:`Images` with the rows of the images that move (a tilt rate)."""
+    if shear is None or not shear.moving or len(index) == n:
+        return Images(pos, a, index, index, [])
+    dv = np.zeros((len(index), D))
+    for k in (1, 2):
+        for j, r in shear.column(k, "rate").items():
+            if j < D:
+                dv[:, j] += steps[:, k] * r
+    row = index.copy()
+    moving = []
+    shifts, group = np.unique(dv[n:], axis=0, return_inverse=True)
+    base = n
+    for g, s in enumerate(shifts):
+        if not np.any(s):
+            continue
+        mine = n + np.flatnonzero(group.ravel() == g)
+        u = np.unique(index[mine])
+        row[mine] = base + np.searchsorted(u, index[mine])
+        moving.append((s, u))
+        base += len(u)
+    return Images(pos, a, index, row, moving)
 
 
 class Imaged:
@@ -506,13 +634,23 @@ class Imaged:
     packing is periodic (the cells then take the particles' images across its ends,
     :func:`with_images`), or None."""
 
-    def _imaged(self, weigh, pos, a):
+    def images(self, pos, a, shear: Shear | None = None) -> Images | None:
+        """The particles' images within reach ``a`` of the cells, or None without
+        periods."""
         periods = getattr(self, "periods", None)
         if not periods or all(p is None for p in periods):
+            return None
+        return with_images(pos, a, periods, shear)
+
+    def _imaged(self, weigh, pos, a, images=None):
+        """``weigh`` of the particles and their images (``images``, else those of an
+        unsheared box): rows as :attr:`Images.row`."""
+        if images is None:
+            images = self.images(pos, a)
+        if images is None:
             return weigh(pos, a)
-        pos, a, index = with_images(pos, a, periods)
-        particle, cell, w = weigh(pos, a)
-        return index[particle], cell, w
+        particle, cell, w = weigh(images.pos, images.a)
+        return images.row[particle], cell, w
 
     def wraps(self, axis: str) -> bool:
         """Whether the cells span the periodic box along ``axis`` (x, y or z), end to

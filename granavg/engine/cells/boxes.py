@@ -37,7 +37,6 @@ class Boxes(Spheres, Imaged, Cells):
         shape = counts("grid", grid, 3, "NX NY NZ for a 3D dump")
         ranges = {"x": check_range("x_range", x_range), "y": check_range("y_range", y_range),
                   "z": check_range("z_range", z_range)}
-        space.needs_ranges(cls.title, x_range=x_range, y_range=y_range, z_range=z_range)
         e = [np.linspace(*space.span(a, ranges[a]), n + 1) for a, n in zip("xyz", shape)]
         periods = tuple(space.period(a, ranges[a], f"{a}_range") for a in "xyz")
         return cls(*e, periods if any(periods) else None)
@@ -69,9 +68,9 @@ class Boxes(Spheres, Imaged, Cells):
         dx, dy, dz = (np.diff(e) for e in self.edges3)
         return (dx[:, None, None] * dy[None, :, None] * dz[None, None, :]).ravel()
 
-    def weights(self, pos, a):
+    def weights(self, pos, a, images=None):
         return self._imaged(lambda p, r: box_weights(*p, r, self.xedges, self.yedges,
-                                                     self.zedges), pos, a)
+                                                     self.zedges), pos, a, images)
 
     def basis(self, pos):
         return cartesian_basis(len(pos[0]), 3)

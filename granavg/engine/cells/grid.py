@@ -39,7 +39,6 @@ class Grid(Disks, Imaged, Cells):
         nx, ny = counts("grid", grid, 2, "NX NY for a 2D dump")
         check_range("x_range", x_range)
         check_range("y_range", y_range)
-        space.needs_ranges(cls.title, x_range=x_range, y_range=y_range)
         xr, yr = space.span("x", x_range), space.span("y", y_range)
         periods = (space.period("x", x_range, "x_range"), space.period("y", y_range, "y_range"))
         return cls(np.linspace(*xr, nx + 1), np.linspace(*yr, ny + 1), h,
@@ -67,9 +66,9 @@ class Grid(Disks, Imaged, Cells):
     def volume(self) -> np.ndarray:
         return self.h * np.outer(np.diff(self.xedges), np.diff(self.yedges)).ravel()
 
-    def weights(self, pos, a):
+    def weights(self, pos, a, images=None):
         return self._imaged(lambda p, r: grid_weights(p[0], p[1], r, self.xedges,
-                                                      self.yedges), pos, a)
+                                                      self.yedges), pos, a, images)
 
     def basis(self, pos):
         return cartesian_basis(len(pos[0]), 2)

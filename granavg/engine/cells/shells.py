@@ -57,7 +57,6 @@ class Shells(Spheres, Imaged, Cells):
         if layers is not None and not 1 <= layers <= MAX_CELLS:
             raise ParameterError("layers", f"{{param}} {layers}: give between 1 and "
                                  f"{MAX_CELLS}")
-        space.needs_ranges(cls.title, z_range=z_range)
         zedges = np.linspace(*space.span("z", z_range), (layers or 1) + 1)
         period = space.period("z", z_range, "z_range")
         return cls(radii, zedges, (0.0, 0.0) if center is None else tuple(center),
@@ -94,9 +93,9 @@ class Shells(Spheres, Imaged, Cells):
     def _radius(self, pos):
         return np.hypot(pos[0] - self.center[0], pos[1] - self.center[1])
 
-    def weights(self, pos, a):
+    def weights(self, pos, a, images=None):
         return self._imaged(lambda p, r: shell_weights(self._radius(p), p[2], r, self.edges,
-                                                       self.zedges), pos, a)
+                                                       self.zedges), pos, a, images)
 
     def basis(self, pos):
         """e_r, e_phi, e_z (rows) at each point, shape (P, 3, 3)."""

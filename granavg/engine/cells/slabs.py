@@ -97,11 +97,6 @@ class Slabs(Disks, Imaged, AcrossAxis, Cells):
             raise ParameterError("slabs", f"{{param}} {slabs}: a 2D dump has slabs across "
                                  "x or y")
         check_range("range", range)
-        if space.tilted and slabs == "x":
-            raise ParameterError("slabs", f"{{param}} x: the box is tilted (xy "
-                                 f"{space.tilt()[0]:g}), and lines of constant x cut its "
-                                 "cell in lengths that change along them; choose slabs "
-                                 "across y, or a grid with {x_range} and {y_range}")
         k = "xy".index(slabs)
         bx = space.box()
         lo_hi = range or bx[k]
@@ -109,8 +104,7 @@ class Slabs(Disks, Imaged, AcrossAxis, Cells):
         if length is not None:
             positive("length", length)
         length = length or (other[1] - other[0])
-        # in a tilted box the slabs' segments along x would not follow the cell
-        span = None if space.tilted else (other[0], other[0] + length)
+        span = (other[0], other[0] + length)
         cells = cuts(bins, edges, lo_hi)
         given = None if range is None and edges is None else (cells[0], cells[-1])
         period = space.period(slabs, given, "range" if edges is None else "edges")
@@ -148,9 +142,9 @@ class Slabs(Disks, Imaged, AcrossAxis, Cells):
     def volume(self) -> np.ndarray:
         return self.h * np.diff(self.edges) * self.length
 
-    def weights(self, pos, a):
+    def weights(self, pos, a, images=None):
         k = "xy".index(self.axis)
-        return self._imaged(lambda p, r: strip_weights(p[k], r, self.edges), pos, a)
+        return self._imaged(lambda p, r: strip_weights(p[k], r, self.edges), pos, a, images)
 
     def basis(self, pos):
         return cartesian_basis(len(pos[0]), 2)

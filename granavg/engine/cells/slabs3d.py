@@ -46,22 +46,11 @@ class Slabs3D(Spheres, Imaged, AcrossAxis, Cells):
     def from_options(cls, space: Space, *, slabs=None, bins=None, edges=None, range=None,
                      area=None) -> "Slabs3D":
         """Slabs across ``slabs``: ``bins`` over ``range`` (default the box) or
-        ``edges``, of cross-section ``area`` (default the box's). In a tilted box only
-        across an axis the tilt does not shift, where the cell's cross-section is
-        constant."""
+        ``edges``, of cross-section ``area`` (default the box's: of a tilted box its
+        brick's, :class:`~granavg.engine.cells.base.Shear`)."""
         if slabs not in ("x", "y", "z"):
             raise ParameterError("slabs", f"{{param}} {slabs}: give x, y or z")
         check_range("range", range)
-        if space.tilted:
-            xy, xz, yz = space.tilt()
-            shifting = {"x": (xy, xz), "y": (yz,), "z": ()}[slabs]
-            if any(t != 0.0 for t in shifting):
-                raise ParameterError("slabs", f"{{param}} {slabs}: the box is tilted (xy "
-                                     f"{xy:g}, xz {xz:g}, yz {yz:g}), and planes of "
-                                     f"constant {slabs} cut its cell in areas that change "
-                                     "along them; choose slabs across "
-                                     + ("y or z" if yz == 0 else "z") + ", or a grid "
-                                     "with {x_range} and {y_range}")
         lo_hi = tuple(range) if range else space.span(slabs)
         cells = cuts(bins, edges, lo_hi)
         if area is None:
@@ -71,7 +60,7 @@ class Slabs3D(Spheres, Imaged, AcrossAxis, Cells):
         given = None if range is None and edges is None else (cells[0], cells[-1])
         periods = tuple(space.period(a, given, "range" if edges is None else "edges")
                         if a == slabs else None for a in "xyz")
-        span = None if space.tilted else tuple(space.span(_along(slabs)))
+        span = tuple(space.span(_along(slabs)))
         return cls(cells, slabs, float(area), periods if any(periods) else None, span)
 
     @classmethod
@@ -96,9 +85,9 @@ class Slabs3D(Spheres, Imaged, AcrossAxis, Cells):
     def volume(self) -> np.ndarray:
         return self.area * np.diff(self.edges)
 
-    def weights(self, pos, a):
+    def weights(self, pos, a, images=None):
         k = "xyz".index(self.axis)
-        return self._imaged(lambda p, r: layer_weights(p[k], r, self.edges), pos, a)
+        return self._imaged(lambda p, r: layer_weights(p[k], r, self.edges), pos, a, images)
 
     def basis(self, pos):
         return cartesian_basis(len(pos[0]), 3)

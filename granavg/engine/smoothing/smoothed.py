@@ -156,31 +156,49 @@ class Smoothed(Cells):
         particle, node, W, _ = self.kernel_weights(pos, deriv=False)
         return particle, node, W[:, 0]
 
-    def kernel_weights(self, pos, deriv=True):
+    def images(self, pos, shear=None):
+        """The particles' images within the kernel's reach of the nodes
+        (:func:`~granavg.engine.cells.base.with_images`; in a sheared box ``shear``, with
+        rows of their own where they move), or None without periods."""
+        periods = getattr(self.cells, "periods", None)
+        if not periods or all(p is None for p in periods):
+            return None
+        return with_images(pos, np.full(len(pos[0]), self.cutoff), periods, shear)
+
+    def kernel_weights(self, pos, deriv=True, images=None, shear=None):
         """(particle, node, W, dW): the weights, shape (T, :attr:`moments`), and with
         ``deriv`` their derivatives along the cells' basis, shape (T, moments, D)
         (zeros along directions the nodes do not vary in). Where the basis turns, the
-        moments take the quantities from the polar basis at each item's own position."""
-        return self._pairs(tuple(np.asarray(u, float) for u in pos), None, deriv)
+        moments take the quantities from the polar basis at each item's own position.
+        ``images`` (:meth:`images`): the particles' rows as theirs; else the images of
+        the box (sheared by ``shear``) map to the particles' own rows."""
+        return self._pairs(tuple(np.asarray(u, float) for u in pos), None, deriv, shear,
+                           images)
 
-    def segment_weights(self, start, l):
+    def segment_weights(self, start, l, shear=None):
         """(segment, node, W) of the line integrals along the segments from ``start``
         (tuple of D arrays) by ``l`` (array (S, D)), the moments taking the
-        quantities from the polar basis at the start."""
+        quantities from the polar basis at the start; images in the box sheared by
+        ``shear``."""
         item, node, W, _ = self._pairs(tuple(np.asarray(u, float) for u in start),
-                                       np.asarray(l, float), False)
+                                       np.asarray(l, float), False, shear)
         return item, node, W
 
-    def _pairs(self, pos, l, deriv):
+    def _pairs(self, pos, l, deriv, shear=None, images=None):
         c = self.cutoff
         length = np.zeros(len(pos[0])) if l is None else \
             np.sqrt(np.sum(l ** 2, axis=1))
         periods = getattr(self.cells, "periods", None)
-        index = None
-        if periods and any(p is not None for p in periods):
-            pos, _, index = with_images(pos, c + length, periods)   # images within reach
-            length = length[index]
-            l = None if l is None else l[index]
+        rows = None
+        if images is not None:
+            rows = images.row
+        elif periods and any(p is not None for p in periods):
+            images = with_images(pos, c + length, periods, shear)   # images within reach
+            rows = images.index
+        if images is not None:
+            pos = images.pos
+            length = length[images.index]
+            l = None if l is None else l[images.index]
         # the pairs: a segment's middle within c + half its length of the node
         mid = pos if l is None else tuple(u + 0.5 * l[:, k]
                                                for k, u in enumerate(pos))
@@ -189,8 +207,8 @@ class Smoothed(Cells):
                                                       l, deriv)
         keep = np.any(W != 0.0, axis=1) | np.any(dW != 0.0, axis=(1, 2))
         item, node, W, dW = item[keep], node[keep], W[keep], dW[keep]
-        if index is not None:
-            item = index[item]
+        if rows is not None:
+            item = rows[item]
         f = self._per_node[node]
         return item, node, W * f[:, None], dW * f[:, None, None]
 

@@ -154,12 +154,21 @@ def smoothed_frame_sums(frame, cells, rho_p, blocks, reach, n_sectors, layout):
         pos = tuple(np.asarray(chunk[c], float) for c in cells.position_names)
         r = radius[part]
         E = cells.basis(pos)
-        q = np.ascontiguousarray(particle_channels(
-            chunk, contacts, layout, cells.particle_volume(r), cells.def_factor(r), rho_p,
-            plan.particle_blocks, basis=E, reach=reach, rows=rows, first=lo, out=buffer))
+
+        def channels(atoms, out=None):
+            return particle_channels(atoms, contacts, layout, cells.particle_volume(r),
+                                     cells.def_factor(r), rho_p, plan.particle_blocks,
+                                     basis=E, reach=reach, rows=rows, first=lo, out=out)
+        q = channels(chunk, buffer)
         sector, share = cells.sector_shares(pos, r, n_sectors) if n_sectors else \
             (_EMPTY_SECTOR, _EMPTY_SHARE)
-        plan.chunk(sums, q, pos, E, part, (sector, share, n_sectors))
+        images = cells.images(pos, plan.shear) if plan.shear is not None else None
+        if images is not None:          # a sheared box: images that move have own rows
+            q = images.extend(q, chunk, channels)
+            if n_sectors:
+                sector, share = images.take(sector), images.take(share)
+        plan.chunk(sums, np.ascontiguousarray(q), pos, E, part, (sector, share, n_sectors),
+                   images)
     # the contacts taken at their points (the walls', a species' partners' of other
     # species): their own blocks, and less their weights in the divergence (each is the
     # end of a branch that the contact's other half does not reach)
@@ -180,6 +189,7 @@ class _Spreads:
     def __init__(self, frame, cells, layout, blocks, want, rows, reach):
         a, contacts, D = frame.atoms, frame.contacts, cells.dim
         self.cells, self.frame, self.rows, self.reach = cells, frame, rows, reach
+        self.shear = getattr(frame, "shear", None)
         self.kinds = {}
         for b in layout.blocks:                   # the blocks of each spread, in order
             if b in want:
@@ -215,11 +225,12 @@ class _Spreads:
         """Terms of a quantity of block ``b``'s shape, from column 0, into ``b``."""
         return self.terms.into(BLOCK[b].shape, lambda o: self.col(b) + o, 0)
 
-    def chunk(self, sums, q, pos, E, part, shares):
+    def chunk(self, sums, q, pos, E, part, shares, images=None):
         """Scatter a chunk of the particles (rows ``part``; ``q`` their channels, ``E``
-        their basis, ``shares`` (sector, share, n_sectors) their shares)."""
+        their basis, ``shares`` (sector, share, n_sectors) their shares; with
+        ``images`` of a sheared box, ``q`` and the shares have their rows too)."""
         cells, D = self.cells, self.cells.dim
-        particle, node, W, dW = cells.kernel_weights(pos, self.deriv)
+        particle, node, W, dW = cells.kernel_weights(pos, self.deriv, images)
         _scatter(particle, node, W, q, self.plain, *shares, sums)
         for j, t in enumerate(self.along):
             if t is not None:
@@ -229,6 +240,8 @@ class _Spreads:
                      *shares, sums)
         if self.net is not None:
             fb = np.einsum("pij,pj->pi", E, self.net[part])
+            if images is not None:
+                fb = images.take(fb)
             _scatter(particle, node, W, fb, self.div_terms, *shares, sums)
         if self.segments is None:
             return
@@ -243,7 +256,8 @@ class _Spreads:
             Q = (fb[:, :, None] * lb[:, None, :]).reshape(-1, D * D)
             sector, share, n_sectors = shares
             ss, sh = (sector[own], share[own]) if n_sectors else (sector, share)
-            seg, snode, sW = cells.segment_weights(tuple(u[own] for u in pos), l[mine])
+            seg, snode, sW = cells.segment_weights(tuple(u[own] for u in pos), l[mine],
+                                                   self.shear)
             _scatter(seg, snode, sW, Q, self.seg_terms, ss, sh, n_sectors, sums)
 
     def points(self, sums, which, wanted, n_sectors):
@@ -255,7 +269,7 @@ class _Spreads:
             return
         cells, at = self.cells, tuple(points.T)
         Fw = np.einsum("pij,pj->pi", cells.basis(at), forces)
-        k, node, W, _ = cells.kernel_weights(at, False)
+        k, node, W, _ = cells.kernel_weights(at, False, shear=self.shear)
         sector, share = cells.sector_shares(at, np.zeros(len(points)), n_sectors) \
             if n_sectors else (_EMPTY_SECTOR, _EMPTY_SHARE)
         if wanted:
