@@ -39,9 +39,10 @@ def _run(out: Path, **variables) -> Path:
 
 @pytest.fixture(scope="module")
 def sheared(tmp_path_factory):
-    """500 disks at area fraction 0.76 sheared at 20/s: 300 frames over a strain of 60,
-    after a strain of 3 (about 20 s)."""
-    return _run(tmp_path_factory.mktemp("shear"), phi=0.76, strain=60, frames=300)
+    """250 disks at area fraction 0.76 sheared at 20/s: 400 frames over a strain of 200,
+    after a strain of 3 (about 25 s). Its slowest modes - velocity profiles one box long
+    that live for a strain of about 15 - leave about 10% on a strain of 15 and 3% on 200."""
+    return _run(tmp_path_factory.mktemp("shear"), n=250, phi=0.76, strain=200, frames=400)
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +85,7 @@ def test_images_that_do_not_move_are_wrong_at_the_faces(sheared, monkeypatch):
 def test_the_end_slabs_lie_on_the_linear_profile(sheared):
     """Exact slabs across y: v_x of the two end slabs (whose disks straddle the faces)
     on the line through the inner slabs within 2 errors, whose slope is the rate within
-    2 errors; the slabs' v_x without the images' shift would be off by many errors."""
+    2 errors (from the replicates: the slabs' errors are correlated)."""
     f = _average(sheared, cells={"slabs": "y", "bins": 12, "thickness": D},
                  quantities=["v"])
     y = 0.5 * (f.cells.edges[1:] + f.cells.edges[:-1])
@@ -98,7 +99,12 @@ def test_the_end_slabs_lie_on_the_linear_profile(sheared):
     assert np.all(np.abs(v[[0, -1]] - line[[0, -1]]) < 2 * np.hypot(e[[0, -1]], np.sqrt(
         cov[0, 0] + 2 * cov[0, 1] * y[[0, -1]] + cov[1, 1] * y[[0, -1]] ** 2))), \
         (v - line) / e
-    assert abs(c[1] - RATE) < 2 * np.sqrt(cov[1, 1]), (c[1], np.sqrt(cov[1, 1]))
+    # the slope's error from the replicates (the slabs' errors are correlated: the
+    # flow's slowest modes span the box)
+    reps = f.replicates
+    slopes = [np.polyfit(y[inner], r[inner], 1)[0] for r in reps.values["v_x"]]
+    slope = np.polyfit(y[inner], v[inner], 1)[0]
+    assert abs(slope - RATE) < 2 * reps.error(slopes), (slope, reps.error(slopes))
 
 
 def _lucy(r, c):
