@@ -221,3 +221,17 @@ def test_the_tilts_rate_across_a_flip():
         g._shear(frames[-1], box)
     assert np.allclose(frames[1].shear.rate, (2.0, 0.0, 0.0))
     assert np.allclose(frames[2].shear.rate, (4.0, 0.0, 0.0))
+
+
+@pytest.mark.slow
+def test_workers_give_the_serial_fields(short):
+    """Dask workers (chunks of frames, each taking its first frame's tilt rate from the
+    frame after) give the serial fields of a sheared box exactly: the rate is
+    constant."""
+    kw = dict(cells={"grid": (5, 6), "thickness": D}, kernel="lucy", width=4 * D,
+              quantities=["v", "gradv", "dsigma_fluct"])
+    serial = _average(short, **kw)
+    parallel = _average(short, workers=2, **kw)
+    assert len(parallel.meta["dask"]["chunks"]) > 1
+    for name, value in serial.values.items():
+        assert np.array_equal(value, parallel.values[name], equal_nan=True), name
