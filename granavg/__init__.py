@@ -10,7 +10,8 @@ coarse-graining that generalises it. In Python::
     fields.to_xarray(), fields.to_pandas(), fields.units, fields.plot("nu")
 
 :func:`average` (any source over any cells), :func:`read` (fields written before),
-:func:`open` (the frames of files, a lazy sequence),
+:func:`open` (the frames of files, a lazy sequence), :func:`rheology` (the local
+rheology of fields) with :func:`fit_mu_I` and :func:`fit_phi_I` (constitutive fits),
 :class:`Fields`, :mod:`granavg.cells` (the kinds of cells), :mod:`granavg.examples`
 (small real data sets). Layers, data flowing one way: :mod:`granavg.sim` (LAMMPS runs),
 :mod:`granavg.io` (file formats -> frames), :mod:`granavg.engine` (frames -> fields),
@@ -26,12 +27,16 @@ __version__ = "0.1.0"
 #: What ``granavg.<name>`` is, imported when first used.
 _LAZY = {"average": ("granavg.pipeline.api", "average"),
          "read": ("granavg.pipeline.api", "read"),
+         "rheology": ("granavg.pipeline.api", "rheology"),
+         "fit_mu_I": ("granavg.analysis.rheology", "fit_mu_I"),
+         "fit_phi_I": ("granavg.analysis.rheology", "fit_phi_I"),
          "open": ("granavg.io.trajectory", "open"),
          "Fields": ("granavg.engine.fields", "Fields"),
          "cells": ("granavg.cells", None),
          "examples": ("granavg.examples", None)}
 
-__all__ = ["average", "read", "open", "Fields", "cells", "examples", "__version__"]
+__all__ = ["average", "read", "open", "rheology", "fit_mu_I", "fit_phi_I", "Fields", "cells",
+           "examples", "__version__"]
 
 
 def __getattr__(name):

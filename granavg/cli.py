@@ -231,6 +231,26 @@ def _parser() -> argparse.ArgumentParser:
                      help="coarse profiles of the same scene at other area fractions: "
                      "Fig. 5's master curve is judged on their collapse")
 
+    rhe = sub.add_parser("rheology", help="the local rheology of field tables, per cell: "
+                         "pressure, shear stress and rate, inertial number I, friction mu, "
+                         "packing fraction, normal-stress differences, the stress's angle "
+                         "to the strain rate, fluidity, each with its error; and the fits "
+                         "mu(I) and phi(I) over all the tables' cells (docs/rheology.md)")
+    rhe.add_argument("fields", nargs="+", help="tables of 'granavg average' (with their "
+                     ".json sidecars and replicates): the cells of one run, or of several "
+                     "runs or scenes, fitted together")
+    rhe.add_argument("--diameter", type=_finite, metavar="D", help="the particles' mean "
+                     "diameter for I, in the fields' length unit (default: the run's scene)")
+    rhe.add_argument("--density", type=_finite, metavar="RHO_P", help="the particles' "
+                     "material density for I, in the fields' units (default: the run's "
+                     "scene, or the density the fields were averaged with)")
+    rhe.add_argument("--out", required=True, help="directory to create (must be new): a "
+                     "table per input, fits.json, fits.png and .pdf. Each table's columns, "
+                     "each with <name>_sem, its error, and the flags (units in the fields' "
+                     "unit system; SI shown): <rheology columns>")
+    rhe.add_argument("--no-figures", action="store_true", help="the tables and fits.json "
+                     "without the figure")
+
     demo = sub.add_parser("demo", help="simulate the demo scene, average over 20 and 60 "
                           "rings, analyse and write the report")
     demo.add_argument("--out", required=True, help="directory to create (must be new)")
@@ -348,7 +368,7 @@ def argv_command(argv) -> str | None:
     """The command word of the arguments (``sys.argv`` without one)."""
     words = list(sys.argv[1:] if argv is None else argv)
     return next((w for w in words if w in ("simulate", "average", "scales", "analyze",
-                                           "demo")), None)
+                                           "rheology", "demo")), None)
 
 
 def main(argv=None) -> int:

@@ -102,7 +102,8 @@ PLAN = {
     **{("api.md", k): Plan("covered", s, why="tests/test_api_docs.py") for k, s in enumerate((
         "import granavg", "from granavg.cells import Rings", "pile = granavg.examples",
         "frames = granavg.open(", "ds = fields.to_xarray()", "boxes = granavg.average", "smooth = granavg.average",
-        "windows = granavg.average", "mixture = granavg.average", "import numpy as np",
+        "windows = granavg.average", "mixture = granavg.average",
+        "rings20 = granavg.average", "import numpy as np",
         "import subprocess, sys", "from granavg.pipeline.api import run"))},
     **{("extending.md", k): Plan("covered", s, why="tests/test_extending.py")
        for k, s in enumerate(("from granavg.engine.quantities import", "import math",
@@ -161,6 +162,13 @@ PLAN = {
     ("profiles.md", 1): Plan(
         "run", "granavg average RUN_DIR --bins 20 --kernel lucy", needs=("paper_run",),
         subs=(("RUN_DIR", "<paper_run>"),), why=_PAPER),
+    # -- rheology.md -------------------------------------------------------------------
+    ("rheology.md", 0): Plan(
+        "run", "granavg rheology profiles20.csv --out rheology/",
+        links=(("paper_tables", ("profiles20.csv*",)),),
+        subs=(("runA.csv runB.csv", "profiles20.csv"),),
+        why="docs/paper's 20-ring table stands for the two runs"),
+    ("rheology.md", 1): Plan("run", "import granavg"),
     # -- refdem.md ---------------------------------------------------------------------
     ("refdem.md", 0): Plan(
         "parsed", "granavg simulate --preset paper-hooke --set t_end=60 --out runs/prep",

@@ -119,7 +119,7 @@ def test_report_and_summary_hold_the_headline_numbers(report):
         assert shown in html, shown
     assert "<td>mm</td>" in html and "<td>m</td>" not in html
     assert "0.645" in html and "<td>12.7</td>" in html           # the paper's values beside
-    assert len(summary["claims"]) == 14
+    assert len(summary["claims"]) == 15                          # 14 + the rheology's
     text = html.replace("&#x27;", "'")
     for claim in summary["claims"]:
         assert claim["claim"] in text
@@ -128,7 +128,8 @@ def test_report_and_summary_hold_the_headline_numbers(report):
     run_table = html.split("<h2>Run</h2>")[1].split("</table>")[0]
     entries = [c.split("</td>")[0] for c in run_table.split("<td>")[1:]]
     assert max(len(c.split(" <sup>")[0]) for c in entries) <= 70, entries
-    assert html.count("data:image/png;base64,") == len(FIGURES) + 1   # + Fig. 1; self-contained
+    # + Fig. 1 and the rheology's; self-contained
+    assert html.count("data:image/png;base64,") == len(FIGURES) + 2
     assert "src='http" not in html and 'src="http' not in html
     # the run table as a person writes it; no path of this machine in the summary
     assert "<th>packing</th><td>None" not in html and "grown linearly" in html

@@ -68,17 +68,29 @@ def deviator_norm(T):
     return np.sqrt(0.25 * (rr - pp) ** 2 + 0.25 * (rp + pr) ** 2)
 
 
+def principal_axis(T):
+    """Angle (rad, in (-pi/2, pi/2]) from the first axis (e_r, e_x) towards the second to
+    the eigenvector of the larger eigenvalue of the symmetric part of a 2D tensor T,
+    given as (rr, rphi, phir, phiphi) components (arrays of any shape)."""
+    rr, rp, pr, pp = (np.asarray(t, float) for t in T)
+    return 0.5 * np.arctan2(rp + pr, rr - pp)
+
+
 def orientation(T):
     """Angle (rad, in (-pi/2, pi/2]) from e_r to the eigenvector of the symmetric part of
     T whose eigenvalue has the largest magnitude (the "major" one, Fig. 6)."""
-    rr, rp, pr, pp = (np.asarray(t, float) for t in T)
-    off = 0.5 * (rp + pr)
-    phi = 0.5 * np.arctan2(2 * off, rr - pp)            # eigenvector of the larger eigenvalue
-    mean = 0.5 * (rr + pp)
+    phi = principal_axis(T)
+    mean = 0.5 * (np.asarray(T[0], float) + np.asarray(T[3], float))
     # if the most negative eigenvalue is the larger in magnitude, take the other axis
     major_negative = mean < 0
     phi = np.where(major_negative, phi + np.pi / 2, phi)
     return (phi + np.pi / 2) % np.pi - np.pi / 2
+
+
+def angle_diff(a, b):
+    """a - b for axes' angles in degrees (an axis and its reverse are one), wrapped into
+    [-90, 90)."""
+    return (np.asarray(a) - np.asarray(b) + 90.0) % 180.0 - 90.0
 
 
 def stiffness(sigma, eps, k_n):

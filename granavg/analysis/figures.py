@@ -402,6 +402,16 @@ CAPTIONS = {
         "share of the area fraction, c = nu_large / nu (-), the band shaded and the "
         "dotted line its mean beyond the band; more large disks in the band is "
         "segregation. Right: each species' v_phi (m/s, log scale)."),
+    "rheology": (
+        "The local rheology of the coarse rings: mu(I) and phi(I)",
+        "Each ring with a defined inertial number I = gamma_dot d / sqrt(P / rho_p) (-, log "
+        "scale), its error bars from the replicates in both directions. Left: the friction "
+        "mu = tau / P (-) with the fit mu(I) = mu_s + (mu_2 - mu_s) / (1 + I_0 / I) (line) "
+        "and mu_s (dotted); open red markers are rings left out of the fit, below mu_s and "
+        "the fit by more than 3 errors while they flow (creep, where the local law has no "
+        "flow). Right: the packing fraction (-) with the fit phi(I) = phi_max - a I. A ring "
+        "whose pressure or shear rate lies within 2 errors of 0 has no I and is not "
+        "shown (docs/rheology.md)."),
 }
 
 FIGURES = {"timeseries": fig_timeseries, "fig2": fig2, "fig3": fig3, "fig4": fig4, "fig5": fig5, "fig6": fig6,

@@ -208,10 +208,15 @@ class Fields:
     @property
     def units(self) -> dict:
         """The unit of every column of :meth:`to_columns` but the flags, from each
-        quantity's declared dimension in :attr:`unit_system`."""
+        quantity's declared dimension in :attr:`unit_system`; columns that no quantity
+        declares (derived fields, :mod:`granavg.analysis.rheology`) from the sidecar's
+        ``dimensions`` (name -> dimension, e.g. ``"{stress}"``), errors as their values."""
         names = [c for c in self.to_columns() if c not in ("flags", "species")]
+        derived = (self.meta or {}).get("dimensions") or {}
         own = {**self.cells.coordinate_units(),
-               **{c: "{time}" for c in ("t", "t_lo", "t_hi")}}
+               **{c: "{time}" for c in ("t", "t_lo", "t_hi")},
+               **{c: derived[c.removesuffix("_sem")] for c in names
+                  if c.removesuffix("_sem") in derived}}
         if self.species is not None or (self.meta or {}).get("species"):   # c, seg_*
             for c in names:
                 base = c[:-4] if c.endswith("_sem") else c

@@ -30,6 +30,7 @@ from typing import Callable
 import numpy as np
 
 from granavg.analysis import continuum as c
+from granavg.analysis import rheology as rh
 from granavg.analysis.continuum import tensor
 from granavg.analysis.regime import QUASI_STATIC_LIMIT, dynamic_over_static
 from granavg.analysis.rounding import plain, pm
@@ -505,6 +506,58 @@ def _eigen_rotation(a: Analysis) -> dict:
         tolerance=f"both beyond {Z:g} errors of 0, of opposite signs")
 
 
+def _rheology(a: Analysis) -> dict | None:
+    """Beyond the paper: the local rheology of the coarse rings (mu(I), phi(I);
+    :mod:`granavg.analysis.rheology`), and where the local law mu(I) holds (the band:
+    rings up to the end of the shear band's decay range) and where it fails (beyond: a
+    ring that flows while below mu_s, creep). None without the kinetic stress about the
+    mean flow, part of the total stress."""
+    p = a.p20
+    if not all(f"dsigma_fluct_{k}" in p.values for k in TENSOR):
+        return None
+    res = rh.rheology(p, diameter=a.geo.d_mean, density=a.manifest["scene"]["rho_p"])
+    band_end = _band(a)["decay_range_end_m"]
+    label = f"{p.cells.n} rings"
+    made = rh.fit_laws(res, labels=[label])
+    fits = {k: f for k, f in made.items() if isinstance(f, rh.Fit)}
+    why = {k: f for k, f in made.items() if not isinstance(f, rh.Fit)}
+    a.series["rheology"] = (res, fits.get("mu_I"), fits.get("phi_I"))
+    shown = ("inertial_number", "friction", "nu")                 # the report's columns
+    num = a.numbers["rheology"] = {
+        "diameter_m": res.meta["rheology"]["diameter"],
+        "rho_p_kg_per_m3": res.meta["rheology"]["density"], "band_end_m": band_end,
+        "per_ring": {"r_m": p.cells.centre.tolist(), "flags": [str(f) for f in res.flags],
+                  **{k: res.values[k].tolist() for k in shown},
+                  **{f"{k}_err": res.sem[k].tolist() for k in shown}},
+        "no_fit": why}
+    for key, fit in fits.items():
+        num.update({n: v for k, v in fit.params.items() for n, v in
+                    ((k, v), (f"{k}_err", fit.errors[k]))})
+        num[f"{key}_chi2_dof"] = fit.chi2_dof
+    text = "the local rheology mu(I) holds in the shear band and fails in its tail"
+    tolerance = (f"every band ring within {rh.Z_OUTSIDE:g} errors of the fit; beyond the "
+                 f"band a ring that flows (its strain rate's deviator distinguishable "
+                 f"from 0, p = {rh.P_DEFINED:.3f}) "
+                 f"below mu_s and the fit by more than {rh.Z_OUTSIDE:g} errors")
+    if "mu_I" not in fits:
+        return _claim(text, "inconclusive", f"no fit: {why['mu_I']}", kind="rheology",
+                      tolerance=tolerance)
+    fit = fits["mu_I"]
+    law = rh.local_law(fit, p.cells.centre <= band_end)
+    num.update(law)
+    num["nonlocal_r_m"] = p.cells.centre[fit.nonlocal_cells[label]].tolist()
+    params = ", ".join(f"{k} = {pm(v, fit.errors[k])}" for k, v in fit.params.items())
+    return _claim(
+        text, both(law["band"], law["tail"]),
+        f"mu(I) over {int(fit.points[0].used.sum())} of {p.cells.n} rings: {params}, "
+        f"chi^2/dof {plain(fit.chi2_dof, 2)}; band (to r = {band_end * 1e3:.1f} mm): "
+        f"{law['band_points']} rings with I, largest |z| {plain(law['band_max_z'], 2)}; "
+        f"beyond: {law['tail_points']} rings with I, {law['tail_nonlocal']} flowing below "
+        f"mu_s (d = {num['diameter_m'] * 1e3:.2f} mm, rho_p = "
+        f"{plain(num['rho_p_kg_per_m3'], 4)} kg/m^3)",
+        kind="rheology", tolerance=tolerance)
+
+
 #: The paper's claims and granavg's checks, in the report's order.
 CLAIMS = (
     Claim("decay", "Fig. 2", _decay, ("fig2",)),
@@ -525,6 +578,7 @@ CLAIMS = (
     Claim("spins", "Figs. 8-9, micropolar", _spins_balance, ("spins",)),
     Claim("power", "the energy balance", _power),
     Claim("wall_loads", "the shear cell's torque", _wall_loads),
+    Claim("rheology", "beyond the paper: mu(I)", _rheology, ("rheology",)),
 )
 
 

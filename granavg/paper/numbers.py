@@ -13,7 +13,8 @@ import numpy as np
 
 from granavg.analysis import continuum as c
 from granavg.analysis import shear_band as sb_fit
-from granavg.analysis.continuum import tensor
+from granavg.analysis.continuum import angle_diff, tensor
+from granavg.analysis.rheology import scene_diameter
 from granavg.analysis.balance import FORCE_DENSITIES, residuals, stress_scale
 from granavg.analysis.rounding import plain, pm
 from granavg.analysis.spin_balance import (ARMS, branch_reach, moment_density,
@@ -84,8 +85,7 @@ class SceneNumbers:
     def __init__(self, scene):
         self.R_i, self.R_o, self.Omega = scene["R_i"], scene["R_o"], scene["Omega"]
         self.k_n, self.h = scene["k_n"], scene["h"]
-        self.d_mean = (scene["n_small"] * scene["d_s"] + scene["n_large"] * scene["d_l"]) / (
-            scene["n_small"] + scene["n_large"])
+        self.d_mean = scene_diameter(scene)
         self.identity_slope = 1.0 / (2.0 * np.pi * self.h)
 
 
@@ -248,10 +248,6 @@ def master_curve(profiles, geo) -> dict:
             "offset from it: " + ", ".join(f"{f:.4f}: {pm(100 * o, 100 * e, '%')}"
                                            for f, o, e in zip(fractions, offsets, errors)),
             "points": [(lab, t, B, G) for lab, (t, B, G, _) in zip(labels, pts)]}
-
-
-def angle_diff(a, b):
-    return (np.asarray(a) - np.asarray(b) + 90.0) % 180.0 - 90.0
 
 
 def orientation_numbers(p, n_band):

@@ -58,6 +58,11 @@ _NUMBERS = [  # (section, key, label, unit, paper key); lengths of the band in m
     ("wall_loads", "torque_out_Nm", "torque of the packing on the outer wall", "N m", None),
     ("eigen_rotation", "layer1_per_s", "omega*, first layer", "1/s", None),
     ("eigen_rotation", "layer2_per_s", "omega*, second layer", "1/s", None),
+    ("rheology", "mu_s", "mu(I): mu_s", "-", None),
+    ("rheology", "mu_2", "mu(I): mu_2", "-", None),
+    ("rheology", "I_0", "mu(I): I_0", "-", None),
+    ("rheology", "phi_max", "phi(I): phi_max", "-", None),
+    ("rheology", "a", "phi(I): a", "-", None),
 ]
 
 
@@ -215,6 +220,40 @@ def mixture_table(summary, see="") -> list:
            "the species and of the whole (docs/species.md)."
            + (f" The band's profiles{see}." if see else "") + "</p><table>"]
     out += [f"<tr><th>{esc(k)}</th><td>{esc(v)}</td></tr>" for k, v in rows]
+    return out + ["</table>"]
+
+
+def rheology_table(summary, see="") -> list:
+    """The rheology's section (:mod:`granavg.analysis.rheology`): each coarse ring's
+    inertial_number, friction and packing fraction nu with their errors, and its part in
+    the fit mu(I); ``see``: the reference to its figure, or ""."""
+    num = (summary.get("numbers") or {}).get("rheology")
+    if not num:
+        return []
+    rings = num["per_ring"]
+    nonlocal_ = {round(r, 9) for r in num.get("nonlocal_r_m", [])}
+
+    def status(r, flags):
+        said = [f for f in str(flags).split(";") if f in ("no_pressure", "no_shear")]
+        if said:
+            return "no I (" + ", ".join(said) + ")"
+        if round(r, 9) in nonlocal_:
+            return "nonlocal: below mu_s, left out of the fit"
+        return "band" if r <= num["band_end_m"] else "beyond the band"
+    out = [f"<h2>Rheology</h2><p>The coarse rings' local rheology (beyond the paper): "
+           f"d = {num['diameter_m'] * 1e3:.2f} mm (the disks' mean), rho_p = "
+           f"{num['rho_p_kg_per_m3']:g} kg/m^3; errors from the replicates; the band runs "
+           f"to r = {num['band_end_m'] * 1e3:.1f} mm (docs/rheology.md)."
+           + (f" The fits{see}." if see else "")
+           + "".join(f" No fit: {esc(v)}." for v in num.get("no_fit", {}).values())
+           + "</p><table><tr><th>r (mm)</th><th>inertial_number I (-)</th>"
+           "<th>friction mu (-)</th><th>packing fraction nu (-)</th><th>ring</th></tr>"]
+    for k, r in enumerate(rings["r_m"]):
+        cells = [pm(rings[q][k], rings[f"{q}_err"][k], sep=f" {PM} ")
+                 if math.isfinite(rings[q][k]) else "-"
+                 for q in ("inertial_number", "friction", "nu")]
+        out.append(f"<tr><td>{r * 1e3:.1f}</td>" + "".join(f"<td>{c}</td>" for c in cells)
+                   + f"<td>{esc(status(r, rings['flags'][k]))}</td></tr>")
     return out + ["</table>"]
 
 
@@ -482,7 +521,8 @@ def write_report(summary: dict, figures: dict, path, title="granavg report") -> 
             *claims_section(summary, shelf),
             *stationarity_table(summary, html.escape, shelf.see(["timeseries"])),
             *shelf.place(["timeseries"]),
-            *mixture_table(summary, shelf.see(["mixture"])), *shelf.rest()]
+            *mixture_table(summary, shelf.see(["mixture"])),
+            *rheology_table(summary, shelf.see(["rheology"])), *shelf.rest()]
     if not figures:
         body.append("<p>No figures: the analysis was asked for its numbers alone.</p>")
     head = [f"<!doctype html><html><head><meta charset='utf-8'><title>{esc(title)}</title>",

@@ -1,6 +1,7 @@
 """granavg's Python API: :func:`average` any source over any cells into
-:class:`~granavg.engine.fields.Fields`, and :func:`read` fields written before. The
-``average`` command is this function and its outputs' writers."""
+:class:`~granavg.engine.fields.Fields`, :func:`read` fields written before, and
+:func:`rheology`, their local rheology. The ``average`` command is this function and its
+outputs' writers; the ``rheology`` command is :func:`rheology` and its."""
 
 from __future__ import annotations
 
@@ -218,3 +219,44 @@ def read(path) -> Fields:
     if not Path(path).exists():
         raise UserError(f"{path}: not found; give a table written by 'granavg average'")
     return read_profiles(path)
+
+
+def rheology(fields, **material) -> Fields:
+    """The local rheology of fields, per cell, with errors from their replicates and
+    flags where a number is undefined (:func:`granavg.analysis.rheology.rheology`): the
+    columns of :data:`granavg.analysis.rheology.COLUMNS`, ``pressure``, ``shear_stress``,
+    ``shear_rate``, ``inertial_number``, ``friction``, ``nu``, ``N1``, ``N2`` (3D),
+    ``axes_angle`` (between the stress's and the strain rate's principal axes) and
+    ``fluidity`` (docs/rheology.md).
+
+    Parameters
+    ----------
+    fields : Fields or path
+        Fields of :func:`average`, or a table written by ``granavg average`` (read with
+        :func:`read`).
+    **material
+        ``diameter`` (float or dict: the particles' mean diameter in the fields' length
+        unit, a mixture's species -> diameter; default the run's scene) and ``density``
+        (their material density; default the run's scene or the density the fields
+        were averaged with), as :func:`granavg.analysis.rheology.rheology` takes them.
+
+    Returns
+    -------
+    Fields
+        The rheology on the fields' cells; :func:`granavg.fit_mu_I` and
+        :func:`granavg.fit_phi_I` fit the constitutive laws to one or several.
+
+    Examples
+    --------
+    >>> import granavg
+    >>> fields = granavg.average(granavg.examples.couette_2d.run, cells={"bins": 8},
+    ...                          t_min=1.0)
+    >>> rh = granavg.rheology(fields)
+    >>> rh.units["pressure"], rh.units["inertial_number"], rh.units["axes_angle"]
+    ('Pa', '1', 'deg')
+    >>> rh.meta["rheology"]["from"]["diameter"]
+    "the run's scene (mean)"
+    """
+    from granavg.analysis.rheology import rheology as local_rheology
+
+    return local_rheology(fields if isinstance(fields, Fields) else read(fields), **material)

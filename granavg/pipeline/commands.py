@@ -38,14 +38,16 @@ def cell_options() -> list:
 def catalogues() -> dict:
     """The registries in words, for the command line's help: its placeholders
     ``<quantities>``, ``<kernels>``, ``<widths>``, ``<default kernel>``, ``<time
-    kernels>`` and ``<formats>``."""
+    kernels>``, ``<formats>`` and ``<rheology columns>``."""
+    from granavg.analysis import rheology
     from granavg.engine import smoothing, timing
     from granavg.engine.quantities import catalogue
     from granavg.io import formats
 
     return {"<quantities>": catalogue(), "<kernels>": smoothing.catalogue(),
             "<widths>": smoothing.widths(), "<default kernel>": smoothing.DEFAULT,
-            "<time kernels>": timing.catalogue(), "<formats>": formats.catalogue()}
+            "<time kernels>": timing.catalogue(), "<formats>": formats.catalogue(),
+            "<rheology columns>": rheology.catalogue()}
 
 
 def time_options(o) -> dict:
@@ -254,6 +256,13 @@ def analyze(o):
                            o["torque_arm"], figures=not o["no_figures"])
 
 
+def rheology(o):
+    from granavg.pipeline.rheology import rheology_command
+
+    return rheology_command(o["fields"], o["out"], diameter=o["diameter"],
+                            density=o["density"], figures=not o["no_figures"])
+
+
 def demo(o):
     from granavg.pipeline.reporting import demo_command
 
@@ -263,7 +272,7 @@ def demo(o):
 
 
 COMMANDS = {"simulate": simulate, "average": average, "scales": scales,
-            "analyze": analyze, "demo": demo}
+            "analyze": analyze, "rheology": rheology, "demo": demo}
 
 
 def run(parse, word) -> int:

@@ -16,6 +16,7 @@ import numpy as np
 from granavg.paper.claims import analyze
 from granavg.analysis.fields import analyze_fields, write_field_report
 from granavg.analysis.figures import save_all
+from granavg.analysis.rheology import plot_fits, scene_diameter
 from granavg.paper.report import write_report, write_summary
 from granavg.engine.cells.rings import Rings
 from granavg.engine.fields import Fields
@@ -48,6 +49,8 @@ def report_profiles(coarse: Fields, fine: Fields, out, title="granavg report",
     manifest = {**manifest, "preparation": without_paths(manifest.get("preparation"))}
     summary = analyze(coarse, fine, manifest, density_series)
     drawn = save_all(coarse, fine, summary, out / "figures") if figures else {}
+    if figures and "rheology" in summary["series"]:
+        drawn["rheology"] = _rheology_figure(summary["series"]["rheology"], out / "figures")
     if species is not None:
         _mixture(species, manifest["scene"], summary, out / "figures", drawn, figures)
     run = _run_dir_of(coarse) if figures else None
@@ -66,8 +69,7 @@ def _mixture(species, scene, summary, folder, drawn, figures) -> None:
     ``summary["mixture"]`` (its claim among the claims), its figure into ``drawn``."""
     from granavg.analysis.segregation import segregation, segregation_panels
 
-    d_mean = (scene["n_small"] * scene["d_s"] + scene["n_large"] * scene["d_l"]) / (
-        scene["n_small"] + scene["n_large"])
+    d_mean = scene_diameter(scene)
     s_band = summary["numbers"]["shear_band"]["s_m"]
     if not np.isfinite(s_band):
         log.warning("the mixture's section is left out: the shear band is not fitted")
@@ -85,6 +87,19 @@ def _mixture(species, scene, summary, folder, drawn, figures) -> None:
             ax[0].figure.savefig(folder / f"mixture.{ext}", dpi=150)
         plt.close(ax[0].figure)
         drawn["mixture"] = folder / "mixture.png"
+
+
+def _rheology_figure(series, folder) -> Path:
+    """The rheology's figure (mu(I) and phi(I) of the coarse rings), ``folder /
+    rheology.png`` and ``.pdf``."""
+    import matplotlib.pyplot as plt
+
+    _, mu_fit, phi_fit = series
+    axes = plot_fits(mu_fit, phi_fit)
+    for ext in ("png", "pdf"):
+        axes[0].figure.savefig(folder / f"rheology.{ext}", dpi=130)
+    plt.close(axes[0].figure)
+    return folder / "rheology.png"
 
 
 def _run_dir_of(profiles):
@@ -168,11 +183,7 @@ def analyze_command(profiles, out, density_series=(), closed=None, arm="contact"
     balance of forces and of the spins (:mod:`granavg.analysis.fields`; ``closed``:
     their outer faces are walls or empty space; ``arm``: the contact law's lever arm for
     the torque, :data:`~granavg.analysis.spin_balance.ARMS`; ``figures``: draw them)."""
-    out = Path(out)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise ParameterError("out", f"{{param}} {literal(out)}: exists and is not an empty "
-                             "directory; choose a new {param} (reports are never "
-                             "overwritten)")
+    out = new_directory(out)
     inputs = [read_profiles(p) for p in profiles]
     plain = [p for p in inputs if p.species is None]
     mixtures = [p for p in inputs if p.species is not None and isinstance(p.cells, Rings)
@@ -230,6 +241,17 @@ def demo_command(out, omp=1, spec: Spec | None = None) -> Path:
                "rolling resistance and base-plate friction, 30 s of shear, one realisation)")
     log.info("demo complete: open %s", out / "report.html")
     return out / "report.html"
+
+
+def new_directory(out) -> Path:
+    """``out`` as a Path, refused in one line where it exists and is not an empty
+    directory (reports are never overwritten)."""
+    out = Path(out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise ParameterError("out", f"{{param}} {literal(out)}: exists and is not an empty "
+                             "directory; choose a new {param} (reports are never "
+                             "overwritten)")
+    return out
 
 
 @contextmanager
