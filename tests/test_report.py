@@ -3,12 +3,14 @@
 import json
 import re
 from html import unescape
+from pathlib import Path
 
 import matplotlib.image as mpimg
 import numpy as np
 import pandas as pd
 import pytest
 
+import granavg
 from granavg.paper.claims import analyze
 from matplotlib.container import ErrorbarContainer
 
@@ -443,3 +445,24 @@ def test_every_figure_has_a_caption():
     assert set(FIGURES) | {"fig1", "mixture"} <= set(CAPTIONS)
     for title, text in CAPTIONS.values():
         assert title and len(text) > 80 and "(" in text
+
+
+@pytest.mark.slow
+def test_the_reports_rheology_is_the_apis_and_the_command_lines(report, profiles, tmp_path):
+    """The report's per-ring rheology (summary.json) is what granavg.rheology and
+    `granavg rheology` give for the same coarse rings (the table to its 10 digits);
+    undefined rings are NaN and flagged alike."""
+    summary = json.loads((report / "summary.json").read_text())
+    rings = summary["numbers"]["rheology"]["per_ring"]
+    coarse = Path(profiles[0])                          # the report's coarse rings
+    api = granavg.rheology(coarse)
+    out = tmp_path / "rh"
+    assert run_cli("rheology", coarse, "--out", out, "--no-figures").returncode == 0
+    cli = granavg.read(out / coarse.name)
+    for name in ("inertial_number", "friction", "nu"):
+        got = np.array(rings[name], float)
+        assert np.allclose(got, api.values[name], rtol=1e-12, atol=0, equal_nan=True), name
+        assert np.allclose(got, cli.values[name], rtol=1e-9, atol=0, equal_nan=True), name
+        assert np.allclose(np.array(rings[f"{name}_err"], float), api.sem[name], rtol=1e-12,
+                           atol=0, equal_nan=True), name
+    assert rings["flags"] == [str(f) for f in api.flags]
